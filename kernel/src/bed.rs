@@ -1,0 +1,316 @@
+//! The initial bed (SPEC §7) and the mean bed level (SPEC §6).
+
+use crate::error::{check, positive, Capacity, Error};
+use crate::grains::{GrainSpec, MAX_CLASSES};
+use crate::random::{Stream, BED_STREAM};
+use crate::real::Real;
+use crate::sim::{Sim, SimConfig};
+
+/// One grain size of a (possibly mixed) bed.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct SizeClass {
+    /// Diameter d (m).
+    pub diameter: f64,
+    /// Fraction of the lattice sites that get this size (fractions sum to 1).
+    pub fraction: f64,
+}
+
+/// How to build the initial bed (SPEC §7).
+#[derive(Debug, Clone, PartialEq)]
+pub struct BedSpec {
+    /// Lattice columns nld (also the number of fixed grains) ≥ 3.
+    pub columns: u32,
+    /// Lattice rows nvd ≥ 1.
+    pub rows: u32,
+    /// Lattice spacing in units of the largest diameter (SPEC: 1.05–1.10).
+    pub spacing: f64,
+    /// Probability that a lattice site is left empty, in [0, 1).
+    pub vacancy: f64,
+    /// Standard deviation of the fixed grains' heights in units of the
+    /// largest diameter (SPEC: 1/3).
+    pub fixed_spread: f64,
+    /// Size classes of the mobile grains (1 to [`MAX_CLASSES`]).
+    pub classes: heapless::Vec<SizeClass, MAX_CLASSES>,
+}
+
+/// What [`Sim::build_bed`] made.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct BedInfo {
+    /// Fixed grains (indices `0..fixed`).
+    pub fixed: usize,
+    /// Mobile grains (indices `fixed..fixed + mobile`).
+    pub mobile: usize,
+    /// Periodic width L (m).
+    pub width: f64,
+    /// Lowest allowed height y_min chosen for the domain (m).
+    pub y_min: f64,
+}
+
+/// The outcome of [`Sim::settle`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Settled {
+    /// Steps taken.
+    pub steps: u64,
+    /// Whether the speed criterion was met within the step budget.
+    pub at_rest: bool,
+}
+
+impl BedSpec {
+    /// A single-size bed of diameter `d` with the SPEC's spacing 1.05, no
+    /// vacancies and fixed-height spread d/3.
+    pub fn uniform(d: f64, columns: u32, rows: u32) -> Self {
+        let mut classes = heapless::Vec::new();
+        // Capacity MAX_CLASSES ≥ 1, so one push always fits.
+        let _ = classes.push(SizeClass {
+            diameter: d,
+            fraction: 1.0,
+        });
+        BedSpec {
+            columns,
+            rows,
+            spacing: 1.05,
+            vacancy: 0.0,
+            fixed_spread: 1.0 / 3.0,
+            classes,
+        }
+    }
+
+    /// The largest diameter (m); 0 without classes.
+    pub fn max_diameter(&self) -> f64 {
+        self.classes
+            .iter()
+            .fold(0.0, |m, c| if c.diameter > m { c.diameter } else { m })
+    }
+
+    /// Lattice pitch (m).
+    pub fn pitch(&self) -> f64 {
+        self.spacing * self.max_diameter()
+    }
+
+    /// Periodic width L = columns × pitch (m).
+    pub fn width(&self) -> f64 {
+        self.columns as f64 * self.pitch()
+    }
+
+    /// Checks every field; the error names the first bad one.
+    pub fn validate(&self) -> Result<(), Error> {
+        check(
+            self.columns >= 3,
+            "bed.columns",
+            self.columns as f64,
+            ">= 3",
+        )?;
+        check(self.rows >= 1, "bed.rows", self.rows as f64, ">= 1")?;
+        check(
+            self.spacing.is_finite() && self.spacing > 1.0 && self.spacing <= 2.0,
+            "bed.spacing",
+            self.spacing,
+            "in (1, 2] (SPEC: 1.05-1.10)",
+        )?;
+        check(
+            self.vacancy.is_finite() && (0.0..1.0).contains(&self.vacancy),
+            "bed.vacancy",
+            self.vacancy,
+            "in [0, 1)",
+        )?;
+        check(
+            self.fixed_spread.is_finite() && (0.0..=1.0).contains(&self.fixed_spread),
+            "bed.fixed_spread",
+            self.fixed_spread,
+            "in [0, 1]",
+        )?;
+        check(
+            !self.classes.is_empty(),
+            "grains.classes",
+            0.0,
+            "at least one class",
+        )?;
+        let mut total = 0.0;
+        for c in &self.classes {
+            positive("grains.diameter", c.diameter)?;
+            positive("grains.fraction", c.fraction)?;
+            total += c.fraction;
+        }
+        check(
+            libm::fabs(total - 1.0) < 1e-9,
+            "grains.fraction (sum)",
+            total,
+            "= 1",
+        )
+    }
+}
+
+impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
+    /// Resets the simulation with `config` and builds the initial bed of SPEC §7
+    /// from `config.seed`:
+    /// 1. `columns` fixed grains of the largest diameter at x = k·pitch, heights
+    ///    Gaussian with mean 0 and standard deviation `fixed_spread`·d_max;
+    /// 2. a `columns` × `rows` square lattice of mobile grains at
+    ///    x = (c + ½)·pitch, starting one pitch above the highest fixed grain,
+    ///    each site empty with probability `vacancy`, else of a size class
+    ///    drawn by the fractions.
+    ///
+    /// `config.width` and `config.y_min` are replaced by the bed's: L =
+    /// columns·pitch and y_min = lowest fixed grain − 2 d_max. Settle it
+    /// afterwards with [`Sim::settle`] (step 3 of §7).
+    pub fn build_bed(&mut self, config: &SimConfig, spec: &BedSpec) -> Result<BedInfo, Error> {
+        spec.validate()?;
+        let d_max = spec.max_diameter();
+        let pitch = spec.pitch();
+        let columns = spec.columns as usize;
+        let needed = columns + columns * spec.rows as usize;
+        if needed > N {
+            return Err(Error::CapacityExceeded {
+                what: Capacity::Grains,
+                capacity: N,
+            });
+        }
+        // Fixed heights are drawn twice from the same stream: once for the
+        // domain extent, once to place them (no scratch array of size N).
+        let spread = spec.fixed_spread * d_max;
+        let mut rng = Stream::new(config.seed, BED_STREAM, 0, 0);
+        let (mut lowest, mut highest) = (f64::INFINITY, f64::NEG_INFINITY);
+        for _ in 0..columns {
+            let y = rng.gaussian_pair().0 * spread;
+            lowest = lowest.min(y);
+            highest = highest.max(y);
+        }
+        let top = highest + pitch * spec.rows as f64;
+        let mut cfg = *config;
+        cfg.width = spec.width();
+        cfg.y_min = lowest - 2.0 * d_max;
+        check(
+            config.y_max > top + d_max,
+            "y_max",
+            config.y_max,
+            "above the initial lattice (rows x pitch + 1 d)",
+        )?;
+        self.reset(&cfg)?;
+        let mut rng = Stream::new(config.seed, BED_STREAM, 0, 0);
+        for k in 0..columns {
+            self.add_grain(&GrainSpec {
+                x: k as f64 * pitch,
+                y: rng.gaussian_pair().0 * spread,
+                diameter: d_max,
+                fixed: true,
+                ..GrainSpec::default()
+            })?;
+        }
+        let mut mobile = 0;
+        for row in 0..spec.rows as usize {
+            for col in 0..columns {
+                let empty = rng.uniform() < spec.vacancy;
+                let pick = rng.uniform();
+                if empty {
+                    continue;
+                }
+                let mut class = spec.classes.len() - 1;
+                let mut cumulative = 0.0;
+                for (c, sc) in spec.classes.iter().enumerate() {
+                    cumulative += sc.fraction;
+                    if pick < cumulative {
+                        class = c;
+                        break;
+                    }
+                }
+                let diameter = spec.classes.get(class).map_or(d_max, |c| c.diameter);
+                self.add_grain(&GrainSpec {
+                    x: (col as f64 + 0.5) * pitch,
+                    y: highest + pitch * (row + 1) as f64,
+                    diameter,
+                    class: class as u8,
+                    ..GrainSpec::default()
+                })?;
+                mobile += 1;
+            }
+        }
+        Ok(BedInfo {
+            fixed: columns,
+            mobile,
+            width: cfg.width,
+            y_min: cfg.y_min,
+        })
+    }
+
+    /// Steps until every mobile grain moves slower than `speed_tol` (m/s),
+    /// checked every 100 steps, or until `max_steps` (SPEC §7 step 3).
+    pub fn settle(&mut self, max_steps: u64, speed_tol: f64) -> Result<Settled, Error> {
+        let start = self.step;
+        while self.step - start < max_steps {
+            let chunk = (max_steps - (self.step - start)).min(100);
+            self.run(chunk)?;
+            if self.max_speed() < speed_tol {
+                return Ok(Settled {
+                    steps: self.step - start,
+                    at_rest: true,
+                });
+            }
+        }
+        Ok(Settled {
+            steps: self.step - start,
+            at_rest: false,
+        })
+    }
+
+    /// Recomputes the mean bed level (SPEC §6, [choice]): the grains of the bed
+    /// are those connected to a fixed grain through contacts (saltating grains
+    /// are not); the surface grains are those whose centre lies within one
+    /// largest diameter below the highest bed-grain centre; the level is the
+    /// mean of their centre heights. Without fixed grains the level is y = 0.
+    pub(crate) fn update_bed_level(&mut self) {
+        let n = self.grains.len;
+        let g = &mut self.grains;
+        let nb = &self.nbrs;
+        let mut any = false;
+        for i in 0..n {
+            g.in_bed[i] = g.fixed[i];
+            any |= g.fixed[i];
+        }
+        if !any {
+            self.bed_level = R::ZERO;
+            return;
+        }
+        // Label propagation along contacts, alternating sweep directions
+        // until nothing changes (at most n sweeps; usually a few).
+        for sweep in 0..n {
+            let mut changed = false;
+            for step in 0..n {
+                let i = if sweep % 2 == 0 { step } else { n - 1 - step };
+                let count = usize::from(nb.count[i]).min(K);
+                for k in 0..count {
+                    let j = nb.other[i][k] as usize;
+                    if j >= n || nb.spring[i][k].e_n <= R::ZERO || g.in_bed[i] == g.in_bed[j] {
+                        continue;
+                    }
+                    g.in_bed[i] = true;
+                    g.in_bed[j] = true;
+                    changed = true;
+                }
+            }
+            if !changed {
+                break;
+            }
+        }
+        let mut top = R::ZERO;
+        let mut d_max = R::ZERO;
+        let mut first = true;
+        for i in 0..n {
+            d_max = R::max(d_max, g.r[i] + g.r[i]);
+            if g.in_bed[i] && (first || g.y[i] > top) {
+                top = g.y[i];
+                first = false;
+            }
+        }
+        let (mut sum, mut count) = (R::ZERO, R::ZERO);
+        for i in 0..n {
+            if g.in_bed[i] && g.y[i] >= top - d_max {
+                sum += g.y[i];
+                count += R::ONE;
+            }
+        }
+        self.bed_level = sum / count;
+    }
+}

@@ -1,0 +1,155 @@
+//! The contact law, SPEC eqs. (6)–(9): normal and tangential springs with
+//! per-pair history, dashpots, no tension, Coulomb sliding.
+//!
+//! Geometry and signs (SPEC §2): n = (cos α, sin α) points from grain i to
+//! grain j and t = (sin α, −cos α). The force on i is −f_n n + f_s t, on j its
+//! negative; the counter-clockwise torque on each grain is −(d/2) f_s.
+//! Relative displacements during a step:
+//! Δξ_n = (v_i − v_j)·n Δt (approach > 0),
+//! Δξ_s = [(v_j − v_i)·t + (d_i ω_i + d_j ω_j)/2] Δt (ω counter-clockwise).
+
+use crate::real::Real;
+
+/// Spring history of one contact: the elastic parts e_n, e_s of (6)–(7).
+/// Both are zero for a pair that is not in contact.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Spring<R: Real> {
+    /// Normal spring force e_n (N).
+    pub e_n: R,
+    /// Tangential spring force e_s (N).
+    pub e_s: R,
+}
+
+/// The constants of the contact law in the working precision.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ContactLaw<R: Real> {
+    /// k_n (N/m).
+    pub k_n: R,
+    /// k_s (N/m).
+    pub k_s: R,
+    /// η_n (N·s/m).
+    pub eta_n: R,
+    /// η_s (N·s/m).
+    pub eta_s: R,
+    /// μ.
+    pub mu: R,
+    /// Δt (s).
+    pub dt: R,
+}
+
+impl<R: Real> ContactLaw<R> {
+    /// All-zero constants (an unconfigured simulation).
+    pub const ZERO: Self = ContactLaw {
+        k_n: R::ZERO,
+        k_s: R::ZERO,
+        eta_n: R::ZERO,
+        eta_s: R::ZERO,
+        mu: R::ZERO,
+        dt: R::ZERO,
+    };
+
+    /// Advances the history of one overlapping contact by one step and returns
+    /// (f_n, f_s), or `None` when the contact breaks under tension (8), in
+    /// which case the history is reset to zero.
+    ///
+    /// - (6) e_n += k_n Δξ_n, f_n = e_n + η_n v_n, with v_n = Δξ_n/Δt the
+    ///   normal approach speed. **[choice]** On the first step of a contact
+    ///   (history zero) Δξ_n is the overlap itself, the part of the step's
+    ///   approach after touching, so e_n = k_n·overlap for a central impact.
+    /// - (7) e_s += k_s Δξ_s, f_s = e_s + η_s v_s.
+    /// - (8) e_n < 0: the contact breaks, f_n = f_s = 0, history dropped.
+    /// - (9) |e_s| > μ e_n: e_s = μ e_n sign(e_s), f_s = e_s (no tangential
+    ///   dashpot while sliding) **[choice, Cundall–Strack]**.
+    #[inline]
+    pub fn apply(&self, h: &mut Spring<R>, overlap: R, v_n: R, v_s: R) -> Option<(R, R)> {
+        let dxi_n = if h.e_n == R::ZERO {
+            overlap
+        } else {
+            v_n * self.dt
+        };
+        h.e_n += self.k_n * dxi_n;
+        if h.e_n < R::ZERO {
+            *h = Spring::default();
+            return None;
+        }
+        let f_n = h.e_n + self.eta_n * v_n;
+        h.e_s += self.k_s * v_s * self.dt;
+        let limit = self.mu * h.e_n;
+        let f_s = if R::abs(h.e_s) > limit {
+            h.e_s = if h.e_s > R::ZERO { limit } else { -limit };
+            h.e_s
+        } else {
+            h.e_s + self.eta_s * v_s
+        };
+        Some((f_n, f_s))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn law() -> ContactLaw<f64> {
+        ContactLaw {
+            k_n: 100.0,
+            k_s: 40.0,
+            eta_n: 0.1,
+            eta_s: 0.05,
+            mu: 0.5,
+            dt: 1e-4,
+        }
+    }
+
+    #[test]
+    fn first_step_spring_equals_overlap_and_tension_breaks() {
+        let l = law();
+        let mut h = Spring::default();
+        let (f_n, f_s) = l.apply(&mut h, 1e-5, 0.2, 0.0).unwrap();
+        assert_eq!(h.e_n, 100.0 * 1e-5);
+        assert_eq!(f_n, h.e_n + 0.1 * 0.2);
+        assert_eq!(f_s, 0.0);
+        // Separating faster than the spring can hold: e_n < 0, history dropped.
+        assert!(l.apply(&mut h, 1e-6, -1.0, 0.3).is_none());
+        assert_eq!(h, Spring::default());
+    }
+
+    /// SPEC §11 Coulomb check: a grain of mass m pressed by a normal spring
+    /// force N and pushed tangentially by F sticks (comes to rest at
+    /// ξ = F/k_s) while F < μN, and slides with f_s = μN once F > μN.
+    #[test]
+    fn sticks_below_mu_n_and_slides_at_mu_n() {
+        let l = law();
+        let normal = 0.02; // N
+        let m = 1e-4;
+        for (push, sticks) in [
+            (0.5 * 0.5 * normal, true),
+            (0.9 * 0.5 * normal, true),
+            (1.1 * 0.5 * normal, false),
+        ] {
+            let mut h = Spring {
+                e_n: normal,
+                e_s: 0.0,
+            };
+            let mut v = 0.0; // sliding speed of the grain's surface over the other
+            let mut last_fs = 0.0;
+            for _ in 0..20_000 {
+                // The contact resists the slip: slip increments Δξ_s = −v Δt on the pushed grain.
+                let (_, f_s) = l.apply(&mut h, 0.0, 0.0, -v).unwrap();
+                h.e_n = normal; // N held constant (gravity)
+                v += (push + f_s) / m * l.dt;
+                last_fs = f_s;
+            }
+            if sticks {
+                assert!(v.abs() < 1e-9, "F = {push}: v = {v}");
+                assert!((last_fs + push).abs() < 1e-9 * push.max(1.0));
+                assert!(
+                    (h.e_s + push).abs() < 1e-6 * push,
+                    "spring carries the load"
+                );
+            } else {
+                assert!(v > 0.1, "F = {push}: should slide, v = {v}");
+                assert_eq!(last_fs, -0.5 * normal, "sliding friction is exactly mu N");
+            }
+        }
+    }
+}

@@ -1,0 +1,270 @@
+//! The prescribed flow (SPEC §6) and the drag it exerts (SPEC §3):
+//! log-law mean velocity (14), Nezu turbulence intensities (15), sheltering
+//! (16) and the drag force (4)–(5). The fluid is not solved.
+//!
+//! Heights `y` here are measured from the mean bed level (SPEC §6).
+
+use crate::error::{check, non_negative, positive, Error};
+use crate::random::{Stream, TURBULENCE_STREAM};
+use crate::real::Real;
+
+/// User-facing flow parameters (SI units). Defaults are SPEC §1.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct FlowConfig {
+    /// Shear velocity u* (m/s); see [`shear_velocity`].
+    pub u_star: f64,
+    /// Kármán constant κ.
+    pub kappa: f64,
+    /// Flow depth h (m), scale of the intensity decay (15).
+    pub depth: f64,
+    /// Sheltering coefficient at bed level ε0 (16); 1 disables sheltering.
+    pub eps0: f64,
+    /// Equivalent roughness k_s (m); SPEC: k_s = d.
+    pub roughness: f64,
+    /// Grain diameter d of the zero-level shift y + 0.25d in (14), (16) (m).
+    pub reference_diameter: f64,
+    /// Monte Carlo fluctuations on (15); off gives the mean flow only.
+    pub turbulence: bool,
+    /// Steps a fluctuation is held before it is redrawn (paper: 100).
+    pub hold_steps: u32,
+    /// Steps between recomputations of the mean bed level (SPEC §6, [choice] 100).
+    pub bed_level_interval: u32,
+}
+
+impl FlowConfig {
+    /// SPEC §1 defaults for grains of diameter `d` at shear velocity `u_star`.
+    pub fn new(u_star: f64, d: f64) -> Self {
+        FlowConfig {
+            u_star,
+            kappa: 0.4,
+            depth: 0.20,
+            eps0: 0.4,
+            roughness: d,
+            reference_diameter: d,
+            turbulence: true,
+            hold_steps: 100,
+            bed_level_interval: 100,
+        }
+    }
+
+    /// Checks every field; the error names the first bad one.
+    pub fn validate(&self) -> Result<(), Error> {
+        non_negative("flow.u_star", self.u_star)?;
+        positive("flow.kappa", self.kappa)?;
+        positive("flow.depth", self.depth)?;
+        check(
+            self.eps0.is_finite() && (0.0..=1.0).contains(&self.eps0),
+            "flow.eps0",
+            self.eps0,
+            "in [0, 1]",
+        )?;
+        positive("flow.roughness", self.roughness)?;
+        non_negative("flow.reference_diameter", self.reference_diameter)?;
+        check(
+            self.hold_steps >= 1,
+            "flow.hold_steps",
+            self.hold_steps as f64,
+            ">= 1",
+        )?;
+        check(
+            self.bed_level_interval >= 1,
+            "flow.bed_level_interval",
+            self.bed_level_interval as f64,
+            ">= 1",
+        )
+    }
+}
+
+/// u* from the Shields number: τ* = u*²/((s − 1)gd) (SPEC §6).
+pub fn shear_velocity(tau_star: f64, s: f64, g: f64, d: f64) -> f64 {
+    libm::sqrt(tau_star * (s - 1.0) * g * d)
+}
+
+/// The flow profile in the working precision, evaluated per grain per step.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Profile<R: Real> {
+    /// u*/κ.
+    pub(crate) u_star_over_kappa: R,
+    /// 2.30 u*.
+    pub(crate) rms_u0: R,
+    /// 1.27 u*.
+    pub(crate) rms_v0: R,
+    /// −1/h.
+    pub(crate) minus_inv_depth: R,
+    /// ε0.
+    pub(crate) eps0: R,
+    /// 1/k_s.
+    pub(crate) inv_roughness: R,
+    /// 0.25 d.
+    pub(crate) zero_shift: R,
+    /// Fluctuations on.
+    pub(crate) turbulence: bool,
+}
+
+impl<R: Real> Profile<R> {
+    /// An all-zero profile (no flow).
+    pub const ZERO: Self = Profile {
+        u_star_over_kappa: R::ZERO,
+        rms_u0: R::ZERO,
+        rms_v0: R::ZERO,
+        minus_inv_depth: R::ZERO,
+        eps0: R::ZERO,
+        inv_roughness: R::ZERO,
+        zero_shift: R::ZERO,
+        turbulence: false,
+    };
+
+    /// Converts a validated [`FlowConfig`] to the working precision.
+    pub fn new(c: &FlowConfig) -> Self {
+        Profile {
+            u_star_over_kappa: R::from_f64(c.u_star / c.kappa),
+            rms_u0: R::from_f64(2.30 * c.u_star),
+            rms_v0: R::from_f64(1.27 * c.u_star),
+            minus_inv_depth: R::from_f64(-1.0 / c.depth),
+            eps0: R::from_f64(c.eps0),
+            inv_roughness: R::from_f64(1.0 / c.roughness),
+            zero_shift: R::from_f64(0.25 * c.reference_diameter),
+            turbulence: c.turbulence,
+        }
+    }
+
+    /// (14): U = (u*/κ) ln(30.1 (y + 0.25d)/k_s), and 0 where the argument is ≤ 1.
+    #[inline]
+    pub fn mean_velocity(&self, y: R) -> R {
+        let arg = R::from_f64(30.1) * (y + self.zero_shift) * self.inv_roughness;
+        if arg > R::ONE {
+            self.u_star_over_kappa * R::ln(arg)
+        } else {
+            R::ZERO
+        }
+    }
+
+    /// (15): rms (u, v) = (2.30, 1.27) u* exp(−y/h).
+    #[inline]
+    pub fn intensity(&self, y: R) -> (R, R) {
+        let decay = R::exp(y * self.minus_inv_depth);
+        (self.rms_u0 * decay, self.rms_v0 * decay)
+    }
+
+    /// (16): ε = ε0 + (1 − ε0)[1 − exp(−((y + 0.25d)/k_s)²)]; ε = ε0 below the
+    /// zero level y + 0.25d ≤ 0 **[choice]**: (16) is even in y + 0.25d and
+    /// would otherwise expose deeply buried grains.
+    #[inline]
+    pub fn sheltering(&self, y: R) -> R {
+        let z = (y + self.zero_shift) * self.inv_roughness;
+        if z > R::ZERO {
+            self.eps0 + (R::ONE - self.eps0) * (R::ONE - R::exp(-(z * z)))
+        } else {
+            self.eps0
+        }
+    }
+
+    /// The fluctuation (u, v) of held standard-normal draws (z_u, z_v) at
+    /// height `y` where the mean velocity is `mean`: (15) scaled draws, zero
+    /// where U = 0 or without turbulence (SPEC §6).
+    #[inline]
+    pub fn fluctuation(&self, mean: R, y: R, z_u: R, z_v: R) -> (R, R) {
+        if self.turbulence && mean > R::ZERO {
+            let (su, sv) = self.intensity(y);
+            (z_u * su, z_v * sv)
+        } else {
+            (R::ZERO, R::ZERO)
+        }
+    }
+
+    /// Drag force (4)–(5) on a grain at height `y` with velocity (u_p, v_p) and
+    /// standard-normal fluctuation draws (z_u, z_v); `coef` = ½ρC_D A2 d².
+    /// Fluctuations apply only where U > 0 (SPEC §6).
+    #[inline]
+    pub fn drag(&self, coef: R, y: R, u_p: R, v_p: R, z_u: R, z_v: R) -> (R, R) {
+        let mean = self.mean_velocity(y);
+        let (fluct_u, fluct_v) = self.fluctuation(mean, y, z_u, z_v);
+        let wx = mean + fluct_u - u_p;
+        let wy = fluct_v - v_p;
+        let xi = coef * self.sheltering(y) * R::sqrt(wx * wx + wy * wy);
+        (xi * wx, xi * wy)
+    }
+}
+
+/// The standard-normal pair (z_u, z_v) of grain `id` in hold period `period`
+/// (SPEC (15), [choice]: per grain, independent u and v, held for
+/// `hold_steps`). Keyed, so it does not depend on draw order.
+pub fn fluctuation_draw(seed: u64, period: u64, id: u32) -> (f64, f64) {
+    Stream::new(seed, TURBULENCE_STREAM, period, id as u64).gaussian_pair()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn profile() -> (FlowConfig, Profile<f64>) {
+        let c = FlowConfig::new(0.03, 0.5e-3);
+        (c, Profile::new(&c))
+    }
+
+    #[test]
+    fn log_law_at_chosen_heights() {
+        let (c, p) = profile();
+        let d = 0.5e-3;
+        for &y in &[0.0, 0.5 * d, 2.0 * d, 10.0 * d] {
+            let expect = c.u_star / 0.4 * (30.1 * (y + 0.25 * d) / d).ln();
+            assert!((p.mean_velocity(y) - expect).abs() < 1e-12, "y = {y}");
+        }
+        // Zero-velocity level: 30.1 (y + d/4)/d = 1.
+        let y0 = d / 30.1 - 0.25 * d;
+        assert_eq!(p.mean_velocity(y0 - 1e-9), 0.0);
+        assert!(p.mean_velocity(y0 + 1e-9) > 0.0);
+        assert_eq!(p.mean_velocity(-d), 0.0);
+    }
+
+    #[test]
+    fn intensity_and_sheltering_at_chosen_heights() {
+        let (c, p) = profile();
+        let (su, sv) = p.intensity(0.0);
+        assert!((su - 2.30 * c.u_star).abs() < 1e-15 && (sv - 1.27 * c.u_star).abs() < 1e-15);
+        let (su, _) = p.intensity(0.1);
+        assert!((su - 2.30 * c.u_star * (-0.5f64).exp()).abs() < 1e-15);
+        let d = 0.5e-3;
+        // At y = −0.25d, ε = ε0; at y = 0.75d: ε0 + (1 − ε0)(1 − e^{−1}).
+        assert!((p.sheltering(-0.25 * d) - 0.4).abs() < 1e-15);
+        let e = p.sheltering(0.75 * d);
+        assert!((e - (0.4 + 0.6 * (1.0 - (-1.0f64).exp()))).abs() < 1e-14);
+        assert!((p.sheltering(10.0 * d) - 1.0).abs() < 1e-12);
+        assert_eq!(p.sheltering(-3.0 * d), 0.4);
+    }
+
+    #[test]
+    fn drag_on_a_grain_at_rest_points_downstream() {
+        let (_, p) = profile();
+        let d = 0.5e-3;
+        let coef = 0.5 * 1000.0 * 0.4 * core::f64::consts::FRAC_PI_4 * d * d;
+        let y = 3.0 * d;
+        let (fx, fy) = p.drag(coef, y, 0.0, 0.0, 0.0, 0.0);
+        let u = p.mean_velocity(y);
+        assert!((fx - coef * p.sheltering(y) * u * u).abs() < 1e-18);
+        assert_eq!(fy, 0.0);
+    }
+
+    #[test]
+    fn validation_names_fields() {
+        let mut c = FlowConfig::new(0.03, 0.5e-3);
+        c.eps0 = 1.5;
+        assert!(matches!(
+            c.validate(),
+            Err(Error::InvalidParameter {
+                name: "flow.eps0",
+                ..
+            })
+        ));
+        c.eps0 = 0.4;
+        c.hold_steps = 0;
+        assert!(matches!(
+            c.validate(),
+            Err(Error::InvalidParameter {
+                name: "flow.hold_steps",
+                ..
+            })
+        ));
+    }
+}

@@ -1,0 +1,222 @@
+//! Neighbour search and contact-history storage.
+//!
+//! Each grain i owns `K` slots holding the grains j > i within the cut-off
+//! (d_i + d_j)/2 + skin, sorted by j, each with the pair's spring history.
+//! The contact loop therefore visits pairs in the fixed order (i ascending,
+//! j ascending), whatever the cell layout: that order, and skipping pairs that
+//! do not overlap, make results independent of the skin, of when the list is
+//! rebuilt and of the cell grid, bit for bit.
+//!
+//! The list is rebuilt from a cell list (cell side ≥ largest cut-off, periodic
+//! in x) when grains may have moved half a skin since the last build. Cells are
+//! hashed into `N` buckets, so any bed height fits; a bucket shared by two
+//! cells only costs extra distance checks. History moves from the old slots to
+//! the new ones by merging the two sorted lists, so no contact is lost.
+
+use crate::contact::Spring;
+use crate::error::{Capacity, Error};
+use crate::grains::Grains;
+use crate::real::Real;
+
+/// Neighbour slots with spring history, and the cell-list scratch.
+#[derive(Debug, Clone)]
+pub struct Neighbours<R: Real, const N: usize, const K: usize> {
+    /// Used slots per grain.
+    pub(crate) count: [u8; N],
+    /// Neighbour index j (> i) per slot, ascending.
+    pub(crate) other: [[u32; K]; N],
+    /// Spring history per slot.
+    pub(crate) spring: [[Spring<R>; K]; N],
+    /// Bucket heads: grain index + 1, 0 = empty.
+    head: [u32; N],
+    /// Next grain in the same bucket: index + 1, 0 = end.
+    next: [u32; N],
+    /// Cell coordinates of each grain at the last build.
+    cell_x: [u32; N],
+    cell_y: [u32; N],
+    /// Largest distance any grain may have travelled since the last build.
+    pub(crate) travel: R,
+    /// Skin (m) and whether the list must be rebuilt before the next use.
+    pub(crate) skin: R,
+    pub(crate) stale: bool,
+}
+
+impl<R: Real, const N: usize, const K: usize> Neighbours<R, N, K> {
+    /// Empty storage (all zero bits).
+    pub const fn new() -> Self {
+        Neighbours {
+            count: [0; N],
+            other: [[0; K]; N],
+            spring: [[Spring {
+                e_n: R::ZERO,
+                e_s: R::ZERO,
+            }; K]; N],
+            head: [0; N],
+            next: [0; N],
+            cell_x: [0; N],
+            cell_y: [0; N],
+            travel: R::ZERO,
+            skin: R::ZERO,
+            stale: false,
+        }
+    }
+
+    /// Forgets every pair and its history.
+    pub(crate) fn clear(&mut self) {
+        self.count = [0; N];
+        self.travel = R::ZERO;
+        self.stale = true;
+    }
+
+    /// Records one step's largest grain displacement; marks the list stale
+    /// once two grains approaching each other could have closed the skin.
+    #[inline]
+    pub(crate) fn add_travel(&mut self, distance: R) {
+        self.travel += distance;
+        if self.travel + self.travel > self.skin {
+            self.stale = true;
+        }
+    }
+
+    /// Rebuilds the slots if stale.
+    pub(crate) fn refresh(&mut self, g: &Grains<R, N>, width: R, y_min: R) -> Result<(), Error> {
+        if self.stale {
+            self.rebuild(g, width, y_min)?;
+        }
+        Ok(())
+    }
+
+    /// Bins the grains into cells and rebuilds every grain's slots, carrying
+    /// the history of pairs present in both lists. Fixed–fixed pairs are
+    /// never listed (they exert no force).
+    pub(crate) fn rebuild(&mut self, g: &Grains<R, N>, width: R, y_min: R) -> Result<(), Error> {
+        let n = g.len.min(N);
+        let mut r_max = R::ZERO;
+        for &r in &g.r[..n] {
+            r_max = R::max(r_max, r);
+        }
+        let cutoff = r_max + r_max + self.skin;
+        // At least three cells across, so the 3×3 stencil visits distinct cells.
+        let nx_f = libm::floor((width / cutoff).to_f64());
+        if nx_f.is_nan() || nx_f < 3.0 {
+            return Err(Error::InvalidParameter {
+                name: "width",
+                value: width.to_f64(),
+                allowed: ">= 3 × (largest diameter + skin)",
+            });
+        }
+        let nx = if nx_f > 65_536.0 {
+            65_536u32
+        } else {
+            nx_f as u32
+        };
+        let cell = width / R::from_f64(nx as f64);
+        let inv_cell = R::ONE / cell;
+
+        self.head = [0; N];
+        for i in 0..n {
+            let cx = ((g.x[i] * inv_cell).to_f64() as u32).min(nx - 1);
+            let cy = (((g.y[i] - y_min) * inv_cell).to_f64() as u32).min(1 << 30);
+            self.cell_x[i] = cx;
+            self.cell_y[i] = cy;
+            let b = bucket::<N>(cx, cy, nx);
+            self.next[i] = self.head[b];
+            self.head[b] = i as u32 + 1;
+        }
+
+        let half_width = width * R::HALF;
+        for i in 0..n {
+            let mut found: heapless::Vec<u32, K> = heapless::Vec::new();
+            let (cx, cy) = (self.cell_x[i], self.cell_y[i]);
+            for dy in 0..3u32 {
+                let Some(ny) = (cy + dy).checked_sub(1) else {
+                    continue;
+                };
+                for dx in 0..3u32 {
+                    let nxc = (cx + dx + nx - 1) % nx;
+                    let mut link = self.head[bucket::<N>(nxc, ny, nx)];
+                    while link != 0 {
+                        let j = (link - 1) as usize;
+                        link = self.next[j];
+                        if j <= i || self.cell_x[j] != nxc || self.cell_y[j] != ny {
+                            continue;
+                        }
+                        if g.fixed[i] && g.fixed[j] {
+                            continue;
+                        }
+                        let ddx = periodic(g.x[j] - g.x[i], width, half_width);
+                        let ddy = g.y[j] - g.y[i];
+                        let reach = g.r[i] + g.r[j] + self.skin;
+                        if ddx * ddx + ddy * ddy < reach * reach {
+                            let at = found.partition_point(|&o| o < j as u32);
+                            found
+                                .insert(at, j as u32)
+                                .map_err(|_| Error::CapacityExceeded {
+                                    what: Capacity::NeighboursPerGrain,
+                                    capacity: K,
+                                })?;
+                        }
+                    }
+                }
+            }
+            self.merge_into_slots(i, &found);
+        }
+        self.travel = R::ZERO;
+        self.stale = false;
+        Ok(())
+    }
+
+    /// Replaces grain i's slots by `found` (sorted), keeping the history of
+    /// pairs present before.
+    fn merge_into_slots(&mut self, i: usize, found: &[u32]) {
+        let old_count = usize::from(self.count[i]).min(K);
+        let old_other = self.other[i];
+        let old_spring = self.spring[i];
+        let mut k_old = 0;
+        for (k, &j) in found.iter().enumerate().take(K) {
+            while k_old < old_count && old_other[k_old] < j {
+                k_old += 1;
+            }
+            self.other[i][k] = j;
+            self.spring[i][k] = if k_old < old_count && old_other[k_old] == j {
+                old_spring[k_old]
+            } else {
+                Spring::default()
+            };
+        }
+        self.count[i] = found.len().min(K) as u8;
+    }
+
+    /// The history of pair (i, j), if listed.
+    pub(crate) fn history(&self, i: usize, j: usize) -> Option<Spring<R>> {
+        let (a, b) = if i < j { (i, j) } else { (j, i) };
+        let count = usize::from(*self.count.get(a)?).min(K);
+        let slots = self.other.get(a)?;
+        let k = slots[..count].iter().position(|&o| o as usize == b)?;
+        Some(self.spring[a][k])
+    }
+}
+
+impl<R: Real, const N: usize, const K: usize> Default for Neighbours<R, N, K> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+/// Bucket of cell (cx, cy) among `N` buckets.
+#[inline]
+fn bucket<const N: usize>(cx: u32, cy: u32, nx: u32) -> usize {
+    ((cy as u64 * nx as u64 + cx as u64) % (N.max(1) as u64)) as usize
+}
+
+/// Minimum-image separation in the periodic x direction.
+#[inline]
+pub(crate) fn periodic<R: Real>(dx: R, width: R, half_width: R) -> R {
+    if dx > half_width {
+        dx - width
+    } else if dx < -half_width {
+        dx + width
+    } else {
+        dx
+    }
+}

@@ -1,0 +1,221 @@
+//! The floating-point type the kernel is generic over: `f64` (host default) or
+//! `f32` (small boards).
+//!
+//! Every transcendental call goes through [`libm`], a pure-software library, so
+//! the same inputs give the same bits on x86_64 and on a Cortex-M4F; `sqrt` is
+//! IEEE correctly rounded on every target. With the `micromath` feature the
+//! `f32` `exp` and `ln` (flow profile only, never contact geometry) use
+//! micromath instead: deterministic, but coarse (see the README's accuracy table).
+//!
+//! Functions are associated functions (`R::sqrt(x)`), never method calls, so a
+//! `std` build of the tests cannot silently pick an inherent float method.
+
+use core::fmt::Debug;
+use core::ops::{Add, AddAssign, Div, Mul, MulAssign, Neg, Sub, SubAssign};
+
+/// A floating-point scalar usable by the kernel.
+pub trait Real:
+    Copy
+    + Debug
+    + Default
+    + PartialOrd
+    + Add<Output = Self>
+    + Sub<Output = Self>
+    + Mul<Output = Self>
+    + Div<Output = Self>
+    + Neg<Output = Self>
+    + AddAssign
+    + SubAssign
+    + MulAssign
+    + Send
+    + Sync
+    + 'static
+{
+    /// 0.
+    const ZERO: Self;
+    /// 1.
+    const ONE: Self;
+    /// ½.
+    const HALF: Self;
+    /// Name of the type ("f32" or "f64"), for reports.
+    const NAME: &'static str;
+    /// Nearest representable value (IEEE round-to-nearest).
+    fn from_f64(x: f64) -> Self;
+    /// Exact widening to `f64`.
+    fn to_f64(self) -> f64;
+    /// IEEE correctly rounded square root.
+    fn sqrt(x: Self) -> Self;
+    /// e^x.
+    fn exp(x: Self) -> Self;
+    /// Natural logarithm.
+    fn ln(x: Self) -> Self;
+    /// |x|.
+    fn abs(x: Self) -> Self;
+    /// Neither infinite nor NaN.
+    fn is_finite(x: Self) -> bool;
+    /// Bits for hashing with −0.0 mapped to +0.0 and every NaN to one pattern.
+    fn canonical_bits(x: Self) -> u64;
+    /// The larger of two values (the first if they compare equal or unordered).
+    #[inline]
+    fn max(a: Self, b: Self) -> Self {
+        if b > a {
+            b
+        } else {
+            a
+        }
+    }
+    /// The smaller of two values (the first if they compare equal or unordered).
+    #[inline]
+    fn min(a: Self, b: Self) -> Self {
+        if b < a {
+            b
+        } else {
+            a
+        }
+    }
+}
+
+impl Real for f64 {
+    const ZERO: Self = 0.0;
+    const ONE: Self = 1.0;
+    const HALF: Self = 0.5;
+    const NAME: &'static str = "f64";
+    #[inline]
+    fn from_f64(x: f64) -> Self {
+        x
+    }
+    #[inline]
+    fn to_f64(self) -> f64 {
+        self
+    }
+    #[inline]
+    fn sqrt(x: Self) -> Self {
+        libm::sqrt(x)
+    }
+    #[inline]
+    fn exp(x: Self) -> Self {
+        libm::exp(x)
+    }
+    #[inline]
+    fn ln(x: Self) -> Self {
+        libm::log(x)
+    }
+    #[inline]
+    fn abs(x: Self) -> Self {
+        libm::fabs(x)
+    }
+    #[inline]
+    fn is_finite(x: Self) -> bool {
+        x.is_finite()
+    }
+    #[inline]
+    fn canonical_bits(x: Self) -> u64 {
+        if x == 0.0 {
+            0
+        } else if x.is_nan() {
+            0x7ff8_0000_0000_0000
+        } else {
+            x.to_bits()
+        }
+    }
+}
+
+impl Real for f32 {
+    const ZERO: Self = 0.0;
+    const ONE: Self = 1.0;
+    const HALF: Self = 0.5;
+    const NAME: &'static str = "f32";
+    #[inline]
+    fn from_f64(x: f64) -> Self {
+        x as f32
+    }
+    #[inline]
+    fn to_f64(self) -> f64 {
+        self as f64
+    }
+    #[inline]
+    fn sqrt(x: Self) -> Self {
+        libm::sqrtf(x)
+    }
+    #[inline]
+    fn exp(x: Self) -> Self {
+        #[cfg(feature = "micromath")]
+        {
+            micromath::F32Ext::exp(x)
+        }
+        #[cfg(not(feature = "micromath"))]
+        {
+            libm::expf(x)
+        }
+    }
+    #[inline]
+    fn ln(x: Self) -> Self {
+        #[cfg(feature = "micromath")]
+        {
+            micromath::F32Ext::ln(x)
+        }
+        #[cfg(not(feature = "micromath"))]
+        {
+            libm::logf(x)
+        }
+    }
+    #[inline]
+    fn abs(x: Self) -> Self {
+        libm::fabsf(x)
+    }
+    #[inline]
+    fn is_finite(x: Self) -> bool {
+        x.is_finite()
+    }
+    #[inline]
+    fn canonical_bits(x: Self) -> u64 {
+        if x == 0.0 {
+            0
+        } else if x.is_nan() {
+            0x7fc0_0000
+        } else {
+            x.to_bits() as u64
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Real;
+
+    #[test]
+    fn negative_zero_and_nan_hash_alike() {
+        assert_eq!(f64::canonical_bits(-0.0), f64::canonical_bits(0.0));
+        assert_eq!(f32::canonical_bits(-0.0), f32::canonical_bits(0.0));
+        let nan_a = f64::from_bits(0x7ff8_0000_0000_0001);
+        let nan_b = f64::from_bits(0xfff8_0000_0000_0000);
+        assert_eq!(f64::canonical_bits(nan_a), f64::canonical_bits(nan_b));
+        assert_ne!(f64::canonical_bits(1.0), f64::canonical_bits(-1.0));
+    }
+
+    #[test]
+    fn libm_backend_matches_reference_values() {
+        assert_eq!(f64::sqrt(2.0), core::f64::consts::SQRT_2);
+        assert!((f64::ln(30.1) - 3.404_525_172_316_964).abs() < 1e-15);
+        assert!((f64::exp(-1.0) - 0.367_879_441_171_442_3).abs() < 1e-16);
+        assert_eq!(f32::sqrt(4.0), 2.0);
+    }
+
+    /// Measures the micromath backend against libm over the flow's argument range.
+    #[cfg(feature = "micromath")]
+    #[test]
+    fn micromath_backend_accuracy() {
+        let mut worst_exp = 0.0f64;
+        let mut worst_ln = 0.0f64;
+        for k in 1..2000 {
+            let x = -(k as f32) * 0.002; // exp(-y/h), exp(-(..)^2): arguments in [-4, 0]
+            let e = (f32::exp(x) as f64 - libm::exp(x as f64)).abs() / libm::exp(x as f64);
+            worst_exp = worst_exp.max(e);
+            let z = 1.0 + k as f32 * 0.05; // ln of 30.1(y+d/4)/k_s: arguments in [1, 100]
+            let l = (f32::ln(z) as f64 - libm::log(z as f64)).abs() / libm::log(z as f64).max(0.1);
+            worst_ln = worst_ln.max(l);
+        }
+        std::println!("micromath: worst relative error exp {worst_exp:.2e}, ln {worst_ln:.2e}");
+        assert!(worst_exp < 0.01 && worst_ln < 0.01);
+    }
+}

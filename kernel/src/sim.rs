@@ -1,0 +1,552 @@
+//! The simulation: configuration, grains, the step (SPEC §2 equations of
+//! motion (1)–(3) with symplectic Euler), and its error checks.
+
+use crate::constants::{ContactConstants, Material, A2};
+use crate::contact::{ContactLaw, Spring};
+use crate::error::{check, finite, positive, Capacity, Error, Quantity};
+use crate::flow::{fluctuation_draw, FlowConfig, Profile};
+use crate::grains::{GrainSpec, GrainState, Grains, MAX_CLASSES};
+use crate::neighbours::{periodic, Neighbours};
+use crate::real::Real;
+
+/// Everything a simulation needs besides its grains and its flow (SI units).
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct SimConfig {
+    /// Time step Δt (s).
+    pub dt: f64,
+    /// Fluid and grain material.
+    pub material: Material,
+    /// Contact springs and dashpots, e.g. from [`crate::contact_constants`].
+    pub contact: ContactConstants,
+    /// Gravity (g_x, g_y) (m/s²); (0, −9.81) by default. Tilt it to incline the bed.
+    pub gravity: [f64; 2],
+    /// Periodic width L (m); grains live in 0 ≤ x < L.
+    pub width: f64,
+    /// Lowest allowed grain height (m): below it a grain has left the domain.
+    pub y_min: f64,
+    /// Highest allowed grain height (m).
+    pub y_max: f64,
+    /// Neighbour-list skin (m). Results do not depend on it; speed does.
+    pub skin: f64,
+    /// Seed of every random draw (SPEC §7: all randomness from one seed).
+    pub seed: u64,
+}
+
+impl SimConfig {
+    /// Checks every field; the error names the first bad one.
+    pub fn validate(&self) -> Result<(), Error> {
+        positive("time.dt", self.dt)?;
+        self.material.validate()?;
+        self.contact.validate()?;
+        finite("gravity.x", self.gravity[0])?;
+        finite("gravity.y", self.gravity[1])?;
+        positive("width", self.width)?;
+        finite("y_min", self.y_min)?;
+        check(
+            self.y_max.is_finite() && self.y_max > self.y_min,
+            "y_max",
+            self.y_max,
+            "finite and > y_min",
+        )?;
+        crate::error::non_negative("skin", self.skin)
+    }
+}
+
+/// A simulation of up to `N` grains with up to `K` neighbours (j > i) per grain,
+/// in precision `R` (`f32` or `f64`).
+///
+/// All storage is inline; nothing is allocated. [`Sim::new`] is a `const fn`
+/// that yields all-zero bits, so a firmware can place a simulation in a
+/// `static` (`.bss`) and a host can allocate it zeroed on the heap
+/// (`Box::new_zeroed`) without building it on the stack: **every field of
+/// `Sim` is a number, a `bool`, or a struct or array of those, so the all-zero
+/// bit pattern is a valid value equal to `Sim::new()`.** Keep it that way.
+#[derive(Debug, Clone)]
+pub struct Sim<R: Real, const N: usize, const K: usize> {
+    pub(crate) grains: Grains<R, N>,
+    pub(crate) nbrs: Neighbours<R, N, K>,
+    pub(crate) config: SimConfig,
+    pub(crate) configured: bool,
+    pub(crate) law: ContactLaw<R>,
+    pub(crate) dt: R,
+    /// Reduced gravity g(s − 1)/(s + C_M): weight over inertia, SPEC (2).
+    pub(crate) g_red: [R; 2],
+    pub(crate) width: R,
+    pub(crate) y_min: R,
+    pub(crate) y_max: R,
+    pub(crate) flow: FlowConfig,
+    pub(crate) flow_on: bool,
+    pub(crate) profile: Profile<R>,
+    /// Step at which the flow was switched on: hold periods count from here.
+    pub(crate) flow_epoch: u64,
+    /// Mean bed level (SPEC §6), absolute height (m).
+    pub(crate) bed_level: R,
+    pub(crate) step: u64,
+}
+
+const ZERO_MATERIAL: Material = Material {
+    rho: 0.0,
+    s: 0.0,
+    c_m: 0.0,
+    c_d: 0.0,
+    mu: 0.0,
+    nu: 0.0,
+};
+
+const ZERO_FLOW: FlowConfig = FlowConfig {
+    u_star: 0.0,
+    kappa: 0.0,
+    depth: 0.0,
+    eps0: 0.0,
+    roughness: 0.0,
+    reference_diameter: 0.0,
+    turbulence: false,
+    hold_steps: 0,
+    bed_level_interval: 0,
+};
+
+impl<R: Real, const N: usize, const K: usize> Default for Sim<R, N, K> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
+    /// An empty, unconfigured simulation (all-zero bits). Call [`Sim::reset`].
+    pub const fn new() -> Self {
+        Sim {
+            grains: Grains::new(),
+            nbrs: Neighbours::new(),
+            config: SimConfig {
+                dt: 0.0,
+                material: ZERO_MATERIAL,
+                contact: ContactConstants {
+                    k_n: 0.0,
+                    k_s: 0.0,
+                    eta_n: 0.0,
+                    eta_s: 0.0,
+                },
+                gravity: [0.0; 2],
+                width: 0.0,
+                y_min: 0.0,
+                y_max: 0.0,
+                skin: 0.0,
+                seed: 0,
+            },
+            configured: false,
+            law: ContactLaw::ZERO,
+            dt: R::ZERO,
+            g_red: [R::ZERO; 2],
+            width: R::ZERO,
+            y_min: R::ZERO,
+            y_max: R::ZERO,
+            flow: ZERO_FLOW,
+            flow_on: false,
+            profile: Profile::ZERO,
+            flow_epoch: 0,
+            bed_level: R::ZERO,
+            step: 0,
+        }
+    }
+
+    /// Removes all grains, contacts and flow, and applies `config`.
+    /// On error nothing changes.
+    pub fn reset(&mut self, config: &SimConfig) -> Result<(), Error> {
+        config.validate()?;
+        let m = &config.material;
+        self.grains.len = 0;
+        self.nbrs.clear();
+        self.nbrs.skin = R::from_f64(config.skin);
+        self.config = *config;
+        self.configured = true;
+        self.law = ContactLaw {
+            k_n: R::from_f64(config.contact.k_n),
+            k_s: R::from_f64(config.contact.k_s),
+            eta_n: R::from_f64(config.contact.eta_n),
+            eta_s: R::from_f64(config.contact.eta_s),
+            mu: R::from_f64(m.mu),
+            dt: R::from_f64(config.dt),
+        };
+        self.dt = R::from_f64(config.dt);
+        let reduce = (m.s - 1.0) / (m.s + m.c_m);
+        self.g_red = [
+            R::from_f64(config.gravity[0] * reduce),
+            R::from_f64(config.gravity[1] * reduce),
+        ];
+        self.width = R::from_f64(config.width);
+        self.y_min = R::from_f64(config.y_min);
+        self.y_max = R::from_f64(config.y_max);
+        self.flow = ZERO_FLOW;
+        self.flow_on = false;
+        self.profile = Profile::ZERO;
+        self.flow_epoch = 0;
+        self.bed_level = R::ZERO;
+        self.step = 0;
+        Ok(())
+    }
+
+    /// Adds a grain and returns its index. Errors: capacity, or a field out of
+    /// range (named). A mobile grain must satisfy the stability bound (11).
+    pub fn add_grain(&mut self, spec: &GrainSpec) -> Result<usize, Error> {
+        check(self.configured, "sim", 0.0, "configured by reset() first")?;
+        let c = &self.config;
+        positive("grain.diameter", spec.diameter)?;
+        check(
+            spec.x.is_finite() && spec.x >= 0.0 && spec.x < c.width,
+            "grain.x",
+            spec.x,
+            "in [0, width)",
+        )?;
+        check(
+            spec.y.is_finite() && spec.y >= c.y_min && spec.y <= c.y_max,
+            "grain.y",
+            spec.y,
+            "in [y_min, y_max]",
+        )?;
+        finite("grain.u", spec.u)?;
+        finite("grain.v", spec.v)?;
+        finite("grain.spin", spec.spin)?;
+        if usize::from(spec.class) >= MAX_CLASSES {
+            return Err(Error::CapacityExceeded {
+                what: Capacity::SizeClasses,
+                capacity: MAX_CLASSES,
+            });
+        }
+        let mass = c.material.translational_mass(spec.diameter);
+        if !spec.fixed {
+            let limit = c.contact.stable_dt_limit(mass);
+            check(
+                c.dt <= limit,
+                "time.dt",
+                c.dt,
+                "<= 2 sqrt(m/k_n) of every grain (SPEC (11))",
+            )?;
+        }
+        let i = self.grains.len;
+        if i >= N {
+            return Err(Error::CapacityExceeded {
+                what: Capacity::Grains,
+                capacity: N,
+            });
+        }
+        let g = &mut self.grains;
+        let mobile = !spec.fixed;
+        let d = spec.diameter;
+        g.x[i] = R::from_f64(spec.x);
+        g.y[i] = R::from_f64(spec.y);
+        g.u[i] = if mobile { R::from_f64(spec.u) } else { R::ZERO };
+        g.v[i] = if mobile { R::from_f64(spec.v) } else { R::ZERO };
+        g.w[i] = if mobile {
+            R::from_f64(spec.spin)
+        } else {
+            R::ZERO
+        };
+        g.r[i] = R::from_f64(0.5 * d);
+        g.inv_mass[i] = if mobile {
+            R::from_f64(1.0 / mass)
+        } else {
+            R::ZERO
+        };
+        g.inv_inertia[i] = if mobile {
+            R::from_f64(1.0 / c.material.moment_of_inertia(d))
+        } else {
+            R::ZERO
+        };
+        g.drag_coef[i] = R::from_f64(0.5 * c.material.rho * c.material.c_d * A2 * d * d);
+        g.z_u[i] = R::ZERO;
+        g.z_v[i] = R::ZERO;
+        g.fixed[i] = spec.fixed;
+        g.class[i] = spec.class;
+        g.len = i + 1;
+        self.nbrs.count[i] = 0;
+        self.nbrs.stale = true;
+        Ok(i)
+    }
+
+    /// Switches the flow on (drag (4)–(5) with (14)–(16)) or off (`None`: no drag).
+    /// Hold periods of the fluctuations and bed-level updates count from now.
+    pub fn set_flow(&mut self, flow: Option<&FlowConfig>) -> Result<(), Error> {
+        match flow {
+            Some(f) => {
+                f.validate()?;
+                self.flow = *f;
+                self.profile = Profile::new(f);
+                self.flow_on = true;
+                self.flow_epoch = self.step;
+            }
+            None => {
+                self.flow = ZERO_FLOW;
+                self.profile = Profile::ZERO;
+                self.flow_on = false;
+            }
+        }
+        Ok(())
+    }
+
+    /// Advances `steps` steps.
+    pub fn run(&mut self, steps: u64) -> Result<(), Error> {
+        for _ in 0..steps {
+            self.step()?;
+        }
+        Ok(())
+    }
+
+    /// Advances one step Δt: neighbour refresh, flow bookkeeping, forces,
+    /// symplectic Euler (velocities, then positions), checks.
+    pub fn step(&mut self) -> Result<(), Error> {
+        check(self.configured, "sim", 0.0, "configured by reset() first")?;
+        self.nbrs.refresh(&self.grains, self.width, self.y_min)?;
+        if self.flow_on {
+            let since = self.step.saturating_sub(self.flow_epoch);
+            if since % u64::from(self.flow.bed_level_interval.max(1)) == 0 {
+                self.update_bed_level();
+            }
+            let hold = u64::from(self.flow.hold_steps.max(1));
+            if self.profile.turbulence && since % hold == 0 {
+                self.draw_fluctuations(since / hold);
+            }
+        }
+        self.clear_forces();
+        if self.flow_on {
+            self.add_drag();
+        }
+        self.add_contact_forces();
+        self.integrate()
+    }
+
+    fn clear_forces(&mut self) {
+        let n = self.grains.len;
+        let g = &mut self.grains;
+        g.fx[..n].fill(R::ZERO);
+        g.fy[..n].fill(R::ZERO);
+        g.torque[..n].fill(R::ZERO);
+    }
+
+    /// Redraws every grain's held fluctuation (SPEC (15)) for hold `period`.
+    fn draw_fluctuations(&mut self, period: u64) {
+        let seed = self.config.seed;
+        let g = &mut self.grains;
+        for i in 0..g.len {
+            let (a, b) = fluctuation_draw(seed, period, i as u32);
+            g.z_u[i] = R::from_f64(a);
+            g.z_v[i] = R::from_f64(b);
+        }
+    }
+
+    /// Drag (4)–(5) on every mobile grain, heights from the mean bed level.
+    fn add_drag(&mut self) {
+        let g = &mut self.grains;
+        for i in 0..g.len {
+            if g.fixed[i] {
+                continue;
+            }
+            let (fx, fy) = self.profile.drag(
+                g.drag_coef[i],
+                g.y[i] - self.bed_level,
+                g.u[i],
+                g.v[i],
+                g.z_u[i],
+                g.z_v[i],
+            );
+            g.fx[i] += fx;
+            g.fy[i] += fy;
+        }
+    }
+
+    /// Contact forces (6)–(9) of every overlapping listed pair, in the fixed
+    /// order (i ascending, j ascending); history of separated pairs is dropped.
+    fn add_contact_forces(&mut self) {
+        let g = &mut self.grains;
+        let nb = &mut self.nbrs;
+        let law = self.law;
+        let width = self.width;
+        let half_width = width * R::HALF;
+        for i in 0..g.len {
+            let count = usize::from(nb.count[i]).min(K);
+            for k in 0..count {
+                let j = nb.other[i][k] as usize;
+                if j >= g.len {
+                    continue;
+                }
+                let spring = &mut nb.spring[i][k];
+                let dx = periodic(g.x[j] - g.x[i], width, half_width);
+                let dy = g.y[j] - g.y[i];
+                let reach = g.r[i] + g.r[j];
+                let dist2 = dx * dx + dy * dy;
+                if dist2 >= reach * reach {
+                    *spring = Spring::default();
+                    continue;
+                }
+                let dist = R::sqrt(dist2);
+                if dist == R::ZERO {
+                    // Coincident centres: no direction to push along.
+                    continue;
+                }
+                let inv = R::ONE / dist;
+                let (nx, ny) = (dx * inv, dy * inv);
+                // t = (sin α, −cos α) = (n_y, −n_x)
+                let (tx, ty) = (ny, -nx);
+                let du = g.u[i] - g.u[j];
+                let dv = g.v[i] - g.v[j];
+                let v_n = du * nx + dv * ny;
+                let v_s = -(du * tx + dv * ty) + g.r[i] * g.w[i] + g.r[j] * g.w[j];
+                let Some((f_n, f_s)) = law.apply(spring, reach - dist, v_n, v_s) else {
+                    continue;
+                };
+                let fx = -f_n * nx + f_s * tx;
+                let fy = -f_n * ny + f_s * ty;
+                g.fx[i] += fx;
+                g.fy[i] += fy;
+                g.fx[j] -= fx;
+                g.fy[j] -= fy;
+                g.torque[i] -= g.r[i] * f_s;
+                g.torque[j] -= g.r[j] * f_s;
+            }
+        }
+    }
+
+    /// Symplectic Euler for mobile grains (SPEC (1)–(3)): velocities from the
+    /// forces, then positions from the new velocities; periodic wrap in x;
+    /// non-finite and out-of-domain checks.
+    fn integrate(&mut self) -> Result<(), Error> {
+        let dt = self.dt;
+        let [gx, gy] = self.g_red;
+        let width = self.width;
+        let step = self.step;
+        let g = &mut self.grains;
+        let mut max_v2 = R::ZERO;
+        for i in 0..g.len {
+            if g.fixed[i] {
+                continue;
+            }
+            let u = g.u[i] + (g.fx[i] * g.inv_mass[i] + gx) * dt;
+            let v = g.v[i] + (g.fy[i] * g.inv_mass[i] + gy) * dt;
+            let w = g.w[i] + g.torque[i] * g.inv_inertia[i] * dt;
+            let grain = i as u32;
+            if !(R::is_finite(u) && R::is_finite(v)) {
+                return Err(Error::NonFinite {
+                    step,
+                    grain,
+                    quantity: Quantity::Velocity,
+                });
+            }
+            if !R::is_finite(w) {
+                return Err(Error::NonFinite {
+                    step,
+                    grain,
+                    quantity: Quantity::Spin,
+                });
+            }
+            let mut x = g.x[i] + u * dt;
+            let y = g.y[i] + v * dt;
+            if x >= width {
+                x -= width;
+            } else if x < R::ZERO {
+                x += width;
+                if x >= width {
+                    x = R::ZERO; // −tiny + L rounded up to L
+                }
+            }
+            if !(R::is_finite(x) && R::is_finite(y)) {
+                return Err(Error::NonFinite {
+                    step,
+                    grain,
+                    quantity: Quantity::Position,
+                });
+            }
+            if !(x >= R::ZERO && x < width && y >= self.y_min && y <= self.y_max) {
+                return Err(Error::LeftDomain {
+                    step,
+                    grain,
+                    y: y.to_f64(),
+                });
+            }
+            g.u[i] = u;
+            g.v[i] = v;
+            g.w[i] = w;
+            g.x[i] = x;
+            g.y[i] = y;
+            max_v2 = R::max(max_v2, u * u + v * v);
+        }
+        self.nbrs.add_travel(R::sqrt(max_v2) * dt);
+        self.step += 1;
+        Ok(())
+    }
+
+    /// Number of grains.
+    pub fn len(&self) -> usize {
+        self.grains.len
+    }
+
+    /// No grains.
+    pub fn is_empty(&self) -> bool {
+        self.grains.len == 0
+    }
+
+    /// Steps taken since [`Sim::reset`].
+    pub fn step_count(&self) -> u64 {
+        self.step
+    }
+
+    /// Simulated time since [`Sim::reset`] (s).
+    pub fn time(&self) -> f64 {
+        self.step as f64 * self.config.dt
+    }
+
+    /// The configuration in force.
+    pub fn config(&self) -> &SimConfig {
+        &self.config
+    }
+
+    /// The flow, if on.
+    pub fn flow(&self) -> Option<&FlowConfig> {
+        self.flow_on.then_some(&self.flow)
+    }
+
+    /// Grain `i`, if it exists.
+    pub fn grain(&self, i: usize) -> Option<GrainState> {
+        if i >= self.grains.len {
+            return None;
+        }
+        let g = &self.grains;
+        Some(GrainState {
+            x: g.x[i].to_f64(),
+            y: g.y[i].to_f64(),
+            u: g.u[i].to_f64(),
+            v: g.v[i].to_f64(),
+            spin: g.w[i].to_f64(),
+            diameter: 2.0 * g.r[i].to_f64(),
+            fixed: g.fixed[i],
+            class: g.class[i],
+        })
+    }
+
+    /// Spring history (e_n, e_s) of the pair (i, j) if it is in contact.
+    pub fn contact_history(&self, i: usize, j: usize) -> Option<(f64, f64)> {
+        let h = self.nbrs.history(i, j)?;
+        (h.e_n != R::ZERO || h.e_s != R::ZERO).then(|| (h.e_n.to_f64(), h.e_s.to_f64()))
+    }
+
+    /// The turbulent fluctuation (u, v) (m/s) grain `i` currently feels
+    /// (SPEC (15)): its held draws times the rms at its height, zero where
+    /// U = 0, for fixed grains, or without flow or turbulence.
+    pub fn fluctuation(&self, i: usize) -> Option<(f64, f64)> {
+        if i >= self.grains.len {
+            return None;
+        }
+        let g = &self.grains;
+        if !self.flow_on || g.fixed[i] {
+            return Some((0.0, 0.0));
+        }
+        let y = g.y[i] - self.bed_level;
+        let p = &self.profile;
+        let (u, v) = p.fluctuation(p.mean_velocity(y), y, g.z_u[i], g.z_v[i]);
+        Some((u.to_f64(), v.to_f64()))
+    }
+
+    /// Mean bed level y = 0 of the flow (SPEC §6), absolute (m).
+    pub fn bed_level(&self) -> f64 {
+        self.bed_level.to_f64()
+    }
+}

@@ -1,0 +1,86 @@
+//! Helpers shared by the kernel's integration tests.
+#![allow(dead_code)]
+
+use mbs_kernel::{ContactConstants, GrainSpec, Material, Real, Sim, SimConfig};
+
+/// Grain diameter used throughout (m).
+pub const D: f64 = 0.5e-3;
+
+/// A small simulation on the heap.
+pub type Small<R> = Sim<R, 256, 8>;
+
+/// A boxed, reset simulation.
+pub fn small<R: Real>(config: &SimConfig) -> Box<Small<R>> {
+    let mut s = Box::new(Small::<R>::new());
+    s.reset(config).expect("valid config");
+    s
+}
+
+/// Translational inertia of a grain of diameter `D` with added mass.
+pub fn mass() -> f64 {
+    Material::default().translational_mass(D)
+}
+
+/// A configuration with explicit normal constants; k_s and η_s follow (12)–(13).
+pub fn config(dt: f64, k_n: f64, eta_n: f64, mu: f64) -> SimConfig {
+    let two_one_plus_nu: f64 = 2.0 * 1.3;
+    SimConfig {
+        dt,
+        material: Material {
+            mu,
+            ..Material::default()
+        },
+        contact: ContactConstants {
+            k_n,
+            k_s: k_n / two_one_plus_nu,
+            eta_n,
+            eta_s: eta_n / two_one_plus_nu.sqrt(),
+        },
+        gravity: [0.0, 0.0],
+        width: 40.0 * D,
+        y_min: -20.0 * D,
+        y_max: 200.0 * D,
+        skin: 0.1 * D,
+        seed: 1,
+    }
+}
+
+/// A mobile grain of diameter `D`.
+pub fn mobile(x: f64, y: f64, u: f64, v: f64) -> GrainSpec {
+    GrainSpec {
+        x,
+        y,
+        u,
+        v,
+        diameter: D,
+        ..GrainSpec::default()
+    }
+}
+
+/// A fixed grain of diameter `D`.
+pub fn fixed(x: f64, y: f64) -> GrainSpec {
+    GrainSpec {
+        x,
+        y,
+        diameter: D,
+        fixed: true,
+        ..GrainSpec::default()
+    }
+}
+
+/// Runs a test body for f32 and f64.
+#[macro_export]
+macro_rules! both_precisions {
+    ($name:ident, $body:ident) => {
+        mod $name {
+            #[test]
+            fn f64() {
+                super::$body::<f64>(1e-9);
+            }
+            #[test]
+            fn f32() {
+                super::$body::<f32>(1e-4);
+            }
+        }
+    };
+}
