@@ -19,7 +19,7 @@ pub struct SizeClass {
 /// How to build the initial bed (SPEC §7).
 #[derive(Debug, Clone, PartialEq)]
 pub struct BedSpec {
-    /// Lattice columns nld (also the number of fixed grains) ≥ 3.
+    /// Lattice columns nld ≥ 3.
     pub columns: u32,
     /// Lattice rows nvd ≥ 1.
     pub rows: u32,
@@ -90,6 +90,22 @@ impl BedSpec {
         self.spacing * self.max_diameter()
     }
 
+    /// Fixed grains per lattice column: ⌈d_max/d_min⌉ **[choice]**, so that
+    /// the fixed layer of a mixed bed is as tight for the finest grains as a
+    /// single-size layer is for its grains (1 for a single size).
+    pub fn fixed_per_column(&self) -> usize {
+        let d_min = self
+            .classes
+            .iter()
+            .fold(f64::INFINITY, |m, c| m.min(c.diameter));
+        let ratio = self.max_diameter() / d_min;
+        if ratio.is_finite() && ratio >= 1.0 {
+            libm::ceil(ratio - 1e-9).min(16.0) as usize
+        } else {
+            1
+        }
+    }
+
     /// Periodic width L = columns × pitch (m).
     pub fn width(&self) -> f64 {
         self.columns as f64 * self.pitch()
@@ -143,11 +159,25 @@ impl BedSpec {
     }
 }
 
+/// A standard normal deviate truncated to ±2 by redrawing **[choice]**: an
+/// untruncated tail opens gaps in the fixed layer wide enough for a grain to
+/// fall through it in wide beds.
+fn fixed_height(rng: &mut Stream) -> f64 {
+    for _ in 0..64 {
+        let z = rng.gaussian_pair().0;
+        if libm::fabs(z) <= 2.0 {
+            return z;
+        }
+    }
+    0.0
+}
+
 impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
     /// Resets the simulation with `config` and builds the initial bed of SPEC §7
     /// from `config.seed`:
-    /// 1. `columns` fixed grains of the largest diameter at x = k·pitch, heights
-    ///    Gaussian with mean 0 and standard deviation `fixed_spread`·d_max;
+    /// 1. fixed grains of the largest diameter evenly spaced across L,
+    ///    [`BedSpec::fixed_per_column`] per column, heights Gaussian with mean 0
+    ///    and standard deviation `fixed_spread`·d_max, truncated at ±2σ;
     /// 2. a `columns` × `rows` square lattice of mobile grains at
     ///    x = (c + ½)·pitch, starting one pitch above the highest fixed grain,
     ///    each site empty with probability `vacancy`, else of a size class
@@ -161,7 +191,7 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
         let d_max = spec.max_diameter();
         let pitch = spec.pitch();
         let columns = spec.columns as usize;
-        let needed = columns + columns * spec.rows as usize;
+        let needed = columns * (spec.fixed_per_column() + spec.rows as usize);
         if needed > N {
             return Err(Error::CapacityExceeded {
                 what: Capacity::Grains,
@@ -171,10 +201,12 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
         // Fixed heights are drawn twice from the same stream: once for the
         // domain extent, once to place them (no scratch array of size N).
         let spread = spec.fixed_spread * d_max;
+        let fixed_count = columns * spec.fixed_per_column();
+        let fixed_pitch = spec.width() / fixed_count as f64;
         let mut rng = Stream::new(config.seed, BED_STREAM, 0, 0);
         let (mut lowest, mut highest) = (f64::INFINITY, f64::NEG_INFINITY);
-        for _ in 0..columns {
-            let y = rng.gaussian_pair().0 * spread;
+        for _ in 0..fixed_count {
+            let y = fixed_height(&mut rng) * spread;
             lowest = lowest.min(y);
             highest = highest.max(y);
         }
@@ -190,10 +222,10 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
         )?;
         self.reset(&cfg)?;
         let mut rng = Stream::new(config.seed, BED_STREAM, 0, 0);
-        for k in 0..columns {
+        for k in 0..fixed_count {
             self.add_grain(&GrainSpec {
-                x: k as f64 * pitch,
-                y: rng.gaussian_pair().0 * spread,
+                x: k as f64 * fixed_pitch,
+                y: fixed_height(&mut rng) * spread,
                 diameter: d_max,
                 fixed: true,
                 ..GrainSpec::default()
@@ -228,7 +260,7 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
             }
         }
         Ok(BedInfo {
-            fixed: columns,
+            fixed: fixed_count,
             mobile,
             width: cfg.width,
             y_min: cfg.y_min,

@@ -110,6 +110,28 @@ impl ContactConstants {
     }
 }
 
+/// The explicit-integration damping number of a contact between two mobile
+/// grains of diameter `d`: the largest of η_n Δt (2/m) (normal) and
+/// η_s Δt (2/m + 2(d/2)²/I) (tangential, through both spins), with m the
+/// translational inertia (added mass included) and I = σπd⁵/60.
+///
+/// Above 2 the dashpot over-corrects within one step and the contact
+/// oscillates with growing amplitude until Coulomb sliding caps it: beds
+/// jitter instead of coming to rest. With the paper's rule (17) the number is
+/// ≈ 2.19 α_cn for d = d_max whatever Δt and β (it depends on α_cn/α_m
+/// only), and it grows as (d_max/d)³ for the finer grains of a mixed bed.
+pub fn explicit_damping_number(c: &ContactConstants, material: &Material, d: f64, dt: f64) -> f64 {
+    let m = material.translational_mass(d);
+    let r = 0.5 * d;
+    let normal = c.eta_n * dt * 2.0 / m;
+    let tangential = c.eta_s * dt * (2.0 / m + 2.0 * r * r / material.moment_of_inertia(d));
+    if normal > tangential {
+        normal
+    } else {
+        tangential
+    }
+}
+
 /// The inputs of the paper's parameter choice: α_m, α_cn, β and Δt.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -202,6 +224,25 @@ mod tests {
         assert!(close(c1.eta_n, c2.eta_n, 1e-12));
         // α_m = 20 is inside the stability bound (11).
         assert!(base.dt < c1.stable_dt_limit(m));
+    }
+
+    #[test]
+    fn paper_rule_damping_number_depends_on_alpha_ratio_only() {
+        let mat = Material::default();
+        for (beta, dt) in [(1.0, 2e-5), (15.8, 2e-5), (1.0, 9e-6)] {
+            let rule = TimeStepRule {
+                alpha_m: 20.0,
+                alpha_cn: 1.0,
+                beta,
+                dt,
+            };
+            let c = contact_constants(&rule, 0.5e-3, &mat).unwrap();
+            let n = explicit_damping_number(&c, &mat, 0.5e-3, dt);
+            assert!((n - 2.19).abs() < 0.01, "beta {beta}, dt {dt}: {n}");
+            // Half the step, half the number; finer grains, larger numbers.
+            assert!((explicit_damping_number(&c, &mat, 0.5e-3, dt / 2.0) - n / 2.0).abs() < 1e-12);
+            assert!(explicit_damping_number(&c, &mat, 0.25e-3, dt) > 7.9 * n);
+        }
     }
 
     #[test]

@@ -207,7 +207,7 @@ mod tests {
     fn log_law_at_chosen_heights() {
         let (c, p) = profile();
         let d = 0.5e-3;
-        for &y in &[0.0, 0.5 * d, 2.0 * d, 10.0 * d] {
+        for &y in &[0.0f64, 0.5 * d, 2.0 * d, 10.0 * d] {
             let expect = c.u_star / 0.4 * (30.1 * (y + 0.25 * d) / d).ln();
             assert!((p.mean_velocity(y) - expect).abs() < 1e-12, "y = {y}");
         }

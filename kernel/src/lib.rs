@@ -42,14 +42,18 @@ mod neighbours;
 mod observe;
 pub mod random;
 mod real;
+mod scenario;
 mod sim;
 
 pub use bed::{BedInfo, BedSpec, Settled, SizeClass};
-pub use constants::{contact_constants, ContactConstants, Material, TimeStepRule, A2, A3};
+pub use constants::{
+    contact_constants, explicit_damping_number, ContactConstants, Material, TimeStepRule, A2, A3,
+};
 pub use digest::Fnv1a;
 pub use error::{Capacity, Error, Quantity};
 pub use flow::{shear_velocity, FlowConfig};
 pub use grains::{GrainSpec, GrainState, MAX_CLASSES};
 pub use observe::{q_star, Observation};
 pub use real::Real;
+pub use scenario::{Scenario, G};
 pub use sim::{Sim, SimConfig};

@@ -1,0 +1,108 @@
+//! A complete, named run set-up: the paper's case by default. The host's
+//! configuration, the golden-digest tests and the firmware all build their
+//! simulations through this one type, so they compute the same thing.
+
+use crate::bed::{BedInfo, BedSpec};
+use crate::constants::{contact_constants, Material, TimeStepRule};
+use crate::error::Error;
+use crate::flow::{shear_velocity, FlowConfig};
+use crate::real::Real;
+use crate::sim::{Sim, SimConfig};
+
+/// Standard gravity (m/s²).
+pub const G: f64 = 9.81;
+
+/// Everything needed to build, settle and drive a bed.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Scenario {
+    /// Fluid and grain material.
+    pub material: Material,
+    /// α_m, α_cn, β and the Δt the contact constants derive from (SPEC §5).
+    pub rule: TimeStepRule,
+    /// The integration time step (s); normally `rule.dt`. A smaller value
+    /// keeps the contact constants and refines only the integration.
+    pub dt: f64,
+    /// The initial bed (SPEC §7).
+    pub bed: BedSpec,
+    /// Shields number τ* of the flow phase.
+    pub tau_star: f64,
+    /// Flow depth h (m); also the top of the domain.
+    pub depth: f64,
+    /// Neighbour skin in units of the largest diameter.
+    pub skin: f64,
+    /// Seed of every random draw.
+    pub seed: u64,
+}
+
+impl Scenario {
+    /// The paper's case (SPEC §9): d = 0.5 mm, nld = 5, nvd = 10, spacing
+    /// 1.05 d, Δt = 2.0e-5 s, α_m = 20, α_cn = 1.3, β = 15.8, τ* = 0.2.
+    pub fn paper() -> Self {
+        Scenario {
+            material: Material::default(),
+            rule: TimeStepRule {
+                alpha_m: 20.0,
+                alpha_cn: 1.3,
+                beta: 15.8,
+                dt: 2.0e-5,
+            },
+            dt: 2.0e-5,
+            bed: BedSpec::uniform(0.5e-3, 5, 10),
+            tau_star: 0.2,
+            depth: 0.20,
+            skin: 0.1,
+            seed: 1,
+        }
+    }
+
+    /// The simulation configuration: constants from Δt for the largest grain
+    /// (SPEC §5), gravity (0, −g), top of the domain at the flow depth.
+    /// Width and y_min are set by [`Sim::build_bed`].
+    pub fn sim_config(&self) -> Result<SimConfig, Error> {
+        let d = self.bed.max_diameter();
+        Ok(SimConfig {
+            dt: self.dt,
+            material: self.material,
+            contact: contact_constants(&self.rule, d, &self.material)?,
+            gravity: [0.0, -G],
+            width: self.bed.width(),
+            y_min: -10.0 * d,
+            y_max: self.depth,
+            skin: self.skin * d,
+            seed: self.seed,
+        })
+    }
+
+    /// The flow at this scenario's τ*, SPEC §1 defaults, k_s = d_max.
+    pub fn flow(&self) -> FlowConfig {
+        let d = self.bed.max_diameter();
+        let mut f = FlowConfig::new(shear_velocity(self.tau_star, self.material.s, G, d), d);
+        f.depth = self.depth;
+        f
+    }
+
+    /// Resets `sim` and builds the initial bed.
+    pub fn build<R: Real, const N: usize, const K: usize>(
+        &self,
+        sim: &mut Sim<R, N, K>,
+    ) -> Result<BedInfo, Error> {
+        sim.build_bed(&self.sim_config()?, &self.bed)
+    }
+
+    /// The fixed golden-digest run: build the bed, `settle_steps` steps
+    /// without flow, then `flow_steps` steps under the flow. Returns the
+    /// digests after each phase.
+    pub fn digests<R: Real, const N: usize, const K: usize>(
+        &self,
+        sim: &mut Sim<R, N, K>,
+        settle_steps: u64,
+        flow_steps: u64,
+    ) -> Result<(u64, u64), Error> {
+        self.build(sim)?;
+        sim.run(settle_steps)?;
+        let settled = sim.digest();
+        sim.set_flow(Some(&self.flow()))?;
+        sim.run(flow_steps)?;
+        Ok((settled, sim.digest()))
+    }
+}
