@@ -13,9 +13,18 @@
 use core::fmt::Debug;
 use core::ops::{Add, AddAssign, Div, Mul, MulAssign, Neg, Sub, SubAssign};
 
-/// A floating-point scalar usable by the kernel.
+mod sealed {
+    /// Only `f32` and `f64` implement [`super::Real`]; both are valid as all-zero bits.
+    pub trait Sealed {}
+    impl Sealed for f32 {}
+    impl Sealed for f64 {}
+}
+
+/// A floating-point scalar usable by the kernel: `f32` or `f64` (sealed, so
+/// an all-zero [`crate::Sim`] is always a valid value).
 pub trait Real:
-    Copy
+    sealed::Sealed
+    + Copy
     + Debug
     + Default
     + PartialOrd
@@ -210,10 +219,12 @@ mod tests {
         let mut worst_ln = 0.0f64;
         for k in 1..2000 {
             let x = -(k as f32) * 0.002; // exp(-y/h), exp(-(..)^2): arguments in [-4, 0]
-            let e = (<f32 as Real>::exp(x) as f64 - libm::exp(x as f64)).abs() / libm::exp(x as f64);
+            let e =
+                (<f32 as Real>::exp(x) as f64 - libm::exp(x as f64)).abs() / libm::exp(x as f64);
             worst_exp = worst_exp.max(e);
             let z = 1.0 + k as f32 * 0.05; // ln of 30.1(y+d/4)/k_s: arguments in [1, 100]
-            let l = (<f32 as Real>::ln(z) as f64 - libm::log(z as f64)).abs() / libm::log(z as f64).max(0.1);
+            let l = (<f32 as Real>::ln(z) as f64 - libm::log(z as f64)).abs()
+                / libm::log(z as f64).max(0.1);
             worst_ln = worst_ln.max(l);
         }
         std::println!("micromath: worst relative error exp {worst_exp:.2e}, ln {worst_ln:.2e}");

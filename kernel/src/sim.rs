@@ -299,11 +299,11 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
         self.nbrs.refresh(&self.grains, self.width, self.y_min)?;
         if self.flow_on {
             let since = self.step.saturating_sub(self.flow_epoch);
-            if since % u64::from(self.flow.bed_level_interval.max(1)) == 0 {
+            if since.is_multiple_of(u64::from(self.flow.bed_level_interval.max(1))) {
                 self.update_bed_level();
             }
             let hold = u64::from(self.flow.hold_steps.max(1));
-            if self.profile.turbulence && since % hold == 0 {
+            if self.profile.turbulence && since.is_multiple_of(hold) {
                 self.draw_fluctuations(since / hold);
             }
         }

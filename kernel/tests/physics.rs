@@ -366,16 +366,14 @@ fn turbulence_statistics<R: Real>(_tol: f64) {
         s.step().unwrap();
         let first: Vec<_> = (0..250).map(|i| s.fluctuation(i).unwrap()).collect();
         s.run(flow.hold_steps as u64 - 1).unwrap();
-        for i in 0..250 {
+        for (i, &(u0, _)) in first.iter().enumerate() {
             let g = s.grain(i).unwrap();
             let (u, v) = s.fluctuation(i).unwrap();
             // Held: the draws are unchanged, only the height-dependent rms moves.
-            let (u0, v0) = first[i];
             assert!(
                 u0 == 0.0 || (u / u0 - 1.0).abs() < 0.05,
                 "held within the period {period}"
             );
-            let _ = v0;
             let decay = (-(g.y - s.bed_level()) / flow.depth).exp();
             let c = i % 2;
             let (zu, zv) = (u / (2.30 * u_star * decay), v / (1.27 * u_star * decay));
