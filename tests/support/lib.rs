@@ -1,1 +1,0 @@
-//! Shared helpers of the whole-system tests and benchmarks.
