@@ -62,7 +62,7 @@ impl BedSpec {
     /// A single-size bed of diameter `d` with the SPEC's spacing 1.05, no
     /// vacancies and fixed-height spread d/3.
     pub fn uniform(d: f64, columns: u32, rows: u32) -> Self {
-        let mut classes = heapless::Vec::new();
+        let mut classes = heapless::Vec::<SizeClass, MAX_CLASSES>::new();
         // Capacity MAX_CLASSES ≥ 1, so one push always fits.
         let _ = classes.push(SizeClass {
             diameter: d,
@@ -305,18 +305,12 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
             self.bed_level = R::ZERO;
             return;
         }
-        // Label propagation along contacts, alternating sweep directions
-        // until nothing changes (at most n sweeps; usually a few).
-        for sweep in 0..n {
+        // Label propagation along contacts in (i, j) order until nothing
+        // changes: at most n sweeps, a few for a bed built bottom-up.
+        for _ in 0..n {
             let mut changed = false;
-            for step in 0..n {
-                let i = if sweep % 2 == 0 { step } else { n - 1 - step };
-                let count = usize::from(nb.count[i]).min(K);
-                for k in 0..count {
-                    let j = nb.other[i][k] as usize;
-                    if j >= n || nb.spring[i][k].e_n <= R::ZERO || g.in_bed[i] == g.in_bed[j] {
-                        continue;
-                    }
+            for (i, j, h) in nb.contacts(n) {
+                if h.e_n > R::ZERO && g.in_bed[i] != g.in_bed[j] {
                     g.in_bed[i] = true;
                     g.in_bed[j] = true;
                     changed = true;

@@ -53,18 +53,11 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
             }
             h.word(u64::from(g.fixed[i]) | u64::from(g.class[i]) << 8);
         }
-        for i in 0..g.len {
-            let count = usize::from(self.nbrs.count[i]).min(K);
-            for k in 0..count {
-                let s = self.nbrs.spring[i][k];
-                if s.e_n == R::ZERO && s.e_s == R::ZERO {
-                    continue;
-                }
-                h.word(i as u64);
-                h.word(u64::from(self.nbrs.other[i][k]));
-                h.real(s.e_n);
-                h.real(s.e_s);
-            }
+        for (i, j, s) in self.nbrs.contacts(g.len) {
+            h.word(i as u64);
+            h.word(j as u64);
+            h.real(s.e_n);
+            h.real(s.e_s);
         }
         h.word(self.config.seed);
         h.word(self.flow_epoch);

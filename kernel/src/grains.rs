@@ -9,7 +9,8 @@ use crate::real::Real;
 /// Size classes the observables separate (SPEC §8, per size class q*).
 pub const MAX_CLASSES: usize = 4;
 
-/// A grain as the caller describes it (SI units, `f64`).
+/// A grain in SI units (`f64`): what the caller adds with
+/// [`crate::Sim::add_grain`] and reads back with [`crate::Sim::grain`].
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct GrainSpec {
@@ -92,26 +93,4 @@ impl<R: Real, const N: usize> Default for Grains<R, N> {
     fn default() -> Self {
         Self::new()
     }
-}
-
-/// A grain's state as reported to the caller (`f64`, SI units).
-#[derive(Debug, Clone, Copy, PartialEq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct GrainState {
-    /// Position x (m).
-    pub x: f64,
-    /// Position y (m).
-    pub y: f64,
-    /// Velocity u_p (m/s).
-    pub u: f64,
-    /// Velocity v_p (m/s).
-    pub v: f64,
-    /// Spin ω (rad/s), counter-clockwise.
-    pub spin: f64,
-    /// Diameter (m).
-    pub diameter: f64,
-    /// Fixed grain.
-    pub fixed: bool,
-    /// Size class.
-    pub class: u8,
 }

@@ -52,7 +52,7 @@ pub use constants::{
 pub use digest::Fnv1a;
 pub use error::{Capacity, Error, Quantity};
 pub use flow::{shear_velocity, FlowConfig};
-pub use grains::{GrainSpec, GrainState, MAX_CLASSES};
+pub use grains::{GrainSpec, MAX_CLASSES};
 pub use observe::{q_star, Observation};
 pub use real::Real;
 pub use scenario::{Scenario, G};

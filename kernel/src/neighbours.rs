@@ -126,7 +126,7 @@ impl<R: Real, const N: usize, const K: usize> Neighbours<R, N, K> {
 
         let half_width = width * R::HALF;
         for i in 0..n {
-            let mut found: heapless::Vec<u32, K> = heapless::Vec::new();
+            let mut found = heapless::Vec::<u32, K>::new();
             let (cx, cy) = (self.cell_x[i], self.cell_y[i]);
             for dy in 0..3u32 {
                 let Some(ny) = (cy + dy).checked_sub(1) else {
@@ -185,6 +185,22 @@ impl<R: Real, const N: usize, const K: usize> Neighbours<R, N, K> {
             };
         }
         self.count[i] = found.len().min(K) as u8;
+    }
+
+    /// The pairs (i, j, history) with non-zero spring history among the first
+    /// `n` grains, in (i, j) order: the contacts.
+    pub(crate) fn contacts(
+        &self,
+        n: usize,
+    ) -> impl Iterator<Item = (usize, usize, Spring<R>)> + '_ {
+        (0..n.min(N)).flat_map(move |i| {
+            let count = usize::from(self.count[i]).min(K);
+            (0..count).filter_map(move |k| {
+                let (j, h) = (self.other[i][k] as usize, self.spring[i][k]);
+                let active = h.e_n != R::ZERO || h.e_s != R::ZERO;
+                (active && j < n).then_some((i, j, h))
+            })
+        })
     }
 
     /// The history of pair (i, j), if listed.

@@ -113,25 +113,14 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
         o.max_speed = self.max_speed();
         let c = &self.config.contact;
         let half_width = self.width * R::HALF;
-        for i in 0..g.len {
-            let count = usize::from(self.nbrs.count[i]).min(K);
-            for k in 0..count {
-                let h = self.nbrs.spring[i][k];
-                if h.e_n == R::ZERO && h.e_s == R::ZERO {
-                    continue;
-                }
-                let j = self.nbrs.other[i][k] as usize;
-                if j >= g.len {
-                    continue;
-                }
-                o.contacts += 1;
-                let (e_n, e_s) = (h.e_n.to_f64(), h.e_s.to_f64());
-                o.spring_energy += e_n * e_n / (2.0 * c.k_n) + e_s * e_s / (2.0 * c.k_s);
-                let dx = periodic(g.x[j] - g.x[i], self.width, half_width).to_f64();
-                let dy = (g.y[j] - g.y[i]).to_f64();
-                let overlap = (g.r[i] + g.r[j]).to_f64() - libm::sqrt(dx * dx + dy * dy);
-                o.max_overlap = o.max_overlap.max(overlap);
-            }
+        for (i, j, h) in self.nbrs.contacts(g.len) {
+            o.contacts += 1;
+            let (e_n, e_s) = (h.e_n.to_f64(), h.e_s.to_f64());
+            o.spring_energy += e_n * e_n / (2.0 * c.k_n) + e_s * e_s / (2.0 * c.k_s);
+            let dx = periodic(g.x[j] - g.x[i], self.width, half_width).to_f64();
+            let dy = (g.y[j] - g.y[i]).to_f64();
+            let overlap = (g.r[i] + g.r[j]).to_f64() - libm::sqrt(dx * dx + dy * dy);
+            o.max_overlap = o.max_overlap.max(overlap);
         }
         o
     }

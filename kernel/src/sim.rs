@@ -5,7 +5,7 @@ use crate::constants::{ContactConstants, Material, A2};
 use crate::contact::{ContactLaw, Spring};
 use crate::error::{check, finite, positive, Capacity, Error, Quantity};
 use crate::flow::{fluctuation_draw, FlowConfig, Profile};
-use crate::grains::{GrainSpec, GrainState, Grains, MAX_CLASSES};
+use crate::grains::{GrainSpec, Grains, MAX_CLASSES};
 use crate::neighbours::{periodic, Neighbours};
 use crate::real::Real;
 
@@ -505,12 +505,12 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
     }
 
     /// Grain `i`, if it exists.
-    pub fn grain(&self, i: usize) -> Option<GrainState> {
+    pub fn grain(&self, i: usize) -> Option<GrainSpec> {
         if i >= self.grains.len {
             return None;
         }
         let g = &self.grains;
-        Some(GrainState {
+        Some(GrainSpec {
             x: g.x[i].to_f64(),
             y: g.y[i].to_f64(),
             u: g.u[i].to_f64(),
