@@ -1,0 +1,49 @@
+//! Runs `Scenario::paper()` (settling, then flow) in static storage and
+//! prints the state digest after each phase over semihosting, then exits 0.
+//! Any kernel error, panic or hard fault exits 1. Compare with
+//! `mbs digest --steps STEPS --precision f32|f64` on the host.
+#![no_std]
+#![no_main]
+
+use cortex_m_rt::{entry, exception, ExceptionFrame};
+use cortex_m_semihosting::{debug, hprintln};
+use mbs_kernel::{Scenario, Sim};
+use panic_semihosting as _;
+
+/// Steps of each phase (the host's `mbs digest --steps` default).
+const STEPS: u64 = 2000;
+
+#[cfg(not(feature = "f64"))]
+type Real = f32;
+#[cfg(feature = "f64")]
+type Real = f64;
+
+#[entry]
+fn main() -> ! {
+    let sim: &'static mut Sim<Real, 64, 8> =
+        cortex_m::singleton!(: Sim<Real, 64, 8> = Sim::new()).expect("first and only call");
+    match Scenario::paper().digests(sim, STEPS, STEPS) {
+        Ok((settled, flow)) => {
+            hprintln!("precision {}", core::any::type_name::<Real>());
+            hprintln!("steps {}", sim.step_count());
+            hprintln!("settled {:#018x}", settled);
+            hprintln!("flow {:#018x}", flow);
+            debug::exit(debug::EXIT_SUCCESS);
+        }
+        Err(e) => {
+            hprintln!("error: {}", e);
+            debug::exit(debug::EXIT_FAILURE);
+        }
+    }
+    loop {
+        cortex_m::asm::wfi();
+    }
+}
+
+#[exception]
+unsafe fn HardFault(_frame: &ExceptionFrame) -> ! {
+    debug::exit(debug::EXIT_FAILURE);
+    loop {
+        cortex_m::asm::wfi();
+    }
+}
