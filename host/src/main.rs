@@ -84,19 +84,19 @@ fn digest(steps: u64, precision: Precision) -> Result<(), Error> {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
-    let result = match cli.command.unwrap_or(Command::Run {
-        tau: vec![0.03, 0.06, 0.1, 0.2, 0.4],
-        dt_fraction: 0.25,
-        window: 1.0,
-        precision: Precision::F64,
-    }) {
-        Command::Run {
+    // No subcommand: the main job with its defaults, parsed by clap itself.
+    let command = cli
+        .command
+        .or_else(|| Cli::parse_from(["mbs", "run"]).command);
+    let result = match command {
+        None => Ok(()),
+        Some(Command::Run {
             tau,
             dt_fraction,
             window,
             precision,
-        } => run(&tau, dt_fraction, window, precision),
-        Command::Digest { steps, precision } => digest(steps, precision),
+        }) => run(&tau, dt_fraction, window, precision),
+        Some(Command::Digest { steps, precision }) => digest(steps, precision),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
