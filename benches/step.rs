@@ -11,7 +11,6 @@ const N: usize = 16_384;
 
 fn settled<R: Real>(columns: u32, flow: bool) -> Box<Sim<R, N, 8>> {
     let mut sc = Scenario::paper();
-    sc.dt = sc.rule.dt / 4.0;
     sc.bed = BedSpec::uniform(0.5e-3, columns, 10);
     let mut sim = boxed_sim::<R, N, 8>();
     sc.build(&mut *sim).expect("bed fits");

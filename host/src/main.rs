@@ -1,108 +1,180 @@
-//! `mbs`: the DEM numerical movable bed.
+//! `mbs`: the DEM numerical movable bed (Gotoh, Harada & Sakai).
 
-use clap::{Parser, Subcommand, ValueEnum};
-use mbs::{meyer_peter_muller, transport, TransportPoint};
-use mbs_kernel::{Error, Scenario};
+use clap::{Parser, Subcommand};
+use mbs::commands::{self, Common};
+use mbs::{Config, HostError, Precision};
+use std::path::PathBuf;
 use std::process::ExitCode;
-use std::time::Instant;
 
 #[derive(Parser)]
-#[command(version, about = "DEM numerical movable bed (Gotoh, Harada & Sakai)")]
+#[command(
+    version,
+    about = "DEM numerical movable bed: bed-load transport q* against the Shields number τ*",
+    long_about = "DEM numerical movable bed (Gotoh, Harada & Sakai). Without a subcommand, \
+                  runs the main job (`mbs run`) on the embedded paper's case."
+)]
 struct Cli {
+    /// No progress bars and no report on standard output.
+    #[arg(long, short, global = true)]
+    quiet: bool,
+    /// Worker threads (0: one per core). Results do not depend on it.
+    #[arg(long, global = true, default_value_t = 0)]
+    threads: usize,
     #[command(subcommand)]
     command: Option<Command>,
 }
 
-#[derive(Clone, Copy, ValueEnum)]
-enum Precision {
-    F32,
-    F64,
-}
-
 #[derive(Subcommand)]
 enum Command {
-    /// The main job: q* against τ* for the paper's case (embedded default).
+    /// The main job: q* against τ* over seeds → transport.csv, transport.png/.svg, summary.json.
     Run {
-        /// Shields numbers to run.
-        #[arg(long, value_delimiter = ',', default_values_t = [0.03, 0.06, 0.1, 0.2, 0.4])]
-        tau: Vec<f64>,
-        /// Integration step as a fraction of the Δt the constants derive from.
-        /// 1 is the paper's Δt, beyond the explicit damping limit (README); the
-        /// default 0.25 keeps every constant and integrates stably.
-        #[arg(long, default_value_t = 0.25)]
-        dt_fraction: f64,
-        /// Averaging window (s).
-        #[arg(long, default_value_t = 1.0)]
-        window: f64,
-        /// Precision.
-        #[arg(long, value_enum, default_value_t = Precision::F64)]
-        precision: Precision,
+        /// Configuration file (TOML); the embedded paper's case when omitted.
+        config: Option<PathBuf>,
+        /// Output directory (default: run.output of the configuration).
+        #[arg(long)]
+        out: Option<PathBuf>,
     },
-    /// Prints the state digests of the paper's scenario after settling and flow phases.
+    /// Prints the embedded default configuration (the paper's case), commented.
+    Config,
+    /// Packing test (SPEC §9.1): packing.csv and a plot of y_gc(t).
+    Pack {
+        /// Configuration file (TOML).
+        config: Option<PathBuf>,
+        /// Output directory.
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Duration (s); default time.settle.
+        #[arg(long)]
+        duration: Option<f64>,
+    },
+    /// Pictures of the bed (PNG/SVG) and VTK frames over time for ParaView.
+    Snapshot {
+        /// Configuration file (TOML).
+        config: Option<PathBuf>,
+        /// Output directory.
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Shields number of the flow.
+        #[arg(long, default_value_t = 0.2)]
+        tau: f64,
+        /// Frames after the settled bed.
+        #[arg(long, default_value_t = 20)]
+        frames: u64,
+        /// Time between frames (s).
+        #[arg(long, default_value_t = 0.01)]
+        every: f64,
+    },
+    /// Prints the state digests after N settling and N flow steps (compare a board run).
     Digest {
+        /// Configuration file (TOML).
+        config: Option<PathBuf>,
         /// Steps of each phase.
         #[arg(long, default_value_t = 2000)]
         steps: u64,
-        /// Precision.
+        /// Working precision.
         #[arg(long, value_enum, default_value_t = Precision::F64)]
         precision: Precision,
+        /// Shields number of the flow phase.
+        #[arg(long, default_value_t = 0.2)]
+        tau: f64,
+    },
+    /// Settles a bed of about N grains and prints ns per grain-step of the step loop alone.
+    Bench {
+        /// Grains (fixed included), 33 to 65536.
+        #[arg(long, default_value_t = 1024, value_parser = clap::value_parser!(u32).range(33..=65536))]
+        grains: u32,
+        /// Steps timed.
+        #[arg(long, default_value_t = 2000)]
+        steps: u64,
+        /// Working precision.
+        #[arg(long, value_enum, default_value_t = Precision::F64)]
+        precision: Precision,
+        /// With the flow at τ* = 0.2 (drag, turbulence).
+        #[arg(long)]
+        flow: bool,
     },
 }
 
-fn run(tau: &[f64], dt_fraction: f64, window: f64, precision: Precision) -> Result<(), Error> {
-    println!("tau_star,q_star,mpm,grain_steps_per_s");
-    for &t in tau {
-        let mut sc = Scenario::paper();
-        sc.tau_star = t;
-        sc.dt = sc.rule.dt * dt_fraction;
-        let start = Instant::now();
-        let p: TransportPoint = match precision {
-            Precision::F32 => transport::<f32>(&sc, 0.2, 0.2, window)?,
-            Precision::F64 => transport::<f64>(&sc, 0.2, 0.2, window)?,
-        };
-        let rate = p.grain_steps as f64 / start.elapsed().as_secs_f64();
-        println!(
-            "{},{:.5},{:.5},{:.3e}",
-            p.tau_star,
-            p.q_star,
-            meyer_peter_muller(t),
-            rate
-        );
+/// Checks a Shields number given on the command line.
+fn tau_arg(tau: f64) -> Result<f64, HostError> {
+    if tau.is_finite() && tau > 0.0 && tau <= 5.0 {
+        Ok(tau)
+    } else {
+        Err(mbs::ConfigError::Invalid {
+            key: "--tau".into(),
+            value: tau.to_string(),
+            allowed: "in (0, 5]".into(),
+        }
+        .into())
     }
-    Ok(())
 }
 
-fn digest(steps: u64, precision: Precision) -> Result<(), Error> {
-    let sc = Scenario::paper();
-    let (a, b) = match precision {
-        Precision::F32 => sc.digests(&mut *mbs::boxed_sim::<f32, 64, 8>(), steps, steps)?,
-        Precision::F64 => sc.digests(&mut *mbs::boxed_sim::<f64, 64, 8>(), steps, steps)?,
+fn execute(cli: Cli) -> Result<(), HostError> {
+    let common = Common {
+        quiet: cli.quiet,
+        threads: cli.threads,
     };
-    println!("settled {a:#018x}\nflow {b:#018x}");
-    Ok(())
+    let load = |path: &Option<PathBuf>| Config::load(path.as_deref()).map_err(HostError::from);
+    match cli.command.unwrap_or(Command::Run {
+        config: None,
+        out: None,
+    }) {
+        Command::Run { config, out } => commands::run(&load(&config)?, out.as_deref(), common),
+        Command::Config => commands::config(),
+        Command::Pack {
+            config,
+            out,
+            duration,
+        } => {
+            if let Some(d) = duration.filter(|d| !(d.is_finite() && *d > 0.0)) {
+                return Err(mbs::ConfigError::Invalid {
+                    key: "--duration".into(),
+                    value: d.to_string(),
+                    allowed: "> 0".into(),
+                }
+                .into());
+            }
+            commands::pack(&load(&config)?, out.as_deref(), duration, common)
+        }
+        Command::Snapshot {
+            config,
+            out,
+            tau,
+            frames,
+            every,
+        } => {
+            let tau = tau_arg(tau)?;
+            if !(every.is_finite() && every > 0.0) {
+                return Err(mbs::ConfigError::Invalid {
+                    key: "--every".into(),
+                    value: every.to_string(),
+                    allowed: "> 0".into(),
+                }
+                .into());
+            }
+            commands::snapshot(&load(&config)?, out.as_deref(), tau, frames, every, common)
+        }
+        Command::Digest {
+            config,
+            steps,
+            precision,
+            tau,
+        } => commands::digest(&load(&config)?, steps, precision, tau_arg(tau)?),
+        Command::Bench {
+            grains,
+            steps,
+            precision,
+            flow,
+        } => commands::bench_command(precision, grains as usize, steps, flow),
+    }
 }
 
 fn main() -> ExitCode {
-    let cli = Cli::parse();
-    // No subcommand: the main job with its defaults, parsed by clap itself.
-    let command = cli
-        .command
-        .or_else(|| Cli::parse_from(["mbs", "run"]).command);
-    let result = match command {
-        None => Ok(()),
-        Some(Command::Run {
-            tau,
-            dt_fraction,
-            window,
-            precision,
-        }) => run(&tau, dt_fraction, window, precision),
-        Some(Command::Digest { steps, precision }) => digest(steps, precision),
-    };
-    match result {
+    match execute(Cli::parse()) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("error: {e}");
-            ExitCode::FAILURE
+            ExitCode::from(e.exit_code())
         }
     }
 }

@@ -3,7 +3,7 @@
 //! simulations through this one type, so they compute the same thing.
 
 use crate::bed::{BedInfo, BedSpec};
-use crate::constants::{contact_constants, Material, TimeStepRule};
+use crate::constants::{contact_constants, ContactConstants, Material, TimeStepRule};
 use crate::error::Error;
 use crate::flow::{shear_velocity, FlowConfig};
 use crate::real::Real;
@@ -19,15 +19,19 @@ pub struct Scenario {
     pub material: Material,
     /// α_m, α_cn, β and the Δt the contact constants derive from (SPEC §5).
     pub rule: TimeStepRule,
-    /// The integration time step (s); normally `rule.dt`. A smaller value
-    /// keeps the contact constants and refines only the integration.
-    pub dt: f64,
+    /// Contact constants given explicitly instead of derived from `rule`.
+    pub explicit_contact: Option<ContactConstants>,
+    /// Integration steps per Δt: the kernel integrates with Δt/substeps and
+    /// keeps every constant derived from Δt. Flow hold and bed-level
+    /// intervals are counted in steps of Δt, so they keep their duration.
+    pub substeps: u32,
     /// The initial bed (SPEC §7).
     pub bed: BedSpec,
     /// Shields number τ* of the flow phase.
     pub tau_star: f64,
-    /// Flow depth h (m); also the top of the domain.
-    pub depth: f64,
+    /// The flow of SPEC §6; its `u_star` is replaced by the one of `tau_star`
+    /// and its `depth` is also the top of the domain.
+    pub flow: FlowConfig,
     /// Neighbour skin in units of the largest diameter.
     pub skin: f64,
     /// Seed of every random draw.
@@ -36,7 +40,10 @@ pub struct Scenario {
 
 impl Scenario {
     /// The paper's case (SPEC §9): d = 0.5 mm, nld = 5, nvd = 10, spacing
-    /// 1.05 d, Δt = 2.0e-5 s, α_m = 20, α_cn = 1.3, β = 15.8, τ* = 0.2.
+    /// 1.05 d, Δt = 2.0e-5 s, α_m = 20, α_cn = 1.3, β = 15.8, τ* = 0.2,
+    /// integrated with 4 substeps: at Δt itself the tangential dashpot of
+    /// rule (17) is beyond the explicit damping limit
+    /// ([`crate::explicit_damping_number`] ≈ 2.85) and the bed never settles.
     pub fn paper() -> Self {
         Scenario {
             material: Material::default(),
@@ -46,39 +53,59 @@ impl Scenario {
                 beta: 15.8,
                 dt: 2.0e-5,
             },
-            dt: 2.0e-5,
+            explicit_contact: None,
+            substeps: 4,
             bed: BedSpec::uniform(0.5e-3, 5, 10),
             tau_star: 0.2,
-            depth: 0.20,
+            flow: FlowConfig::new(0.0, 0.5e-3),
             skin: 0.1,
             seed: 1,
         }
     }
 
-    /// The simulation configuration: constants from Δt for the largest grain
-    /// (SPEC §5), gravity (0, −g), top of the domain at the flow depth.
-    /// Width and y_min are set by [`Sim::build_bed`].
+    /// The contact constants: the explicit ones, else derived from Δt for the
+    /// largest grain (SPEC §5).
+    pub fn contact(&self) -> Result<ContactConstants, Error> {
+        match self.explicit_contact {
+            Some(c) => c.validate().map(|()| c),
+            None => contact_constants(&self.rule, self.bed.max_diameter(), &self.material),
+        }
+    }
+
+    /// The simulation configuration: [`Scenario::contact`], gravity (0, −g),
+    /// top of the domain at the flow depth. Width and y_min are set by
+    /// [`Sim::build_bed`].
     pub fn sim_config(&self) -> Result<SimConfig, Error> {
         let d = self.bed.max_diameter();
         Ok(SimConfig {
-            dt: self.dt,
+            dt: self.dt(),
             material: self.material,
-            contact: contact_constants(&self.rule, d, &self.material)?,
+            contact: self.contact()?,
             gravity: [0.0, -G],
             width: self.bed.width(),
             y_min: -10.0 * d,
-            y_max: self.depth,
+            y_max: self.flow.depth,
             skin: self.skin * d,
             seed: self.seed,
         })
     }
 
-    /// The flow at this scenario's τ*, SPEC §1 defaults, k_s = d_max.
+    /// The integration time step Δt/substeps (s).
+    pub fn dt(&self) -> f64 {
+        self.rule.dt / f64::from(self.substeps.max(1))
+    }
+
+    /// The flow at this scenario's τ*: u* from τ* for the largest grain, hold
+    /// and bed-level intervals converted to integration steps (saturating).
     pub fn flow(&self) -> FlowConfig {
         let d = self.bed.max_diameter();
-        let mut f = FlowConfig::new(shear_velocity(self.tau_star, self.material.s, G, d), d);
-        f.depth = self.depth;
-        f
+        let n = self.substeps.max(1);
+        FlowConfig {
+            u_star: shear_velocity(self.tau_star, self.material.s, G, d),
+            hold_steps: self.flow.hold_steps.saturating_mul(n),
+            bed_level_interval: self.flow.bed_level_interval.saturating_mul(n),
+            ..self.flow
+        }
     }
 
     /// Resets `sim` and builds the initial bed.

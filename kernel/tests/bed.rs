@@ -16,13 +16,14 @@ fn packing() -> Scenario {
     let mut s = Scenario::paper();
     s.rule.alpha_cn = 1.0;
     s.rule.beta = 1.0;
+    s.substeps = 1;
     s
 }
 
 /// The same constants integrated with Δt/4: inside the explicit stability
 /// limit of the tangential dashpot (see `paper_constants_jitter`).
 fn refined(mut s: Scenario) -> Scenario {
-    s.dt = s.rule.dt / 4.0;
+    s.substeps = 4;
     s
 }
 
@@ -47,7 +48,7 @@ fn paper_constants_jitter() {
     assert!(fastest > 1e-3, "jitter persists: {fastest}");
     // The same constants at Δt/4 (number ≈ 0.55) settle fully: `settle` tests.
     let fine = refined(sc);
-    let n4 = mbs_kernel::explicit_damping_number(&c.contact, &c.material, 0.5e-3, fine.dt);
+    let n4 = mbs_kernel::explicit_damping_number(&c.contact, &c.material, 0.5e-3, fine.dt());
     assert!((n4 - number / 4.0).abs() < 1e-12);
 }
 
@@ -118,7 +119,7 @@ fn vacancies_and_mixed_sizes_follow_the_spec() {
     // damping number of the fine grains grows as (d_max/d)³: Δt/8 keeps the
     // 0.7 mm grains inside the limit (see `explicit_damping_number`).
     let mut sc = packing();
-    sc.dt = sc.rule.dt / 8.0;
+    sc.substeps = 8;
     sc.bed = BedSpec {
         vacancy: 0.3,
         columns: 10,

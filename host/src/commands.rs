@@ -1,0 +1,345 @@
+//! The subcommands of `mbs`, each a function from parsed arguments to files
+//! and a short report on standard output.
+
+use crate::bench::bench;
+use crate::config::{warnings, Config, Precision, DEFAULT_TOML};
+use crate::error::HostError;
+use crate::experiment::{aggregate, cell_steps, run_all, transport_table, TransportRow};
+use crate::output::{create_dir, write_csv, write_json};
+use crate::pack::{packing, write_packing, Packing};
+use crate::plot::{save, TransportFigure};
+use crate::sims::{with_sim, SimJob, NEIGHBOURS};
+use crate::snapshot::{snapshots, write_snapshots, Snapshots};
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use mbs_kernel::{explicit_damping_number, Real, Scenario, Sim};
+use serde::Serialize;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// Options shared by every subcommand.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Common {
+    /// No progress bars, no report on standard output.
+    pub quiet: bool,
+    /// Worker threads (0: one per core).
+    pub threads: usize,
+}
+
+/// Writes `text` to standard output; a closed pipe (`mbs | head`) is not an error.
+pub fn print(text: &str) -> Result<(), HostError> {
+    let mut out = std::io::stdout().lock();
+    match out.write_all(text.as_bytes()).and_then(|()| out.flush()) {
+        Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => Err(HostError::io("<stdout>")(e)),
+        _ => Ok(()),
+    }
+}
+
+/// A progress bar over `len` integration steps on standard error (hidden
+/// when quiet or when standard error is not a terminal).
+pub fn progress(len: u64, what: &str, quiet: bool) -> ProgressBar {
+    let bar = ProgressBar::with_draw_target(
+        Some(len),
+        if quiet {
+            ProgressDrawTarget::hidden()
+        } else {
+            ProgressDrawTarget::stderr()
+        },
+    );
+    if let Ok(style) = ProgressStyle::with_template(
+        "{msg:12} [{elapsed_precise}] {wide_bar} {percent:>3}% (eta {eta})",
+    ) {
+        bar.set_style(style);
+    }
+    bar.set_message(what.to_string());
+    bar
+}
+
+fn report_warnings(config: &Config, quiet: bool) {
+    if !quiet {
+        for w in warnings(config) {
+            eprintln!("warning: {w}");
+        }
+    }
+}
+
+/// Runs `f` on a rayon pool of `threads` workers (0: rayon's default).
+fn on_pool<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> Result<T, HostError> {
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .map_err(|e| HostError::io("<thread pool>")(std::io::Error::other(e)))?;
+    Ok(pool.install(f))
+}
+
+/// `mbs config`: the embedded default configuration.
+pub fn config() -> Result<(), HostError> {
+    print(DEFAULT_TOML)
+}
+
+/// Contact constants and time steps derived from the configuration.
+#[derive(Debug, Clone, Serialize)]
+pub struct Derived {
+    /// k_n (N/m).
+    pub k_n: f64,
+    /// k_s (N/m).
+    pub k_s: f64,
+    /// η_n (N s/m).
+    pub eta_n: f64,
+    /// η_s (N s/m).
+    pub eta_s: f64,
+    /// Integration step Δt/substeps (s).
+    pub dt_integration: f64,
+    /// Explicit damping number of the largest grains (stable below 2).
+    pub explicit_damping_number: f64,
+    /// Periodic width L (m).
+    pub width: f64,
+    /// Largest number of grains in the bed (fixed + lattice sites).
+    pub max_grains: usize,
+}
+
+impl Derived {
+    /// From a validated configuration.
+    pub fn of(config: &Config) -> Derived {
+        let sc = &config.scenario;
+        let c = config.contact;
+        Derived {
+            k_n: c.k_n,
+            k_s: c.k_s,
+            eta_n: c.eta_n,
+            eta_s: c.eta_s,
+            dt_integration: sc.dt(),
+            explicit_damping_number: explicit_damping_number(
+                &c,
+                &sc.material,
+                sc.bed.max_diameter(),
+                sc.dt(),
+            ),
+            width: sc.bed.width(),
+            max_grains: sc.bed.columns as usize
+                * (sc.bed.fixed_per_column() + sc.bed.rows as usize),
+        }
+    }
+}
+
+#[derive(Serialize)]
+struct Summary<'a> {
+    program: &'static str,
+    version: &'static str,
+    command: &'static str,
+    config: &'a crate::config::ConfigFile,
+    derived: Derived,
+    threads: usize,
+    wall_time_s: f64,
+    grain_steps: u64,
+    grain_steps_per_s: f64,
+    transport: &'a [TransportRow],
+    cells: &'a [crate::experiment::CellResult],
+}
+
+/// `mbs run`: q*(τ*) over seeds → `transport.csv`, `transport.png`/`.svg`,
+/// `summary.json` in `out` (or the configuration's `run.output`).
+pub fn run(config: &Config, out: Option<&Path>, common: Common) -> Result<(), HostError> {
+    report_warnings(config, common.quiet);
+    let dir = out.map_or_else(|| config.file.run.output.clone(), Path::to_path_buf);
+    create_dir(&dir)?;
+    let cells = (config.tau_stars.len() * config.seeds.len()) as u64;
+    let bar = progress(cells * cell_steps(config), "transport", common.quiet);
+    let start = Instant::now();
+    let results = on_pool(common.threads, || run_all(config, &bar))??;
+    bar.finish_and_clear();
+    let wall = start.elapsed().as_secs_f64();
+    let rows = aggregate(config, &results);
+    let (header, body) = transport_table(config, &rows);
+    write_csv(&dir.join("transport.csv"), &header, &body)?;
+    let class_labels = if config.scenario.bed.classes.len() > 1 {
+        config
+            .scenario
+            .bed
+            .classes
+            .iter()
+            .map(|c| format!("d = {} mm", c.diameter * 1e3))
+            .collect()
+    } else {
+        Vec::new()
+    };
+    let sc = &config.scenario;
+    let figure = TransportFigure {
+        rows: &rows,
+        class_labels,
+        title: format!(
+            "q* against τ*: d = {} mm, {}×{} bed, β = {}, {} seed(s)",
+            sc.bed.max_diameter() * 1e3,
+            sc.bed.columns,
+            sc.bed.rows,
+            sc.rule.beta,
+            config.seeds.len()
+        ),
+    };
+    save(&figure, &dir, "transport")?;
+    let grain_steps: u64 = results.iter().map(|r| r.grain_steps).sum();
+    write_json(
+        &dir.join("summary.json"),
+        &Summary {
+            program: "mbs",
+            version: env!("CARGO_PKG_VERSION"),
+            command: "run",
+            config: &config.file,
+            derived: Derived::of(config),
+            threads: on_pool(common.threads, rayon::current_num_threads)?,
+            wall_time_s: wall,
+            grain_steps,
+            grain_steps_per_s: grain_steps as f64 / wall,
+            transport: &rows,
+            cells: &results,
+        },
+    )?;
+    if !common.quiet {
+        let mut text = String::from("tau_star  q_star    stderr    MPM       Wong-Parker\n");
+        for r in &rows {
+            text += &format!(
+                "{:<9} {:<9.4} {:<9.4} {:<9.4} {:<9.4}\n",
+                r.tau_star, r.q_star, r.q_star_stderr, r.mpm, r.wong_parker
+            );
+        }
+        text += &format!(
+            "{} cells in {wall:.1} s ({:.3e} grain-steps/s); wrote {}/transport.csv, transport.png, transport.svg, summary.json\n",
+            results.len(),
+            grain_steps as f64 / wall,
+            dir.display()
+        );
+        print(&text)?;
+    }
+    Ok(())
+}
+
+/// `mbs pack`: the packing test → `packing.csv`, `packing.png`/`.svg`.
+pub fn pack(
+    config: &Config,
+    out: Option<&Path>,
+    duration: Option<f64>,
+    common: Common,
+) -> Result<(), HostError> {
+    report_warnings(config, common.quiet);
+    let dir = out.map_or_else(|| config.file.run.output.clone(), Path::to_path_buf);
+    let duration = duration.unwrap_or(config.file.time.settle);
+    let seed = config.seeds[0];
+    let every = u64::from(config.scenario.substeps) * 10;
+    create_dir(&dir)?;
+    let bar = progress(config.steps(duration), "packing", common.quiet);
+    let samples = packing(Packing {
+        config,
+        seed,
+        duration,
+        every,
+        progress: &bar,
+    })?;
+    bar.finish_and_clear();
+    let sc = &config.scenario;
+    let title = format!(
+        "Packing: d = {} mm, {}×{}, α_m = {}, α_cn = {}, β = {}",
+        sc.bed.max_diameter() * 1e3,
+        sc.bed.columns,
+        sc.bed.rows,
+        sc.rule.alpha_m,
+        sc.rule.alpha_cn,
+        sc.rule.beta
+    );
+    write_packing(&dir, &samples, &title)?;
+    if !common.quiet {
+        if let (Some(first), Some(last)) = (samples.first(), samples.last()) {
+            print(&format!(
+                "y_gc {:.4} mm -> {:.4} mm over {:.3} s; kinetic energy at the end {:.3e} J; wrote {}/packing.csv, packing.png, packing.svg\n",
+                first.y_gc * 1e3,
+                last.y_gc * 1e3,
+                last.time,
+                last.kinetic_energy,
+                dir.display()
+            ))?;
+        }
+    }
+    Ok(())
+}
+
+/// `mbs snapshot`: pictures and VTK frames of the bed under the flow.
+pub fn snapshot(
+    config: &Config,
+    out: Option<&Path>,
+    tau_star: f64,
+    frames: u64,
+    every: f64,
+    common: Common,
+) -> Result<(), HostError> {
+    report_warnings(config, common.quiet);
+    let dir: PathBuf = out.map_or_else(|| config.file.run.output.clone(), Path::to_path_buf);
+    create_dir(&dir)?;
+    let steps = config.steps(config.file.time.settle) + frames * config.steps(every);
+    let bar = progress(steps, "snapshot", common.quiet);
+    let list = snapshots(Snapshots {
+        config,
+        tau_star,
+        seed: config.seeds[0],
+        frames,
+        every,
+        progress: &bar,
+    })?;
+    bar.finish_and_clear();
+    write_snapshots(&dir, &list, &format!("τ* = {tau_star}"))?;
+    if !common.quiet {
+        print(&format!(
+            "{} frames; wrote {dir}/snapshot/bed_NNNN.vtk (open bed.vtk.series in ParaView), {dir}/snapshot.png, snapshot.svg\n",
+            list.len(),
+            dir = dir.display()
+        ))?;
+    }
+    Ok(())
+}
+
+struct DigestJob {
+    scenario: Scenario,
+    steps: u64,
+}
+
+impl SimJob for DigestJob {
+    type Output = Result<(u64, u64), mbs_kernel::Error>;
+
+    fn run<R: Real, const N: usize>(self, sim: &mut Sim<R, N, NEIGHBOURS>) -> Self::Output {
+        self.scenario.digests(sim, self.steps, self.steps)
+    }
+}
+
+/// `mbs digest`: state digests after `steps` settling steps and `steps`
+/// flow steps at τ* — what a board run is compared with.
+pub fn digest(
+    config: &Config,
+    steps: u64,
+    precision: Precision,
+    tau_star: f64,
+) -> Result<(), HostError> {
+    let job = DigestJob {
+        scenario: config.scenario_at(tau_star, config.seeds[0]),
+        steps,
+    };
+    let (settled, flow) = with_sim(precision, config.capacity, job)
+        .map_err(HostError::kernel(format!("digest, tau* = {tau_star}")))?;
+    print(&format!("settled {settled:#018x}\nflow {flow:#018x}\n"))
+}
+
+/// `mbs bench`: ns per grain-step of the step loop alone.
+pub fn bench_command(
+    precision: Precision,
+    grains: usize,
+    steps: u64,
+    flow: bool,
+) -> Result<(), HostError> {
+    let r = bench(precision, grains, steps, flow).map_err(HostError::kernel("bench"))?;
+    print(&format!(
+        "{} grains, {:?}, {}: {:.1} ns per grain-step over {} steps, {:.2} contacts per grain\n",
+        r.grains,
+        precision,
+        if flow { "flow at tau* = 0.2" } else { "settled, no flow" },
+        r.ns_per_grain_step,
+        r.steps,
+        r.contacts_per_grain
+    ))
+}

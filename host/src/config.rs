@@ -1,0 +1,802 @@
+//! The TOML configuration: parsed with serde (`deny_unknown_fields`), every
+//! missing key taken from the paper's case, then validated into typed
+//! parameters. Every invalid value is reported as `key = value: must be …`.
+
+use mbs_kernel::{
+    explicit_damping_number, BedSpec, ContactConstants, FlowConfig, Material,
+    Scenario, SizeClass, TimeStepRule, MAX_CLASSES,
+};
+use serde::{Deserialize, Serialize};
+use std::fmt;
+use std::path::{Path, PathBuf};
+
+/// The embedded default configuration (the paper's case), commented.
+pub const DEFAULT_TOML: &str = include_str!("../default.toml");
+
+/// Grain capacities the host is compiled for (the kernel's `N`).
+pub const CAPACITIES: [usize; 3] = [256, 4096, 65536];
+
+/// A configuration that cannot be used. Nothing has been written when this
+/// is returned.
+#[derive(Debug)]
+pub enum ConfigError {
+    /// The file could not be read.
+    Read {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        source: std::io::Error,
+    },
+    /// Not TOML, an unknown key, or a value of the wrong type.
+    Parse(String),
+    /// A value outside its allowed range.
+    Invalid {
+        /// Dotted key, e.g. `grains.diameter_mm`.
+        key: String,
+        /// The value as given.
+        value: String,
+        /// The allowed range.
+        allowed: String,
+    },
+}
+
+impl fmt::Display for ConfigError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            ConfigError::Read { path, source } => write!(f, "{}: {source}", path.display()),
+            ConfigError::Parse(message) => write!(f, "{}", message.trim_end()),
+            ConfigError::Invalid {
+                key,
+                value,
+                allowed,
+            } => write!(f, "{key} = {value}: must be {allowed}"),
+        }
+    }
+}
+
+impl std::error::Error for ConfigError {}
+
+/// Fails with [`ConfigError::Invalid`] unless `ok`.
+fn need(ok: bool, key: &str, value: impl fmt::Display, allowed: &str) -> Result<(), ConfigError> {
+    if ok {
+        Ok(())
+    } else {
+        Err(ConfigError::Invalid {
+            key: key.to_string(),
+            value: value.to_string(),
+            allowed: allowed.to_string(),
+        })
+    }
+}
+
+/// `value` finite and > 0.
+fn positive(key: &str, value: f64) -> Result<(), ConfigError> {
+    need(value.is_finite() && value > 0.0, key, value, "> 0")
+}
+
+/// `value` finite and ≥ 0.
+fn non_negative(key: &str, value: f64) -> Result<(), ConfigError> {
+    need(value.is_finite() && value >= 0.0, key, value, ">= 0")
+}
+
+/// `value` finite and in `[lo, hi]`.
+fn within(key: &str, value: f64, lo: f64, hi: f64) -> Result<(), ConfigError> {
+    need(
+        value.is_finite() && (lo..=hi).contains(&value),
+        key,
+        value,
+        &format!("in [{lo}, {hi}]"),
+    )
+}
+
+/// Working precision of the kernel.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "lowercase")]
+pub enum Precision {
+    /// Single precision (the board's native float).
+    F32,
+    /// Double precision.
+    F64,
+}
+
+/// One size class of a mixed bed.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ClassEntry {
+    /// Diameter (mm).
+    pub diameter_mm: f64,
+    /// Fraction of the lattice sites.
+    pub fraction: f64,
+}
+
+/// `[grains]`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct GrainsSection {
+    /// Diameter of a single-size bed (mm); exclusive with `classes`.
+    pub diameter_mm: Option<f64>,
+    /// Size classes of a mixed bed.
+    pub classes: Option<Vec<ClassEntry>>,
+    /// Specific gravity s.
+    pub specific_gravity: f64,
+}
+
+/// `[bed]` (SPEC §7).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct BedSection {
+    /// nld.
+    pub columns: u32,
+    /// nvd.
+    pub rows: u32,
+    /// Lattice spacing (diameters).
+    pub spacing: f64,
+    /// Vacancy probability.
+    pub vacancy: f64,
+    /// Fixed-grain height spread (diameters).
+    pub fixed_spread: f64,
+}
+
+/// `[contact]` (SPEC §4–§5).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ContactSection {
+    /// α_m.
+    pub alpha_m: f64,
+    /// α_cn.
+    pub alpha_cn: f64,
+    /// β.
+    pub beta: f64,
+    /// μ.
+    pub friction: f64,
+    /// ν.
+    pub poisson: f64,
+    /// Explicit k_n (N/m), with `eta_n`.
+    pub k_n: Option<f64>,
+    /// Explicit η_n (N s/m), with `k_n`.
+    pub eta_n: Option<f64>,
+}
+
+/// `[time]`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct TimeSection {
+    /// Δt the constants derive from (s).
+    pub dt: f64,
+    /// Integration steps per Δt.
+    pub substeps: u32,
+    /// Settling time (s).
+    pub settle: f64,
+    /// Spin-up time (s).
+    pub spin_up: f64,
+    /// Averaging window (s).
+    pub window: f64,
+    /// Sampling interval of q* (integration steps).
+    pub sample_steps: u32,
+}
+
+/// `[flow]` (SPEC §6).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct FlowSection {
+    /// Shields numbers.
+    pub tau_star: Vec<f64>,
+    /// κ.
+    pub kappa: f64,
+    /// h (m).
+    pub depth: f64,
+    /// ε0.
+    pub eps0: f64,
+    /// k_s / d.
+    pub roughness_d: f64,
+    /// Monte Carlo turbulence on.
+    pub turbulence: bool,
+    /// Hold of a fluctuation (steps of Δt).
+    pub hold_steps: u32,
+    /// Bed-level interval (steps of Δt).
+    pub bed_level_interval: u32,
+    /// ρ (kg/m³).
+    pub fluid_density: f64,
+    /// C_D.
+    pub drag_coefficient: f64,
+    /// C_M.
+    pub added_mass: f64,
+}
+
+/// `[run]`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct RunSection {
+    /// Seeds.
+    pub seeds: Vec<u64>,
+    /// Precision.
+    pub precision: Precision,
+    /// Output directory.
+    pub output: PathBuf,
+    /// Grain capacity.
+    pub capacity: usize,
+    /// Neighbour skin (diameters).
+    pub skin_d: f64,
+}
+
+/// A configuration file as written (every section optional).
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ConfigFile {
+    /// `[grains]`.
+    pub grains: GrainsSection,
+    /// `[bed]`.
+    pub bed: BedSection,
+    /// `[contact]`.
+    pub contact: ContactSection,
+    /// `[time]`.
+    pub time: TimeSection,
+    /// `[flow]`.
+    pub flow: FlowSection,
+    /// `[run]`.
+    pub run: RunSection,
+}
+
+// The defaults are the kernel's `Scenario::paper()`; `default.toml` must
+// agree with them (test `embedded_file_is_the_default`).
+
+impl Default for GrainsSection {
+    fn default() -> Self {
+        let p = Scenario::paper();
+        GrainsSection {
+            diameter_mm: None,
+            classes: None,
+            specific_gravity: p.material.s,
+        }
+    }
+}
+
+impl Default for BedSection {
+    fn default() -> Self {
+        let b = Scenario::paper().bed;
+        BedSection {
+            columns: b.columns,
+            rows: b.rows,
+            spacing: b.spacing,
+            vacancy: b.vacancy,
+            fixed_spread: b.fixed_spread,
+        }
+    }
+}
+
+impl Default for ContactSection {
+    fn default() -> Self {
+        let p = Scenario::paper();
+        ContactSection {
+            alpha_m: p.rule.alpha_m,
+            alpha_cn: p.rule.alpha_cn,
+            beta: p.rule.beta,
+            friction: p.material.mu,
+            poisson: p.material.nu,
+            k_n: None,
+            eta_n: None,
+        }
+    }
+}
+
+impl Default for TimeSection {
+    fn default() -> Self {
+        let p = Scenario::paper();
+        TimeSection {
+            dt: p.rule.dt,
+            substeps: p.substeps,
+            settle: 0.2,
+            spin_up: 0.2,
+            window: 2.0,
+            sample_steps: 10,
+        }
+    }
+}
+
+impl Default for FlowSection {
+    fn default() -> Self {
+        let p = Scenario::paper();
+        let f = p.flow;
+        FlowSection {
+            tau_star: vec![0.03, 0.06, 0.1, 0.2, 0.4],
+            kappa: f.kappa,
+            depth: f.depth,
+            eps0: f.eps0,
+            roughness_d: f.roughness / p.bed.max_diameter(),
+            turbulence: f.turbulence,
+            hold_steps: f.hold_steps,
+            bed_level_interval: f.bed_level_interval,
+            fluid_density: p.material.rho,
+            drag_coefficient: p.material.c_d,
+            added_mass: p.material.c_m,
+        }
+    }
+}
+
+impl Default for RunSection {
+    fn default() -> Self {
+        RunSection {
+            seeds: vec![1, 2, 3, 4],
+            precision: Precision::F64,
+            output: PathBuf::from("mbs-out"),
+            capacity: 4096,
+            skin_d: Scenario::paper().skin,
+        }
+    }
+}
+
+/// A validated configuration, ready to build simulations from.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Config {
+    /// The file with every default filled in (echoed in `summary.json`).
+    pub file: ConfigFile,
+    /// The scenario at the first τ* and seed.
+    pub scenario: Scenario,
+    /// Derived contact constants (SI).
+    pub contact: ContactConstants,
+    /// Shields numbers, as given.
+    pub tau_stars: Vec<f64>,
+    /// Seeds, as given.
+    pub seeds: Vec<u64>,
+    /// Working precision.
+    pub precision: Precision,
+    /// Grain capacity (one of [`CAPACITIES`]).
+    pub capacity: usize,
+}
+
+impl Config {
+    /// Parses and validates TOML text.
+    pub fn from_toml(text: &str) -> Result<Config, ConfigError> {
+        let file: ConfigFile =
+            toml::from_str(text).map_err(|e| ConfigError::Parse(e.to_string()))?;
+        Config::validate(file)
+    }
+
+    /// Reads and validates a file, or the embedded default when `path` is None.
+    pub fn load(path: Option<&Path>) -> Result<Config, ConfigError> {
+        match path {
+            None => Config::from_toml(DEFAULT_TOML),
+            Some(p) => {
+                let text = std::fs::read_to_string(p).map_err(|source| ConfigError::Read {
+                    path: p.to_path_buf(),
+                    source,
+                })?;
+                Config::from_toml(&text).map_err(|e| match e {
+                    ConfigError::Parse(m) => ConfigError::Parse(format!("{}: {m}", p.display())),
+                    other => other,
+                })
+            }
+        }
+    }
+
+    /// The scenario of one (τ*, seed) cell.
+    pub fn scenario_at(&self, tau_star: f64, seed: u64) -> Scenario {
+        Scenario {
+            tau_star,
+            seed,
+            ..self.scenario.clone()
+        }
+    }
+
+    /// The integration step Δt/substeps (s).
+    pub fn dt(&self) -> f64 {
+        self.scenario.dt()
+    }
+
+    /// Integration steps of `seconds` (rounded).
+    pub fn steps(&self, seconds: f64) -> u64 {
+        (seconds / self.dt()).round() as u64
+    }
+
+    /// Checks every value and builds the typed configuration.
+    fn validate(file: ConfigFile) -> Result<Config, ConfigError> {
+        let bed = bed_spec(&file)?;
+        let d = bed.max_diameter();
+        let material = material(&file)?;
+        let rule = time_rule(&file)?;
+        let explicit_contact = explicit_contact(&file.contact, material.nu)?;
+        let flow = flow_config(&file.flow, d)?;
+        let t = &file.time;
+        need(
+            (1..=10_000).contains(&t.substeps),
+            "time.substeps",
+            t.substeps,
+            "in [1, 10000]",
+        )?;
+        non_negative("time.settle", t.settle)?;
+        non_negative("time.spin_up", t.spin_up)?;
+        positive("time.window", t.window)?;
+        need(
+            t.sample_steps >= 1,
+            "time.sample_steps",
+            t.sample_steps,
+            ">= 1",
+        )?;
+        let r = &file.run;
+        need(
+            !r.seeds.is_empty() && r.seeds.len() <= 1000,
+            "run.seeds",
+            format!("{:?}", r.seeds),
+            "a list of 1 to 1000 seeds",
+        )?;
+        let mut sorted = r.seeds.clone();
+        sorted.sort_unstable();
+        sorted.dedup();
+        need(
+            sorted.len() == r.seeds.len(),
+            "run.seeds",
+            format!("{:?}", r.seeds),
+            "distinct",
+        )?;
+        need(
+            !r.output.as_os_str().is_empty(),
+            "run.output",
+            "\"\"",
+            "a directory path",
+        )?;
+        need(
+            r.skin_d.is_finite() && r.skin_d > 0.0 && r.skin_d <= 1.0,
+            "run.skin_d",
+            r.skin_d,
+            "in (0, 1]",
+        )?;
+        need(
+            CAPACITIES.contains(&r.capacity),
+            "run.capacity",
+            r.capacity,
+            "one of 256, 4096, 65536",
+        )?;
+        let grains = bed.columns as usize * (bed.fixed_per_column() + bed.rows as usize);
+        need(
+            grains <= r.capacity,
+            "run.capacity",
+            r.capacity,
+            &format!(">= the bed's {grains} grains (a larger capacity or a smaller bed)"),
+        )?;
+        let bed_top = (f64::from(bed.rows) + 3.0) * bed.pitch();
+        need(
+            flow.depth > bed_top,
+            "flow.depth",
+            flow.depth,
+            &format!("> the bed's height {bed_top:e} m"),
+        )?;
+        let scenario = Scenario {
+            material,
+            rule,
+            explicit_contact,
+            substeps: t.substeps,
+            bed,
+            tau_star: file.flow.tau_star[0],
+            flow,
+            skin: r.skin_d,
+            seed: r.seeds[0],
+        };
+        let contact = scenario
+            .contact()
+            .map_err(|e| ConfigError::Parse(format!("contact constants: {e}")))?;
+        stability(&scenario, &contact)?;
+        // The kernel's own checks as a backstop: they name their fields too.
+        scenario
+            .sim_config()
+            .and_then(|c| c.validate())
+            .and_then(|()| scenario.bed.validate())
+            .and_then(|()| scenario.flow().validate())
+            .map_err(|e| ConfigError::Parse(e.to_string()))?;
+        Ok(Config {
+            tau_stars: file.flow.tau_star.clone(),
+            seeds: file.run.seeds.clone(),
+            precision: file.run.precision,
+            capacity: file.run.capacity,
+            file,
+            scenario,
+            contact,
+        })
+    }
+}
+
+/// `[grains]` and `[bed]` into the kernel's bed specification.
+fn bed_spec(file: &ConfigFile) -> Result<BedSpec, ConfigError> {
+    let g = &file.grains;
+    let entries = match (&g.diameter_mm, &g.classes) {
+        (Some(_), Some(_)) => {
+            return Err(ConfigError::Invalid {
+                key: "grains.classes".into(),
+                value: "(given with grains.diameter_mm)".into(),
+                allowed: "given alone: use either diameter_mm or classes".into(),
+            })
+        }
+        (Some(d), None) => vec![ClassEntry {
+            diameter_mm: *d,
+            fraction: 1.0,
+        }],
+        (None, Some(c)) => c.clone(),
+        (None, None) => vec![ClassEntry {
+            diameter_mm: Scenario::paper().bed.max_diameter() * 1e3,
+            fraction: 1.0,
+        }],
+    };
+    need(
+        (1..=MAX_CLASSES).contains(&entries.len()),
+        "grains.classes",
+        format!("{} classes", entries.len()),
+        &format!("1 to {MAX_CLASSES} classes"),
+    )?;
+    let single = g.classes.is_none();
+    let mut classes = heapless::Vec::<SizeClass, MAX_CLASSES>::new();
+    let mut total = 0.0;
+    for (k, c) in entries.iter().enumerate() {
+        let key = |field: &str| {
+            if single {
+                format!("grains.{field}")
+            } else {
+                format!("grains.classes[{k}].{field}")
+            }
+        };
+        need(
+            c.diameter_mm.is_finite() && c.diameter_mm > 0.0 && c.diameter_mm <= 100.0,
+            &key("diameter_mm"),
+            c.diameter_mm,
+            "> 0 and <= 100",
+        )?;
+        need(
+            c.fraction.is_finite() && c.fraction > 0.0 && c.fraction <= 1.0,
+            &key("fraction"),
+            c.fraction,
+            "in (0, 1]",
+        )?;
+        total += c.fraction;
+        // Capacity checked above; a failed push cannot happen.
+        let _ = classes.push(SizeClass {
+            diameter: c.diameter_mm * 1e-3,
+            fraction: c.fraction,
+        });
+    }
+    need(
+        (total - 1.0).abs() < 1e-9,
+        "grains.classes (sum of fractions)",
+        total,
+        "1",
+    )?;
+    let b = &file.bed;
+    need(
+        (3..=100_000).contains(&b.columns),
+        "bed.columns",
+        b.columns,
+        "in [3, 100000]",
+    )?;
+    need(
+        (1..=10_000).contains(&b.rows),
+        "bed.rows",
+        b.rows,
+        "in [1, 10000]",
+    )?;
+    need(
+        b.spacing.is_finite() && b.spacing > 1.0 && b.spacing <= 2.0,
+        "bed.spacing",
+        b.spacing,
+        "in (1, 2] (SPEC: 1.05-1.10)",
+    )?;
+    need(
+        b.vacancy.is_finite() && (0.0..1.0).contains(&b.vacancy),
+        "bed.vacancy",
+        b.vacancy,
+        "in [0, 1)",
+    )?;
+    within("bed.fixed_spread", b.fixed_spread, 0.0, 1.0)?;
+    Ok(BedSpec {
+        columns: b.columns,
+        rows: b.rows,
+        spacing: b.spacing,
+        vacancy: b.vacancy,
+        fixed_spread: b.fixed_spread,
+        classes,
+    })
+}
+
+/// Grain and fluid material.
+fn material(file: &ConfigFile) -> Result<Material, ConfigError> {
+    let s = file.grains.specific_gravity;
+    need(
+        s.is_finite() && s > 1.0 && s <= 20.0,
+        "grains.specific_gravity",
+        s,
+        "in (1, 20]",
+    )?;
+    let f = &file.flow;
+    positive("flow.fluid_density", f.fluid_density)?;
+    non_negative("flow.drag_coefficient", f.drag_coefficient)?;
+    non_negative("flow.added_mass", f.added_mass)?;
+    let c = &file.contact;
+    non_negative("contact.friction", c.friction)?;
+    need(
+        c.poisson.is_finite() && c.poisson > -1.0 && c.poisson <= 0.5,
+        "contact.poisson",
+        c.poisson,
+        "in (-1, 0.5]",
+    )?;
+    Ok(Material {
+        rho: f.fluid_density,
+        s,
+        c_m: f.added_mass,
+        c_d: f.drag_coefficient,
+        mu: c.friction,
+        nu: c.poisson,
+    })
+}
+
+/// α_m, α_cn, β and Δt.
+fn time_rule(file: &ConfigFile) -> Result<TimeStepRule, ConfigError> {
+    let c = &file.contact;
+    positive("contact.alpha_m", c.alpha_m)?;
+    non_negative("contact.alpha_cn", c.alpha_cn)?;
+    positive("contact.beta", c.beta)?;
+    need(
+        file.time.dt.is_finite() && file.time.dt > 0.0 && file.time.dt <= 1.0,
+        "time.dt",
+        file.time.dt,
+        "in (0, 1] s",
+    )?;
+    Ok(TimeStepRule {
+        alpha_m: c.alpha_m,
+        alpha_cn: c.alpha_cn,
+        beta: c.beta,
+        dt: file.time.dt,
+    })
+}
+
+/// Explicit k_n and η_n, with k_s and η_s from (12), (13).
+fn explicit_contact(c: &ContactSection, nu: f64) -> Result<Option<ContactConstants>, ConfigError> {
+    match (c.k_n, c.eta_n) {
+        (None, None) => Ok(None),
+        (Some(k_n), Some(eta_n)) => {
+            positive("contact.k_n", k_n)?;
+            non_negative("contact.eta_n", eta_n)?;
+            let two_one_plus_nu = 2.0 * (1.0 + nu);
+            Ok(Some(ContactConstants {
+                k_n,
+                k_s: k_n / two_one_plus_nu,
+                eta_n,
+                eta_s: eta_n / two_one_plus_nu.sqrt(),
+            }))
+        }
+        (Some(k), None) => need(false, "contact.k_n", k, "given with contact.eta_n").map(|()| None),
+        (None, Some(e)) => need(false, "contact.eta_n", e, "given with contact.k_n").map(|()| None),
+    }
+}
+
+/// `[flow]` except τ* into the kernel's flow template.
+fn flow_config(f: &FlowSection, d: f64) -> Result<FlowConfig, ConfigError> {
+    need(
+        !f.tau_star.is_empty() && f.tau_star.len() <= 1000,
+        "flow.tau_star",
+        format!("{:?}", f.tau_star),
+        "a list of 1 to 1000 values",
+    )?;
+    for (k, &t) in f.tau_star.iter().enumerate() {
+        need(
+            t.is_finite() && t > 0.0 && t <= 5.0,
+            &format!("flow.tau_star[{k}]"),
+            t,
+            "in (0, 5]",
+        )?;
+    }
+    positive("flow.kappa", f.kappa)?;
+    need(
+        f.depth.is_finite() && f.depth > 0.0 && f.depth <= 100.0,
+        "flow.depth",
+        f.depth,
+        "in (0, 100] m",
+    )?;
+    within("flow.eps0", f.eps0, 0.0, 1.0)?;
+    need(
+        f.roughness_d.is_finite() && f.roughness_d > 0.0 && f.roughness_d <= 100.0,
+        "flow.roughness_d",
+        f.roughness_d,
+        "in (0, 100]",
+    )?;
+    need(
+        f.hold_steps >= 1,
+        "flow.hold_steps",
+        f.hold_steps,
+        ">= 1",
+    )?;
+    need(
+        f.bed_level_interval >= 1,
+        "flow.bed_level_interval",
+        f.bed_level_interval,
+        ">= 1",
+    )?;
+    Ok(FlowConfig {
+        kappa: f.kappa,
+        depth: f.depth,
+        eps0: f.eps0,
+        roughness: f.roughness_d * d,
+        turbulence: f.turbulence,
+        hold_steps: f.hold_steps,
+        bed_level_interval: f.bed_level_interval,
+        ..FlowConfig::new(0.0, d)
+    })
+}
+
+/// The classical stability bound of SPEC (11) for the lightest grain:
+/// Δt/substeps ≤ 2√(m/k_n).
+fn stability(sc: &Scenario, c: &ContactConstants) -> Result<(), ConfigError> {
+    let d_min = sc
+        .bed
+        .classes
+        .iter()
+        .map(|k| k.diameter)
+        .fold(f64::INFINITY, f64::min);
+    let limit = c.stable_dt_limit(sc.material.translational_mass(d_min));
+    let n = f64::from(sc.substeps);
+    need(
+        sc.dt() <= limit,
+        "time.dt",
+        sc.rule.dt,
+        &format!(
+            "<= {:.4e} s with substeps = {} (stability bound dt/substeps <= 2 sqrt(m/k_n), SPEC (11))",
+            limit * n,
+            sc.substeps
+        ),
+    )
+}
+
+/// Warnings about a valid but questionable configuration.
+pub fn warnings(config: &Config) -> Vec<String> {
+    let sc = &config.scenario;
+    let mut out = Vec::new();
+    for class in &sc.bed.classes {
+        let n = explicit_damping_number(&config.contact, &sc.material, class.diameter, sc.dt());
+        if n > 2.0 {
+            out.push(format!(
+                "explicit damping number {n:.2} > 2 for d = {} mm: beds of these grains jitter \
+                 instead of coming to rest; raise time.substeps to at least {}",
+                class.diameter * 1e3,
+                (f64::from(sc.substeps) * n / 1.9).ceil()
+            ));
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn embedded_file_is_the_default() {
+        let parsed: ConfigFile = toml::from_str(DEFAULT_TOML).unwrap();
+        let mut expected = ConfigFile::default();
+        expected.grains.diameter_mm = Some(0.5);
+        assert_eq!(parsed, expected);
+        let c = Config::load(None).unwrap();
+        assert_eq!(c.scenario, Scenario { tau_star: 0.03, ..Scenario::paper() });
+    }
+
+    #[test]
+    fn empty_file_is_the_paper_case() {
+        let c = Config::from_toml("").unwrap();
+        assert_eq!(c.scenario_at(0.2, 1), Scenario::paper());
+    }
+
+    #[test]
+    fn errors_name_key_value_and_range() {
+        let cases = [
+            ("[grains]\ndiameter_mm = -0.5", "grains.diameter_mm = -0.5: must be > 0"),
+            ("[bed]\ncolumns = 2", "bed.columns = 2: must be in [3, 100000]"),
+            ("[flow]\ntau_star = [0.1, -1.0]", "flow.tau_star[1] = -1: must be in (0, 5]"),
+            ("[run]\ncapacity = 100", "run.capacity = 100: must be one of"),
+            ("[run]\ncapacity = 256\n[bed]\ncolumns = 30", "run.capacity = 256: must be >= the bed's 330 grains"),
+            ("[contact]\nalpha_m = 2.0\nbeta = 1.0\n[time]\nsubsteps = 1", "time.dt = 0.00002: must be <= 1.8"),
+            ("[contact]\nk_n = 1.0", "contact.k_n = 1: must be given with contact.eta_n"),
+            ("[grains]\nclasses = [{ diameter_mm = 1.0, fraction = 0.6 }, { diameter_mm = 0.7, fraction = 0.6 }]", "grains.classes (sum of fractions) = 1.2: must be 1"),
+            ("[run]\nseeds = [1, 1]", "run.seeds = [1, 1]: must be distinct"),
+        ];
+        for (text, message) in cases {
+            let e = Config::from_toml(text).unwrap_err().to_string();
+            assert!(e.starts_with(message), "{text}\n  gave: {e}\n  want: {message}");
+        }
+        let unknown = Config::from_toml("[grains]\ndiameter = 0.5").unwrap_err();
+        assert!(unknown.to_string().contains("unknown field `diameter`"), "{unknown}");
+    }
+}

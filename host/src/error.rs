@@ -1,0 +1,74 @@
+//! Every way the `mbs` command can fail, and its exit status.
+
+use crate::config::ConfigError;
+use std::fmt;
+use std::path::PathBuf;
+
+/// An error of the host.
+#[derive(Debug)]
+pub enum HostError {
+    /// A bad configuration or command line: exit status 2, nothing written.
+    Config(ConfigError),
+    /// The kernel refused or failed a run.
+    Kernel {
+        /// What was being run, e.g. `τ* = 0.4, seed 2`.
+        context: String,
+        /// The kernel's error (names step, grain and value).
+        error: mbs_kernel::Error,
+    },
+    /// A file could not be written or read.
+    Io {
+        /// The file or directory.
+        path: PathBuf,
+        /// Why.
+        error: std::io::Error,
+    },
+    /// A plot could not be drawn.
+    Plot {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        message: String,
+    },
+}
+
+impl HostError {
+    /// Process exit status: 2 for bad input, 1 for a failed run.
+    pub fn exit_code(&self) -> u8 {
+        match self {
+            HostError::Config(_) => 2,
+            _ => 1,
+        }
+    }
+
+    /// Wraps a kernel error with what was being run.
+    pub fn kernel(context: impl Into<String>) -> impl FnOnce(mbs_kernel::Error) -> HostError {
+        let context = context.into();
+        move |error| HostError::Kernel { context, error }
+    }
+
+    /// Wraps an I/O error with its path.
+    pub fn io(path: impl Into<PathBuf>) -> impl FnOnce(std::io::Error) -> HostError {
+        let path = path.into();
+        move |error| HostError::Io { path, error }
+    }
+}
+
+impl fmt::Display for HostError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            HostError::Config(e) => write!(f, "configuration: {e}"),
+            HostError::Kernel { context, error } => write!(f, "{context}: {error}"),
+            HostError::Io { path, error } => write!(f, "{}: {error}", path.display()),
+            HostError::Plot { path, message } => write!(f, "{}: {message}", path.display()),
+        }
+    }
+}
+
+impl std::error::Error for HostError {}
+
+impl From<ConfigError> for HostError {
+    fn from(e: ConfigError) -> Self {
+        HostError::Config(e)
+    }
+}

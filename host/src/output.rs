@@ -1,0 +1,105 @@
+//! Crash-safe output: every file is written to a temporary name in its
+//! directory and renamed over the target, so an interrupted run never leaves
+//! a half-written file and never damages an earlier one.
+
+use crate::error::HostError;
+use std::io::Write;
+use std::path::Path;
+
+/// Creates `dir` (and parents) if missing.
+pub fn create_dir(dir: &Path) -> Result<(), HostError> {
+    std::fs::create_dir_all(dir).map_err(HostError::io(dir))
+}
+
+/// Writes `bytes` to `path` atomically (temporary file, fsync, rename).
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), HostError> {
+    write_atomic_with(path, |tmp| std::fs::write(tmp, bytes).map_err(HostError::io(tmp)))
+}
+
+/// Lets `write` fill a temporary file beside `path` (same extension, so
+/// format-by-extension encoders work), then renames it over `path`.
+pub fn write_atomic_with(
+    path: &Path,
+    write: impl FnOnce(&Path) -> Result<(), HostError>,
+) -> Result<(), HostError> {
+    let dir = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    let name = path.file_name().unwrap_or_default().to_string_lossy();
+    let suffix = path
+        .extension()
+        .map(|e| format!(".{}", e.to_string_lossy()))
+        .unwrap_or_default();
+    let tmp = tempfile::Builder::new()
+        .prefix(&format!(".{name}."))
+        .suffix(&suffix)
+        .tempfile_in(dir)
+        .map_err(HostError::io(dir))?;
+    write(tmp.path())?;
+    tmp.as_file().sync_all().map_err(HostError::io(tmp.path()))?;
+    tmp.persist(path)
+        .map_err(|e| HostError::Io {
+            path: path.to_path_buf(),
+            error: e.error,
+        })
+        .map(|_| ())
+}
+
+/// Writes lines of text atomically.
+pub fn write_text(path: &Path, text: &str) -> Result<(), HostError> {
+    write_atomic(path, text.as_bytes())
+}
+
+/// Serialises `value` as pretty JSON, atomically.
+pub fn write_json(path: &Path, value: &impl serde::Serialize) -> Result<(), HostError> {
+    let mut bytes = serde_json::to_vec_pretty(value).map_err(|e| HostError::Io {
+        path: path.to_path_buf(),
+        error: e.into(),
+    })?;
+    bytes.write_all(b"\n").map_err(HostError::io(path))?;
+    write_atomic(path, &bytes)
+}
+
+/// Writes a CSV table (header + rows) atomically.
+pub fn write_csv(path: &Path, header: &[String], rows: &[Vec<String>]) -> Result<(), HostError> {
+    let mut w = csv::Writer::from_writer(Vec::new());
+    let csv_err = |e: csv::Error| HostError::Io {
+        path: path.to_path_buf(),
+        error: std::io::Error::other(e),
+    };
+    w.write_record(header).map_err(csv_err)?;
+    for r in rows {
+        w.write_record(r).map_err(csv_err)?;
+    }
+    let bytes = w.into_inner().map_err(|e| HostError::Io {
+        path: path.to_path_buf(),
+        error: e.into_error(),
+    })?;
+    write_atomic(path, &bytes)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn failed_write_keeps_the_old_file_and_leaves_no_temporary() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("a.csv");
+        write_text(&path, "old\n").unwrap();
+        let err = write_atomic_with(&path, |tmp| {
+            std::fs::write(tmp, "half").unwrap();
+            Err(HostError::Plot {
+                path: tmp.to_path_buf(),
+                message: "interrupted".into(),
+            })
+        });
+        assert!(err.is_err());
+        assert_eq!(std::fs::read_to_string(&path).unwrap(), "old\n");
+        let names: Vec<_> = std::fs::read_dir(dir.path()).unwrap().collect();
+        assert_eq!(names.len(), 1, "temporary removed");
+        write_text(&path, "new\n").unwrap();
+        assert_eq!(std::fs::read_to_string(&path).unwrap(), "new\n");
+    }
+}

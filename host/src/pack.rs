@@ -1,0 +1,103 @@
+//! The packing test of SPEC §9 step 1: build the bed and let it settle
+//! under gravity, recording y_gc(t), kinetic energy, largest overlap and
+//! contact count.
+
+use crate::config::Config;
+use crate::error::HostError;
+use crate::experiment::run_steps;
+use crate::output::write_csv;
+use crate::plot::{save, SeriesFigure};
+use crate::sims::{with_sim, SimJob, NEIGHBOURS};
+use indicatif::ProgressBar;
+use mbs_kernel::{Real, Sim};
+use serde::Serialize;
+use std::path::Path;
+
+/// One sample of a packing run.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct PackSample {
+    /// Time (s).
+    pub time: f64,
+    /// Height of the mobile grains' centre of gravity (m).
+    pub y_gc: f64,
+    /// Kinetic energy of the mobile grains (J).
+    pub kinetic_energy: f64,
+    /// Largest overlap (m).
+    pub max_overlap: f64,
+    /// Contacts.
+    pub contacts: usize,
+}
+
+/// What a packing run is asked to do.
+pub struct Packing<'a> {
+    /// Configuration.
+    pub config: &'a Config,
+    /// Seed of the bed.
+    pub seed: u64,
+    /// Duration (s).
+    pub duration: f64,
+    /// Integration steps between samples.
+    pub every: u64,
+    /// Progress (in steps).
+    pub progress: &'a ProgressBar,
+}
+
+impl SimJob for Packing<'_> {
+    type Output = Result<Vec<PackSample>, HostError>;
+
+    fn run<R: Real, const N: usize>(self, sim: &mut Sim<R, N, NEIGHBOURS>) -> Self::Output {
+        let sc = self.config.scenario_at(self.config.scenario.tau_star, self.seed);
+        let fail = || HostError::kernel(format!("packing, seed {}", self.seed));
+        sc.build(sim).map_err(fail())?;
+        let every = self.every.max(1);
+        let samples = self.config.steps(self.duration) / every;
+        let sample = |sim: &Sim<R, N, NEIGHBOURS>| {
+            let o = sim.observe();
+            PackSample {
+                time: o.time,
+                y_gc: o.y_gc,
+                kinetic_energy: o.kinetic_energy,
+                max_overlap: o.max_overlap,
+                contacts: o.contacts,
+            }
+        };
+        let mut out = vec![sample(sim)];
+        for _ in 0..samples {
+            run_steps(sim, every, self.progress).map_err(fail())?;
+            out.push(sample(sim));
+        }
+        Ok(out)
+    }
+}
+
+/// Runs the packing test.
+pub fn packing(job: Packing<'_>) -> Result<Vec<PackSample>, HostError> {
+    let (precision, capacity) = (job.config.precision, job.config.capacity);
+    with_sim(precision, capacity, job)
+}
+
+/// Writes `packing.csv` and the y_gc(t) plot `packing.png`/`.svg` into `dir`.
+pub fn write_packing(dir: &Path, samples: &[PackSample], title: &str) -> Result<(), HostError> {
+    let header = ["time", "y_gc", "kinetic_energy", "max_overlap", "contacts"].map(String::from);
+    let rows: Vec<Vec<String>> = samples
+        .iter()
+        .map(|s| {
+            vec![
+                s.time.to_string(),
+                s.y_gc.to_string(),
+                s.kinetic_energy.to_string(),
+                s.max_overlap.to_string(),
+                s.contacts.to_string(),
+            ]
+        })
+        .collect();
+    write_csv(&dir.join("packing.csv"), &header, &rows)?;
+    let points: Vec<(f64, f64)> = samples.iter().map(|s| (s.time, s.y_gc * 1e3)).collect();
+    let figure = SeriesFigure {
+        points: &points,
+        title: title.to_string(),
+        x_label: "time t (s)".into(),
+        y_label: "centre of gravity y_gc (mm)".into(),
+    };
+    save(&figure, dir, "packing")
+}

@@ -1,0 +1,58 @@
+//! Heap-allocated kernel simulations of a capacity and precision chosen at
+//! run time. The kernel's `Sim<R, N, K>` fixes them at compile time; the host
+//! is compiled for [`crate::config::CAPACITIES`] × {f32, f64}.
+
+use crate::config::Precision;
+use mbs_kernel::{Real, Sim};
+
+/// Neighbour slots per grain of every host simulation (the kernel's `K`).
+pub const NEIGHBOURS: usize = 8;
+
+/// A simulation allocated directly on the heap, never built on the stack.
+pub fn boxed_sim<R: Real, const N: usize, const K: usize>() -> Box<Sim<R, N, K>> {
+    let zeroed = Box::<Sim<R, N, K>>::new_zeroed();
+    // SAFETY: `Sim` documents (kernel/src/sim.rs) that every field is a
+    // number, a bool, or a struct or array of those, and `Real` is sealed to
+    // f32 and f64; so the all-zero bit pattern is a valid `Sim`, equal to
+    // `Sim::new()` (checked by `tests::zeroed_box_equals_new`).
+    unsafe { zeroed.assume_init() }
+}
+
+/// Work to do on a fresh simulation of any precision and capacity.
+pub trait SimJob {
+    /// What the job returns.
+    type Output;
+    /// Runs the job on `sim` (all zero, unconfigured).
+    fn run<R: Real, const N: usize>(self, sim: &mut Sim<R, N, NEIGHBOURS>) -> Self::Output;
+}
+
+/// Runs `job` on a fresh heap simulation of `precision` with the smallest
+/// compiled capacity ≥ `capacity` (the largest if none is).
+pub fn with_sim<J: SimJob>(precision: Precision, capacity: usize, job: J) -> J::Output {
+    match (precision, capacity) {
+        (Precision::F32, 0..=256) => job.run(&mut *boxed_sim::<f32, 256, NEIGHBOURS>()),
+        (Precision::F32, 257..=4096) => job.run(&mut *boxed_sim::<f32, 4096, NEIGHBOURS>()),
+        (Precision::F32, _) => job.run(&mut *boxed_sim::<f32, 65536, NEIGHBOURS>()),
+        (Precision::F64, 0..=256) => job.run(&mut *boxed_sim::<f64, 256, NEIGHBOURS>()),
+        (Precision::F64, 257..=4096) => job.run(&mut *boxed_sim::<f64, 4096, NEIGHBOURS>()),
+        (Precision::F64, _) => job.run(&mut *boxed_sim::<f64, 65536, NEIGHBOURS>()),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use mbs_kernel::Scenario;
+
+    #[test]
+    fn zeroed_box_equals_new() {
+        let sc = Scenario::paper();
+        let mut a = boxed_sim::<f64, 64, 8>();
+        let mut b = Box::new(Sim::<f64, 64, 8>::new());
+        assert_eq!(a.digest(), b.digest());
+        assert_eq!(
+            sc.digests(&mut *a, 200, 200).unwrap(),
+            sc.digests(&mut *b, 200, 200).unwrap()
+        );
+    }
+}

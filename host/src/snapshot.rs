@@ -1,0 +1,163 @@
+//! Pictures of the bed: PNG/SVG drawn to scale, and VTK files over time for
+//! ParaView (a `.vtk.series` file lists them with their times).
+
+use crate::config::Config;
+use crate::error::HostError;
+use crate::experiment::run_steps;
+use crate::output::{create_dir, write_json, write_text};
+use crate::plot::{save, BedFigure, Disc};
+use crate::sims::{with_sim, SimJob, NEIGHBOURS};
+use indicatif::ProgressBar;
+use mbs_kernel::{GrainSpec, Real, Sim};
+use serde::Serialize;
+use std::fmt::Write;
+use std::path::Path;
+
+/// The grains at one instant.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Frame {
+    /// Time (s).
+    pub time: f64,
+    /// Periodic width (m).
+    pub width: f64,
+    /// Every grain.
+    pub grains: Vec<GrainSpec>,
+}
+
+/// What a snapshot run is asked to do.
+pub struct Snapshots<'a> {
+    /// Configuration.
+    pub config: &'a Config,
+    /// Shields number of the flow.
+    pub tau_star: f64,
+    /// Seed.
+    pub seed: u64,
+    /// Frames after the settled one.
+    pub frames: u64,
+    /// Time between frames (s).
+    pub every: f64,
+    /// Progress (in steps).
+    pub progress: &'a ProgressBar,
+}
+
+impl SimJob for Snapshots<'_> {
+    type Output = Result<Vec<Frame>, HostError>;
+
+    fn run<R: Real, const N: usize>(self, sim: &mut Sim<R, N, NEIGHBOURS>) -> Self::Output {
+        let config = self.config;
+        let sc = config.scenario_at(self.tau_star, self.seed);
+        let fail = || HostError::kernel(format!("snapshot tau* = {}, seed {}", self.tau_star, self.seed));
+        sc.build(sim).map_err(fail())?;
+        run_steps(sim, config.steps(config.file.time.settle), self.progress).map_err(fail())?;
+        sim.set_flow(Some(&sc.flow())).map_err(fail())?;
+        let frame = |sim: &Sim<R, N, NEIGHBOURS>| Frame {
+            time: sim.time(),
+            width: sim.config().width,
+            grains: (0..sim.len()).filter_map(|i| sim.grain(i)).collect(),
+        };
+        let mut out = vec![frame(sim)];
+        for _ in 0..self.frames {
+            run_steps(sim, config.steps(self.every), self.progress).map_err(fail())?;
+            out.push(frame(sim));
+        }
+        Ok(out)
+    }
+}
+
+/// Runs the snapshot job.
+pub fn snapshots(job: Snapshots<'_>) -> Result<Vec<Frame>, HostError> {
+    let (precision, capacity) = (job.config.precision, job.config.capacity);
+    with_sim(precision, capacity, job)
+}
+
+/// A frame as legacy-VTK polydata: one vertex per grain with diameter,
+/// velocity, speed, spin, fixed flag and size class.
+pub fn vtk(frame: &Frame) -> String {
+    let g = &frame.grains;
+    let n = g.len();
+    let mut s = String::new();
+    // Writing to a String cannot fail.
+    let _ = writeln!(
+        s,
+        "# vtk DataFile Version 3.0\nmbs bed at t = {} s\nASCII\nDATASET POLYDATA\nPOINTS {n} double",
+        frame.time
+    );
+    for p in g {
+        let _ = writeln!(s, "{} {} 0", p.x, p.y);
+    }
+    let _ = writeln!(s, "VERTICES {n} {}", 2 * n);
+    for i in 0..n {
+        let _ = writeln!(s, "1 {i}");
+    }
+    let _ = writeln!(s, "POINT_DATA {n}");
+    let scalar = |s: &mut String, name: &str, kind: &str, f: &dyn Fn(&GrainSpec) -> String| {
+        let _ = writeln!(s, "SCALARS {name} {kind} 1\nLOOKUP_TABLE default");
+        for p in g {
+            let _ = writeln!(s, "{}", f(p));
+        }
+    };
+    scalar(&mut s, "diameter", "double", &|p| p.diameter.to_string());
+    scalar(&mut s, "speed", "double", &|p| p.u.hypot(p.v).to_string());
+    scalar(&mut s, "spin", "double", &|p| p.spin.to_string());
+    scalar(&mut s, "fixed", "int", &|p| u8::from(p.fixed).to_string());
+    scalar(&mut s, "class", "int", &|p| p.class.to_string());
+    let _ = writeln!(s, "VECTORS velocity double");
+    for p in g {
+        let _ = writeln!(s, "{} {} 0", p.u, p.v);
+    }
+    s
+}
+
+#[derive(Serialize)]
+struct SeriesEntry {
+    name: String,
+    time: f64,
+}
+
+#[derive(Serialize)]
+struct Series {
+    #[serde(rename = "file-series-version")]
+    version: &'static str,
+    files: Vec<SeriesEntry>,
+}
+
+/// Writes `dir/snapshot/bed_NNNN.vtk` for every frame, the ParaView series
+/// file `dir/snapshot/bed.vtk.series`, and the last frame as
+/// `dir/snapshot.png`/`.svg`.
+pub fn write_snapshots(dir: &Path, frames: &[Frame], title: &str) -> Result<(), HostError> {
+    let vtk_dir = dir.join("snapshot");
+    create_dir(&vtk_dir)?;
+    let mut files = Vec::new();
+    for (k, f) in frames.iter().enumerate() {
+        let name = format!("bed_{k:04}.vtk");
+        write_text(&vtk_dir.join(&name), &vtk(f))?;
+        files.push(SeriesEntry { name, time: f.time });
+    }
+    write_json(
+        &vtk_dir.join("bed.vtk.series"),
+        &Series {
+            version: "1.0",
+            files,
+        },
+    )?;
+    if let Some(last) = frames.last() {
+        let discs: Vec<Disc> = last
+            .grains
+            .iter()
+            .map(|p| Disc {
+                x: p.x,
+                y: p.y,
+                diameter: p.diameter,
+                speed: p.u.hypot(p.v),
+                fixed: p.fixed,
+            })
+            .collect();
+        let figure = BedFigure {
+            discs: &discs,
+            width: last.width,
+            title: format!("{title}, t = {:.3} s", last.time),
+        };
+        save(&figure, dir, "snapshot")?;
+    }
+    Ok(())
+}
