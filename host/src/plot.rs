@@ -59,6 +59,20 @@ pub fn save(figure: &impl Figure, dir: &Path, stem: &str) -> Result<(), HostErro
     write_text(&svg_path, &svg)
 }
 
+/// A tick label with at most 3 significant digits, without float noise.
+fn tick(v: &f64) -> String {
+    if *v == 0.0 {
+        return "0".into();
+    }
+    let digits = (2 - v.abs().log10().floor() as i32).max(0) as usize;
+    let s = format!("{v:.digits$}");
+    if s.contains('.') {
+        s.trim_end_matches('0').trim_end_matches('.').to_string()
+    } else {
+        s
+    }
+}
+
 fn err(e: impl std::fmt::Display) -> String {
     e.to_string()
 }
@@ -114,6 +128,8 @@ impl Figure for TransportFigure<'_> {
             .configure_mesh()
             .x_desc("Shields number τ*")
             .y_desc("transport rate q*")
+            .x_label_formatter(&tick)
+            .y_label_formatter(&tick)
             .axis_desc_style(("sans-serif", 16))
             .draw()
             .map_err(err)?;

@@ -1,0 +1,250 @@
+//! The `mbs` command end to end on small configurations: every subcommand,
+//! its files, thread-count independence, and bad input (exit status 2, a
+//! message naming key, value and range, nothing written).
+
+use assert_cmd::Command;
+use predicates::prelude::*;
+use std::path::Path;
+
+/// A bed small and short enough for a test: 5 × 4 grains, 0.05 s windows.
+const SMALL: &str = r#"
+[bed]
+columns = 5
+rows = 4
+[time]
+settle = 0.05
+spin_up = 0.02
+window = 0.05
+[flow]
+tau_star = [0.1, 0.3]
+[run]
+seeds = [1, 2]
+capacity = 256
+"#;
+
+fn mbs() -> Command {
+    let mut c = Command::cargo_bin("mbs").unwrap();
+    c.arg("--quiet");
+    c
+}
+
+fn write(dir: &Path, name: &str, text: &str) -> std::path::PathBuf {
+    let p = dir.join(name);
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+#[test]
+fn config_prints_the_embedded_default() {
+    let out = mbs().arg("config").assert().success().get_output().stdout.clone();
+    let text = String::from_utf8(out).unwrap();
+    assert_eq!(
+        mbs::Config::from_toml(&text).unwrap(),
+        mbs::Config::load(None).unwrap()
+    );
+    assert!(text.contains("beta = 15.8") && text.contains("# "));
+}
+
+#[test]
+fn run_writes_table_plots_and_summary() {
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = write(dir.path(), "small.toml", SMALL);
+    let out = dir.path().join("out");
+    mbs().arg("run").arg(&cfg).arg("--out").arg(&out).assert().success();
+    let csv = std::fs::read_to_string(out.join("transport.csv")).unwrap();
+    let lines: Vec<&str> = csv.lines().collect();
+    assert_eq!(lines[0], "tau_star,q_star,q_star_stderr,seeds,mpm,wong_parker");
+    assert_eq!(lines.len(), 3);
+    let row: Vec<f64> = lines[2].split(',').map(|v| v.parse().unwrap()).collect();
+    assert_eq!(row[0], 0.3);
+    assert!(row[1].is_finite() && row[2] >= 0.0 && row[3] == 2.0);
+    assert!((row[4] - 8.0 * (0.3f64 - 0.047).powf(1.5)).abs() < 1e-12);
+    for f in ["transport.png", "transport.svg", "summary.json"] {
+        assert!(out.join(f).metadata().unwrap().len() > 100, "{f}");
+    }
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(summary["version"], env!("CARGO_PKG_VERSION"));
+    assert_eq!(summary["config"]["bed"]["rows"], 4);
+    assert!(summary["derived"]["k_n"].as_f64().unwrap() > 0.0);
+    assert!(summary["grain_steps_per_s"].as_f64().unwrap() > 0.0);
+    let leftovers: Vec<_> = std::fs::read_dir(&out)
+        .unwrap()
+        .filter_map(|e| e.ok())
+        .filter(|e| e.file_name().to_string_lossy().starts_with('.'))
+        .collect();
+    assert!(leftovers.is_empty(), "no temporary files left");
+}
+
+#[test]
+fn transport_table_does_not_depend_on_threads() {
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = write(dir.path(), "small.toml", SMALL);
+    let mut tables = Vec::new();
+    for threads in ["1", "2"] {
+        let out = dir.path().join(format!("t{threads}"));
+        mbs()
+            .args(["--threads", threads, "run"])
+            .arg(&cfg)
+            .arg("--out")
+            .arg(&out)
+            .assert()
+            .success();
+        tables.push(std::fs::read(out.join("transport.csv")).unwrap());
+    }
+    assert_eq!(tables[0], tables[1]);
+}
+
+#[test]
+fn mixed_beds_get_columns_per_size_class() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = SMALL.replace(
+        "[bed]",
+        "[grains]\nclasses = [{ diameter_mm = 1.0, fraction = 0.5 }, { diameter_mm = 0.7, fraction = 0.5 }]\n[bed]",
+    ) + "[contact]\nbeta = 4.0\n";
+    let text = text.replace("[time]", "[time]\nsubsteps = 8");
+    let cfg = write(dir.path(), "mixed.toml", &text);
+    let out = dir.path().join("out");
+    mbs().arg("run").arg(&cfg).arg("--out").arg(&out).assert().success();
+    let csv = std::fs::read_to_string(out.join("transport.csv")).unwrap();
+    assert!(
+        csv.starts_with("tau_star,q_star,q_star_stderr,seeds,mpm,wong_parker,q_star_1mm,q_star_1mm_stderr,q_star_0.7mm,q_star_0.7mm_stderr\n"),
+        "{csv}"
+    );
+}
+
+#[test]
+fn pack_writes_the_settling_curve() {
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = write(dir.path(), "small.toml", SMALL);
+    mbs().arg("pack").arg(&cfg).arg("--out").arg(dir.path()).assert().success();
+    let csv = std::fs::read_to_string(dir.path().join("packing.csv")).unwrap();
+    let mut lines = csv.lines();
+    assert_eq!(lines.next(), Some("time,y_gc,kinetic_energy,max_overlap,contacts"));
+    let rows: Vec<Vec<f64>> = lines
+        .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
+        .collect();
+    // 0.05 s sampled every 10 Δt (= 2e-4 s): 250 samples after t = 0.
+    assert_eq!(rows.len(), 251);
+    let (first, last) = (&rows[0], &rows[rows.len() - 1]);
+    assert!(last[1] < first[1], "the bed packs down: y_gc {} -> {}", first[1], last[1]);
+    assert!(last[4] > 0.0, "grains in contact");
+    assert!(dir.path().join("packing.png").exists() && dir.path().join("packing.svg").exists());
+}
+
+#[test]
+fn snapshot_writes_pictures_and_vtk_series() {
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = write(dir.path(), "small.toml", SMALL);
+    mbs()
+        .arg("snapshot")
+        .arg(&cfg)
+        .args(["--frames", "3", "--every", "0.005", "--out"])
+        .arg(dir.path())
+        .assert()
+        .success();
+    let vtk = std::fs::read_to_string(dir.path().join("snapshot/bed_0003.vtk")).unwrap();
+    assert!(vtk.starts_with("# vtk DataFile Version 3.0"));
+    assert!(vtk.contains("POINTS 25 double") && vtk.contains("VECTORS velocity double"));
+    let series = std::fs::read_to_string(dir.path().join("snapshot/bed.vtk.series")).unwrap();
+    assert_eq!(series.matches("bed_00").count(), 4);
+    assert!(dir.path().join("snapshot.png").exists() && dir.path().join("snapshot.svg").exists());
+}
+
+#[test]
+fn digest_matches_the_golden_file() {
+    let golden = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/golden/digests.txt"),
+    )
+    .unwrap();
+    for p in ["f32", "f64"] {
+        let out = mbs()
+            .args(["digest", "--steps", "2000", "--precision", p])
+            .assert()
+            .success()
+            .get_output()
+            .stdout
+            .clone();
+        let text = String::from_utf8(out).unwrap();
+        for line in text.lines() {
+            let (phase, hex) = line.split_once(' ').unwrap();
+            let phase = if phase == "settled" { "settling" } else { phase };
+            assert!(golden.contains(&format!("{phase} {p} {hex}")), "{line}");
+        }
+    }
+}
+
+#[test]
+fn bench_reports_ns_per_grain_step() {
+    mbs()
+        .args(["bench", "--grains", "64", "--steps", "50"])
+        .assert()
+        .success()
+        .stdout(predicate::str::contains("ns per grain-step").and(predicate::str::contains("55 grains")));
+}
+
+#[test]
+fn bad_configurations_are_named_and_write_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    std::fs::create_dir(&out).unwrap();
+    std::fs::write(out.join("transport.csv"), "earlier results\n").unwrap();
+    let cases = [
+        ("[grains]\ndiameter = 0.5\n", "unknown field `diameter`"),
+        ("[grains]\ndiameter_mm = -0.5\n", "grains.diameter_mm = -0.5: must be > 0"),
+        (
+            "[contact]\nalpha_m = 2.0\nbeta = 1.0\n[time]\nsubsteps = 1\n",
+            "time.dt = 0.00002: must be <= 1.8",
+        ),
+        (
+            "[bed]\ncolumns = 40\n[run]\ncapacity = 256\n",
+            "run.capacity = 256: must be >= the bed's 440 grains",
+        ),
+        ("[flow]\ntau_star = []\n", "flow.tau_star = []: must be a list of 1 to 1000 values"),
+        ("[run]\nprecision = \"f16\"\n", "unknown variant `f16`"),
+    ];
+    for (k, (text, message)) in cases.iter().enumerate() {
+        let cfg = write(dir.path(), &format!("bad{k}.toml"), text);
+        for cmd in ["run", "pack", "snapshot", "digest"] {
+            let mut c = mbs();
+            c.arg(cmd).arg(&cfg);
+            if cmd != "digest" {
+                c.arg("--out").arg(&out);
+            }
+            c.assert()
+                .code(2)
+                .stderr(predicate::str::contains(*message));
+        }
+    }
+    let names: Vec<_> = std::fs::read_dir(&out).unwrap().collect();
+    assert_eq!(names.len(), 1, "nothing written");
+    assert_eq!(
+        std::fs::read_to_string(out.join("transport.csv")).unwrap(),
+        "earlier results\n"
+    );
+    mbs()
+        .arg("run")
+        .arg(dir.path().join("missing.toml"))
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains("missing.toml"));
+    mbs()
+        .args(["snapshot", "--tau=-1"])
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains("--tau = -1: must be in (0, 5]"));
+}
+
+#[test]
+fn a_closed_stdout_is_not_a_crash() {
+    let mut child = std::process::Command::new(assert_cmd::cargo::cargo_bin("mbs"))
+        .arg("config")
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stdout.take());
+    let out = child.wait_with_output().unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(!String::from_utf8_lossy(&out.stderr).contains("panicked"));
+}
