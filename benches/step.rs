@@ -1,5 +1,5 @@
 //! Criterion benchmarks of the hot loop in isolation: one step of a settled
-//! paper bed (d = 0.5 mm, α_m = 20, α_cn = 1.3, β = 15.8, Δt/4 integration),
+//! paper bed (d = 0.5 mm, α_m = 20, α_cn = 1.3, β = 15.8, Δt/8 integration),
 //! without and with flow at τ* = 0.2. Throughput is in grain-steps, fixed
 //! grains included. Run: `cargo bench --bench step`.
 

@@ -83,5 +83,13 @@ pub fn bench(
 ) -> Result<BenchResult, Error> {
     let columns = columns_for(grains);
     let needed = columns as usize * (ROWS as usize + 1);
-    with_sim(precision, needed, Bench { columns, steps, flow })
+    with_sim(
+        precision,
+        needed,
+        Bench {
+            columns,
+            steps,
+            flow,
+        },
+    )
 }

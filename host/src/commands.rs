@@ -337,7 +337,11 @@ pub fn bench_command(
         "{} grains, {:?}, {}: {:.1} ns per grain-step over {} steps, {:.2} contacts per grain\n",
         r.grains,
         precision,
-        if flow { "flow at tau* = 0.2" } else { "settled, no flow" },
+        if flow {
+            "flow at tau* = 0.2"
+        } else {
+            "settled, no flow"
+        },
         r.ns_per_grain_step,
         r.steps,
         r.contacts_per_grain

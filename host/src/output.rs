@@ -13,7 +13,9 @@ pub fn create_dir(dir: &Path) -> Result<(), HostError> {
 
 /// Writes `bytes` to `path` atomically (temporary file, fsync, rename).
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), HostError> {
-    write_atomic_with(path, |tmp| std::fs::write(tmp, bytes).map_err(HostError::io(tmp)))
+    write_atomic_with(path, |tmp| {
+        std::fs::write(tmp, bytes).map_err(HostError::io(tmp))
+    })
 }
 
 /// Lets `write` fill a temporary file beside `path` (same extension, so
@@ -40,11 +42,11 @@ pub fn write_atomic_with(
         // An ordinary output file (tempfile would make it private, 0600).
         builder.permissions(std::fs::Permissions::from_mode(0o644));
     }
-    let tmp = builder
-        .tempfile_in(dir)
-        .map_err(HostError::io(dir))?;
+    let tmp = builder.tempfile_in(dir).map_err(HostError::io(dir))?;
     write(tmp.path())?;
-    tmp.as_file().sync_all().map_err(HostError::io(tmp.path()))?;
+    tmp.as_file()
+        .sync_all()
+        .map_err(HostError::io(tmp.path()))?;
     tmp.persist(path)
         .map_err(|e| HostError::Io {
             path: path.to_path_buf(),

@@ -90,6 +90,9 @@ fn series_colour(i: usize) -> RGBColor {
     COLOURS[i % COLOURS.len()]
 }
 
+/// (τ*, q*, standard error).
+type ErrorPoint = (f64, f64, f64);
+
 /// q* against τ* on log–log axes, with error bars and SPEC §10 relations.
 pub struct TransportFigure<'a> {
     /// The rows of `transport.csv`.
@@ -149,7 +152,7 @@ impl Figure for TransportFigure<'_> {
                 .label(r.label())
                 .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], colour));
         }
-        let mut series: Vec<(String, Vec<(f64, f64, f64)>)> = vec![(
+        let mut series: Vec<(String, Vec<ErrorPoint>)> = vec![(
             "mbs (mean ± standard error)".to_string(),
             self.rows
                 .iter()
@@ -167,12 +170,18 @@ impl Figure for TransportFigure<'_> {
         let mut hidden = 0;
         for (i, (label, points)) in series.iter().enumerate() {
             let colour = if i == 0 { BLACK } else { series_colour(i + 5) };
-            let shown: Vec<(f64, f64, f64)> =
-                points.iter().copied().filter(|p| p.1 > q_lo).collect();
+            let shown: Vec<ErrorPoint> = points.iter().copied().filter(|p| p.1 > q_lo).collect();
             hidden += points.len() - shown.len();
             chart
                 .draw_series(shown.iter().map(|&(t, q, e)| {
-                    ErrorBar::new_vertical(t, (q - e).max(q_lo), q, q + e, colour.stroke_width(2), 8)
+                    ErrorBar::new_vertical(
+                        t,
+                        (q - e).max(q_lo),
+                        q,
+                        q + e,
+                        colour.stroke_width(2),
+                        8,
+                    )
                 }))
                 .map_err(err)?;
             chart

@@ -61,10 +61,22 @@ mod tests {
     #[test]
     fn values_at_chosen_shields_numbers() {
         let close = |a: f64, b: f64| (a - b).abs() < 1e-12 * b.abs().max(1.0);
-        assert!(close(Reference::MeyerPeterMuller.q_star(0.147), 8.0 * 0.1f64.powf(1.5)));
-        assert!(close(Reference::WongParker.q_star(0.1495), 3.97 * 0.001f64.sqrt()));
-        assert!(close(Reference::FernandezLuqueVanBeek.q_star(0.137), 5.7 * 0.1f64.powf(1.5)));
-        assert!(close(Reference::AshidaMichiue.q_star(0.2), 17.0 * 0.15 * (0.2f64.sqrt() - 0.05f64.sqrt())));
+        assert!(close(
+            Reference::MeyerPeterMuller.q_star(0.147),
+            8.0 * 0.1f64.powf(1.5)
+        ));
+        assert!(close(
+            Reference::WongParker.q_star(0.1495),
+            3.97 * 0.001f64.sqrt()
+        ));
+        assert!(close(
+            Reference::FernandezLuqueVanBeek.q_star(0.137),
+            5.7 * 0.1f64.powf(1.5)
+        ));
+        assert!(close(
+            Reference::AshidaMichiue.q_star(0.2),
+            17.0 * 0.15 * (0.2f64.sqrt() - 0.05f64.sqrt())
+        ));
         assert!(close(Reference::Nielsen.q_star(0.25), 12.0 * 0.5 * 0.2));
         for r in Reference::ALL {
             assert_eq!(r.q_star(0.03), 0.0, "{r:?} below threshold");

@@ -46,7 +46,12 @@ impl SimJob for Snapshots<'_> {
     fn run<R: Real, const N: usize>(self, sim: &mut Sim<R, N, NEIGHBOURS>) -> Self::Output {
         let config = self.config;
         let sc = config.scenario_at(self.tau_star, self.seed);
-        let fail = || HostError::kernel(format!("snapshot tau* = {}, seed {}", self.tau_star, self.seed));
+        let fail = || {
+            HostError::kernel(format!(
+                "snapshot tau* = {}, seed {}",
+                self.tau_star, self.seed
+            ))
+        };
         sc.build(sim).map_err(fail())?;
         run_steps(sim, config.steps(config.file.time.settle), self.progress).map_err(fail())?;
         sim.set_flow(Some(&sc.flow())).map_err(fail())?;

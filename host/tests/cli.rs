@@ -36,7 +36,13 @@ fn write(dir: &Path, name: &str, text: &str) -> std::path::PathBuf {
 
 #[test]
 fn config_prints_the_embedded_default() {
-    let out = mbs().arg("config").assert().success().get_output().stdout.clone();
+    let out = mbs()
+        .arg("config")
+        .assert()
+        .success()
+        .get_output()
+        .stdout
+        .clone();
     let text = String::from_utf8(out).unwrap();
     assert_eq!(
         mbs::Config::from_toml(&text).unwrap(),
@@ -50,10 +56,19 @@ fn run_writes_table_plots_and_summary() {
     let dir = tempfile::tempdir().unwrap();
     let cfg = write(dir.path(), "small.toml", SMALL);
     let out = dir.path().join("out");
-    mbs().arg("run").arg(&cfg).arg("--out").arg(&out).assert().success();
+    mbs()
+        .arg("run")
+        .arg(&cfg)
+        .arg("--out")
+        .arg(&out)
+        .assert()
+        .success();
     let csv = std::fs::read_to_string(out.join("transport.csv")).unwrap();
     let lines: Vec<&str> = csv.lines().collect();
-    assert_eq!(lines[0], "tau_star,q_star,q_star_stderr,seeds,mpm,wong_parker");
+    assert_eq!(
+        lines[0],
+        "tau_star,q_star,q_star_stderr,seeds,mpm,wong_parker"
+    );
     assert_eq!(lines.len(), 3);
     let row: Vec<f64> = lines[2].split(',').map(|v| v.parse().unwrap()).collect();
     assert_eq!(row[0], 0.3);
@@ -105,7 +120,13 @@ fn mixed_beds_get_columns_per_size_class() {
     let text = text.replace("[time]", "[time]\nsubsteps = 8");
     let cfg = write(dir.path(), "mixed.toml", &text);
     let out = dir.path().join("out");
-    mbs().arg("run").arg(&cfg).arg("--out").arg(&out).assert().success();
+    mbs()
+        .arg("run")
+        .arg(&cfg)
+        .arg("--out")
+        .arg(&out)
+        .assert()
+        .success();
     let csv = std::fs::read_to_string(out.join("transport.csv")).unwrap();
     assert!(
         csv.starts_with("tau_star,q_star,q_star_stderr,seeds,mpm,wong_parker,q_star_1mm,q_star_1mm_stderr,q_star_0.7mm,q_star_0.7mm_stderr\n"),
@@ -117,17 +138,31 @@ fn mixed_beds_get_columns_per_size_class() {
 fn pack_writes_the_settling_curve() {
     let dir = tempfile::tempdir().unwrap();
     let cfg = write(dir.path(), "small.toml", SMALL);
-    mbs().arg("pack").arg(&cfg).arg("--out").arg(dir.path()).assert().success();
+    mbs()
+        .arg("pack")
+        .arg(&cfg)
+        .arg("--out")
+        .arg(dir.path())
+        .assert()
+        .success();
     let csv = std::fs::read_to_string(dir.path().join("packing.csv")).unwrap();
     let mut lines = csv.lines();
-    assert_eq!(lines.next(), Some("time,y_gc,kinetic_energy,max_overlap,contacts"));
+    assert_eq!(
+        lines.next(),
+        Some("time,y_gc,kinetic_energy,max_overlap,contacts")
+    );
     let rows: Vec<Vec<f64>> = lines
         .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
         .collect();
     // 0.05 s sampled every 10 Δt (= 2e-4 s): 250 samples after t = 0.
     assert_eq!(rows.len(), 251);
     let (first, last) = (&rows[0], &rows[rows.len() - 1]);
-    assert!(last[1] < first[1], "the bed packs down: y_gc {} -> {}", first[1], last[1]);
+    assert!(
+        last[1] < first[1],
+        "the bed packs down: y_gc {} -> {}",
+        first[1],
+        last[1]
+    );
     assert!(last[4] > 0.0, "grains in contact");
     assert!(dir.path().join("packing.png").exists() && dir.path().join("packing.svg").exists());
 }
@@ -168,7 +203,11 @@ fn digest_matches_the_golden_file() {
         let text = String::from_utf8(out).unwrap();
         for line in text.lines() {
             let (phase, hex) = line.split_once(' ').unwrap();
-            let phase = if phase == "settled" { "settling" } else { phase };
+            let phase = if phase == "settled" {
+                "settling"
+            } else {
+                phase
+            };
             assert!(golden.contains(&format!("{phase} {p} {hex}")), "{line}");
         }
     }
@@ -180,7 +219,10 @@ fn bench_reports_ns_per_grain_step() {
         .args(["bench", "--grains", "64", "--steps", "50"])
         .assert()
         .success()
-        .stdout(predicate::str::contains("ns per grain-step").and(predicate::str::contains("55 grains")));
+        .stdout(
+            predicate::str::contains("ns per grain-step")
+                .and(predicate::str::contains("55 grains")),
+        );
 }
 
 #[test]
@@ -191,7 +233,10 @@ fn bad_configurations_are_named_and_write_nothing() {
     std::fs::write(out.join("transport.csv"), "earlier results\n").unwrap();
     let cases = [
         ("[grains]\ndiameter = 0.5\n", "unknown field `diameter`"),
-        ("[grains]\ndiameter_mm = -0.5\n", "grains.diameter_mm = -0.5: must be > 0"),
+        (
+            "[grains]\ndiameter_mm = -0.5\n",
+            "grains.diameter_mm = -0.5: must be > 0",
+        ),
         (
             "[contact]\nalpha_m = 2.0\nbeta = 1.0\n[time]\nsubsteps = 1\n",
             "time.dt = 0.00002: must be <= 1.8",
@@ -200,7 +245,10 @@ fn bad_configurations_are_named_and_write_nothing() {
             "[bed]\ncolumns = 40\n[run]\ncapacity = 256\n",
             "run.capacity = 256: must be >= the bed's 440 grains",
         ),
-        ("[flow]\ntau_star = []\n", "flow.tau_star = []: must be a list of 1 to 1000 values"),
+        (
+            "[flow]\ntau_star = []\n",
+            "flow.tau_star = []: must be a list of 1 to 1000 values",
+        ),
         ("[run]\nprecision = \"f16\"\n", "unknown variant `f16`"),
     ];
     for (k, (text, message)) in cases.iter().enumerate() {
@@ -245,6 +293,10 @@ fn a_closed_stdout_is_not_a_crash() {
         .unwrap();
     drop(child.stdout.take());
     let out = child.wait_with_output().unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     assert!(!String::from_utf8_lossy(&out.stderr).contains("panicked"));
 }
