@@ -4,20 +4,15 @@
 //! grains included. Run: `cargo bench --bench step`.
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
+use mbs::bench::settled_bed;
 use mbs::boxed_sim;
-use mbs_kernel::{BedSpec, Real, Scenario, Sim};
+use mbs_kernel::{Real, Sim};
 
 const N: usize = 16_384;
 
 fn settled<R: Real>(columns: u32, flow: bool) -> Box<Sim<R, N, 8>> {
-    let mut sc = Scenario::paper();
-    sc.bed = BedSpec::uniform(0.5e-3, columns, 10);
     let mut sim = boxed_sim::<R, N, 8>();
-    sc.build(&mut *sim).expect("bed fits");
-    sim.run(4000).expect("settles");
-    if flow {
-        sim.set_flow(Some(&sc.flow())).expect("valid flow");
-    }
+    settled_bed(&mut *sim, columns, flow).expect("bed fits and settles");
     sim
 }
 
