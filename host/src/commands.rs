@@ -331,8 +331,18 @@ pub fn bench_command(
     grains: usize,
     steps: u64,
     flow: bool,
+    common: Common,
 ) -> Result<(), HostError> {
-    let r = bench(precision, grains, steps, flow).map_err(HostError::kernel("bench"))?;
+    let spinner = if common.quiet {
+        ProgressBar::hidden()
+    } else {
+        ProgressBar::new_spinner()
+    };
+    spinner.set_message("settling, then timing the step loop");
+    spinner.enable_steady_tick(std::time::Duration::from_millis(200));
+    let r = bench(precision, grains, steps, flow).map_err(HostError::kernel("bench"));
+    spinner.finish_and_clear();
+    let r = r?;
     print(&format!(
         "{} grains, {:?}, {}: {:.1} ns per grain-step over {} steps, {:.2} contacts per grain\n",
         r.grains,

@@ -165,7 +165,7 @@ fn execute(cli: Cli) -> Result<(), HostError> {
             steps,
             precision,
             flow,
-        } => commands::bench_command(precision, grains as usize, steps, flow),
+        } => commands::bench_command(precision, grains as usize, steps, flow, common),
     }
 }
 
