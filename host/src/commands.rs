@@ -164,10 +164,10 @@ pub fn run(config: &Config, out: Option<&Path>, common: Common) -> Result<(), Ho
         Vec::new()
     };
     let sc = &config.scenario;
-    let figure = TransportFigure {
-        rows: &rows,
-        class_labels,
-        title: format!(
+    let figure = TransportFigure::of_rows(
+        &rows,
+        &class_labels,
+        format!(
             "q* against τ*: d = {} mm, {}×{} bed, β = {}, {} seed(s)",
             sc.bed.max_diameter() * 1e3,
             sc.bed.columns,
@@ -175,7 +175,7 @@ pub fn run(config: &Config, out: Option<&Path>, common: Common) -> Result<(), Ho
             sc.rule.beta,
             config.seeds.len()
         ),
-    };
+    );
     save(&figure, &dir, "transport")?;
     let grain_steps: u64 = results.iter().map(|r| r.grain_steps).sum();
     write_json(

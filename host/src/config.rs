@@ -389,7 +389,7 @@ impl Config {
     }
 
     /// Checks every value and builds the typed configuration.
-    fn validate(file: ConfigFile) -> Result<Config, ConfigError> {
+    pub fn validate(file: ConfigFile) -> Result<Config, ConfigError> {
         let bed = bed_spec(&file)?;
         let d = bed.max_diameter();
         let material = material(&file)?;

@@ -23,6 +23,8 @@ pub enum HostError {
         /// Why.
         error: std::io::Error,
     },
+    /// A calibration stage cannot proceed (e.g. no candidate settles).
+    Calibration(String),
     /// A plot could not be drawn.
     Plot {
         /// The file.
@@ -60,6 +62,7 @@ impl fmt::Display for HostError {
             HostError::Config(e) => write!(f, "configuration: {e}"),
             HostError::Kernel { context, error } => write!(f, "{context}: {error}"),
             HostError::Io { path, error } => write!(f, "{}: {error}", path.display()),
+            HostError::Calibration(message) => write!(f, "calibration: {message}"),
             HostError::Plot { path, message } => write!(f, "{}: {message}", path.display()),
         }
     }

@@ -11,7 +11,7 @@ use crate::sims::{with_sim, SimJob, NEIGHBOURS};
 use indicatif::ProgressBar;
 use mbs_kernel::{Real, Sim, G};
 use rayon::prelude::*;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 /// Batches of the window used for the standard error of a single seed.
 pub const BATCHES: usize = 10;
@@ -20,7 +20,7 @@ pub const BATCHES: usize = 10;
 const CHUNK: u64 = 2000;
 
 /// What one (τ*, seed) cell measured.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct CellResult {
     /// Shields number.
     pub tau_star: f64,

@@ -15,6 +15,7 @@
 //! | [`commands`] | the subcommands of `mbs` |
 
 pub mod bench;
+pub mod calibrate;
 pub mod commands;
 pub mod config;
 pub mod error;

@@ -1,7 +1,10 @@
 //! `mbs`: the DEM numerical movable bed (Gotoh, Harada & Sakai).
 
 use clap::{Parser, Subcommand};
+use mbs::calibrate::cells::Shard;
+use mbs::calibrate::{calibrate, merge, Options, Progress};
 use mbs::commands::{self, Common};
+use mbs::references::Reference;
 use mbs::{Config, HostError, Precision};
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -78,6 +81,29 @@ enum Command {
         #[arg(long, default_value_t = 0.2)]
         tau: f64,
     },
+    /// The paper's parameter optimisation, automated: α_m, α_cn, β, Δt(d, nvd), mixed sizes → report.md.
+    #[command(args_conflicts_with_subcommands = true)]
+    Calibrate {
+        #[command(subcommand)]
+        action: Option<CalibrateAction>,
+        /// Base configuration (TOML); the embedded paper's case when omitted.
+        config: Option<PathBuf>,
+        /// Output directory (cells, stage results, figures, report.md); resumed if it exists.
+        #[arg(long, default_value = "mbs-calibration")]
+        out: PathBuf,
+        /// Fewer points and seeds: a few minutes on 2 cores.
+        #[arg(long)]
+        quick: bool,
+        /// Stop after this stage (1-5).
+        #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u8).range(1..=5))]
+        stage: u8,
+        /// Run only slice I of N of each stage's cells (I = 1..N), e.g. a Slurm array task.
+        #[arg(long, value_name = "I/N", value_parser = parse_shard)]
+        shard: Option<Shard>,
+        /// Reference relation fitted in stages 3-5.
+        #[arg(long, value_enum, default_value_t = Reference::MeyerPeterMuller)]
+        reference: Reference,
+    },
     /// Settles a bed of about N grains and prints ns per grain-step of the step loop alone.
     Bench {
         /// Grains (fixed included), 33 to 65536.
@@ -93,6 +119,36 @@ enum Command {
         #[arg(long)]
         flow: bool,
     },
+}
+
+#[derive(Subcommand)]
+enum CalibrateAction {
+    /// Merges the cell stores of shard output directories into one directory.
+    Merge {
+        /// Shard output directories.
+        #[arg(required = true)]
+        shards: Vec<PathBuf>,
+        /// The merged directory (then run `mbs calibrate --out DIR` to finish).
+        #[arg(long)]
+        out: PathBuf,
+    },
+}
+
+/// Parses `I/N` (1-based) into a shard.
+fn parse_shard(text: &str) -> Result<Shard, String> {
+    let bad = || format!("{text}: must be I/N with 1 <= I <= N, e.g. 3/8");
+    let (i, n) = text.split_once('/').ok_or_else(bad)?;
+    let (i, n): (usize, usize) = (
+        i.trim().parse().map_err(|_| bad())?,
+        n.trim().parse().map_err(|_| bad())?,
+    );
+    if i == 0 || i > n {
+        return Err(bad());
+    }
+    Ok(Shard {
+        index: i - 1,
+        count: n,
+    })
 }
 
 /// Checks a Shields number given on the command line.
@@ -160,6 +216,52 @@ fn execute(cli: Cli) -> Result<(), HostError> {
             precision,
             tau,
         } => commands::digest(&load(&config)?, steps, precision, tau_arg(tau)?),
+        Command::Calibrate {
+            action: Some(CalibrateAction::Merge { shards, out }),
+            ..
+        } => {
+            let added = merge(&shards, &out)?;
+            commands::print(&format!(
+                "merged {added} new cells into {}; finish with `mbs calibrate [CONFIG] --out {}`\n",
+                out.display(),
+                out.display()
+            ))
+        }
+        Command::Calibrate {
+            action: None,
+            config,
+            out,
+            quick,
+            stage,
+            shard,
+            reference,
+        } => {
+            let base = load(&config)?.file;
+            let options = Options {
+                quick,
+                last_stage: usize::from(stage),
+                shard: shard.unwrap_or(Shard::ALL),
+                reference,
+                quiet: cli.quiet,
+            };
+            let message = match calibrate(base, &out, options)? {
+                Progress::Done { stages: 5 } => {
+                    format!("calibration done: {}/report.md\n", out.display())
+                }
+                Progress::Done { stages } => {
+                    format!("stages 1-{stages} done in {}\n", out.display())
+                }
+                Progress::Waiting { stage } => format!(
+                    "stage {stage}: this shard's cells are done; merge the shards \
+                     (`mbs calibrate merge DIRS --out DIR`) and run again\n"
+                ),
+            };
+            if cli.quiet {
+                Ok(())
+            } else {
+                commands::print(&message)
+            }
+        }
         Command::Bench {
             grains,
             steps,

@@ -6,7 +6,7 @@ use crate::config::Config;
 use crate::error::HostError;
 use crate::experiment::run_steps;
 use crate::output::write_csv;
-use crate::plot::{save, SeriesFigure};
+use crate::plot::{save, LinesFigure};
 use crate::sims::{with_sim, SimJob, NEIGHBOURS};
 use indicatif::ProgressBar;
 use mbs_kernel::{Real, Sim};
@@ -26,6 +26,8 @@ pub struct PackSample {
     pub max_overlap: f64,
     /// Contacts.
     pub contacts: usize,
+    /// Largest mobile-grain speed (m/s).
+    pub max_speed: f64,
 }
 
 /// What a packing run is asked to do.
@@ -61,6 +63,7 @@ impl SimJob for Packing<'_> {
                 kinetic_energy: o.kinetic_energy,
                 max_overlap: o.max_overlap,
                 contacts: o.contacts,
+                max_speed: o.max_speed,
             }
         };
         let mut out = vec![sample(sim)];
@@ -80,7 +83,15 @@ pub fn packing(job: Packing<'_>) -> Result<Vec<PackSample>, HostError> {
 
 /// Writes `packing.csv` and the y_gc(t) plot `packing.png`/`.svg` into `dir`.
 pub fn write_packing(dir: &Path, samples: &[PackSample], title: &str) -> Result<(), HostError> {
-    let header = ["time", "y_gc", "kinetic_energy", "max_overlap", "contacts"].map(String::from);
+    let header = [
+        "time",
+        "y_gc",
+        "kinetic_energy",
+        "max_overlap",
+        "contacts",
+        "max_speed",
+    ]
+    .map(String::from);
     let rows: Vec<Vec<String>> = samples
         .iter()
         .map(|s| {
@@ -90,16 +101,18 @@ pub fn write_packing(dir: &Path, samples: &[PackSample], title: &str) -> Result<
                 s.kinetic_energy.to_string(),
                 s.max_overlap.to_string(),
                 s.contacts.to_string(),
+                s.max_speed.to_string(),
             ]
         })
         .collect();
     write_csv(&dir.join("packing.csv"), &header, &rows)?;
     let points: Vec<(f64, f64)> = samples.iter().map(|s| (s.time, s.y_gc * 1e3)).collect();
-    let figure = SeriesFigure {
-        points: &points,
+    let figure = LinesFigure {
+        series: vec![(String::new(), points)],
         title: title.to_string(),
         x_label: "time t (s)".into(),
         y_label: "centre of gravity y_gc (mm)".into(),
+        log_axes: false,
     };
     save(&figure, dir, "packing")
 }

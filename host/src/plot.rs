@@ -5,6 +5,7 @@ use crate::error::HostError;
 use crate::experiment::TransportRow;
 use crate::output::{write_atomic_with, write_text};
 use crate::references::Reference;
+use plotters::coord::ranged1d::ValueFormatter;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use std::path::Path;
@@ -91,32 +92,56 @@ fn series_colour(i: usize) -> RGBColor {
 }
 
 /// (τ*, q*, standard error).
-type ErrorPoint = (f64, f64, f64);
+pub type ErrorPoint = (f64, f64, f64);
 
-/// q* against τ* on log–log axes, with error bars and SPEC §10 relations.
-pub struct TransportFigure<'a> {
-    /// The rows of `transport.csv`.
-    pub rows: &'a [TransportRow],
-    /// Labels of the size classes (mixed beds).
-    pub class_labels: Vec<String>,
+/// q* against τ* on log–log axes: simulated series with error bars and the
+/// SPEC §10 relations as curves.
+pub struct TransportFigure {
+    /// Labelled simulated series.
+    pub series: Vec<(String, Vec<ErrorPoint>)>,
+    /// Relations drawn as curves.
+    pub references: Vec<Reference>,
     /// Title.
     pub title: String,
 }
 
-impl Figure for TransportFigure<'_> {
+impl TransportFigure {
+    /// The figure of `transport.csv`: all classes together, then each class.
+    pub fn of_rows(rows: &[TransportRow], class_labels: &[String], title: String) -> Self {
+        let mut series = vec![(
+            "mbs (mean ± standard error)".to_string(),
+            rows.iter()
+                .map(|r| (r.tau_star, r.q_star, r.q_star_stderr))
+                .collect(),
+        )];
+        for (k, label) in class_labels.iter().enumerate() {
+            let points = rows
+                .iter()
+                .filter_map(|r| r.classes.get(k).map(|&(q, e)| (r.tau_star, q, e)))
+                .collect();
+            series.push((format!("mbs, {label}"), points));
+        }
+        TransportFigure {
+            series,
+            references: Reference::ALL.to_vec(),
+            title,
+        }
+    }
+}
+
+impl Figure for TransportFigure {
     fn size(&self) -> (u32, u32) {
         (900, 650)
     }
 
     fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<(), String> {
         root.fill(&WHITE).map_err(err)?;
-        let taus: Vec<f64> = self.rows.iter().map(|r| r.tau_star).collect();
-        let t_lo = taus.iter().copied().fold(0.03, f64::min) / 1.5;
-        let t_hi = taus.iter().copied().fold(0.5, f64::max) * 1.5;
-        let q_hi = self
-            .rows
-            .iter()
-            .map(|r| r.q_star + r.q_star_stderr)
+        let points = || self.series.iter().flat_map(|s| s.1.iter());
+        let t_lo = points().map(|p| p.0).fold(0.03, f64::min) / 1.5;
+        let t_hi = points().map(|p| p.0).fold(0.5, f64::max) * 1.5;
+        let q_hi = points()
+            .map(|p| p.1 + p.2)
+            .filter(|q| q.is_finite())
             .fold(Reference::MeyerPeterMuller.q_star(t_hi), f64::max)
             * 2.0;
         let q_lo = 1e-4;
@@ -139,41 +164,31 @@ impl Figure for TransportFigure<'_> {
         let grid: Vec<f64> = (0..=200)
             .map(|k| t_lo * (t_hi / t_lo).powf(f64::from(k) / 200.0))
             .collect();
-        for (i, r) in Reference::ALL.iter().enumerate() {
+        for (i, r) in self.references.iter().enumerate() {
             let colour = series_colour(i + 1);
-            let points: Vec<(f64, f64)> = grid
+            let curve: Vec<(f64, f64)> = grid
                 .iter()
                 .map(|&t| (t, r.q_star(t)))
                 .filter(|&(_, q)| q >= q_lo)
                 .collect();
             chart
-                .draw_series(LineSeries::new(points, colour.stroke_width(2)))
+                .draw_series(LineSeries::new(curve, colour.stroke_width(2)))
                 .map_err(err)?
                 .label(r.label())
                 .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], colour));
         }
-        let mut series: Vec<(String, Vec<ErrorPoint>)> = vec![(
-            "mbs (mean ± standard error)".to_string(),
-            self.rows
-                .iter()
-                .map(|r| (r.tau_star, r.q_star, r.q_star_stderr))
-                .collect(),
-        )];
-        for (k, label) in self.class_labels.iter().enumerate() {
-            let points = self
-                .rows
-                .iter()
-                .filter_map(|r| r.classes.get(k).map(|&(q, e)| (r.tau_star, q, e)))
-                .collect();
-            series.push((format!("mbs, {label}"), points));
-        }
         let mut hidden = 0;
-        for (i, (label, points)) in series.iter().enumerate() {
+        for (i, (label, points)) in self.series.iter().enumerate() {
             let colour = if i == 0 { BLACK } else { series_colour(i + 5) };
-            let shown: Vec<ErrorPoint> = points.iter().copied().filter(|p| p.1 > q_lo).collect();
+            let shown: Vec<ErrorPoint> = points
+                .iter()
+                .copied()
+                .filter(|p| p.1.is_finite() && p.1 > q_lo)
+                .collect();
             hidden += points.len() - shown.len();
             chart
                 .draw_series(shown.iter().map(|&(t, q, e)| {
+                    let e = if e.is_finite() { e } else { 0.0 };
                     ErrorBar::new_vertical(
                         t,
                         (q - e).max(q_lo),
@@ -195,7 +210,8 @@ impl Figure for TransportFigure<'_> {
                 .legend(move |(x, y)| Circle::new((x + 10, y), 5, colour.filled()));
         }
         if hidden > 0 {
-            let note = format!("{hidden} point(s) with q* ≤ 1e-4 not drawn (see transport.csv)");
+            let note =
+                format!("{hidden} point(s) with q* ≤ 1e-4 or failed not drawn (see the CSV)");
             root.draw(&Text::new(note, (80, 60), ("sans-serif", 14)))
                 .map_err(err)?;
         }
@@ -210,54 +226,109 @@ impl Figure for TransportFigure<'_> {
     }
 }
 
-/// A time series y(t).
-pub struct SeriesFigure<'a> {
-    /// (t, y) points.
-    pub points: &'a [(f64, f64)],
+/// Labelled lines y(x), optionally on logarithmic axes.
+pub struct LinesFigure {
+    /// (label, points) per line; an empty label draws no legend entry.
+    pub series: Vec<(String, Vec<(f64, f64)>)>,
     /// Title.
     pub title: String,
     /// x-axis label.
     pub x_label: String,
     /// y-axis label.
     pub y_label: String,
+    /// Logarithmic x and y axes (all values must then be > 0).
+    pub log_axes: bool,
 }
 
-impl Figure for SeriesFigure<'_> {
+impl LinesFigure {
+    fn draw_on<'a, DB: DrawingBackend + 'a, X, Y>(
+        &self,
+        mut chart: ChartContext<'a, DB, Cartesian2d<X, Y>>,
+    ) -> Result<(), String>
+    where
+        X: Ranged<ValueType = f64> + ValueFormatter<f64>,
+        Y: Ranged<ValueType = f64> + ValueFormatter<f64>,
+    {
+        chart
+            .configure_mesh()
+            .x_desc(self.x_label.as_str())
+            .y_desc(self.y_label.as_str())
+            .x_label_formatter(&tick)
+            .y_label_formatter(&tick)
+            .axis_desc_style(("sans-serif", 16))
+            .draw()
+            .map_err(err)?;
+        let mut labelled = false;
+        for (i, (label, points)) in self.series.iter().enumerate() {
+            let colour = series_colour(i);
+            let drawn = chart
+                .draw_series(LineSeries::new(
+                    points.iter().copied(),
+                    colour.stroke_width(2),
+                ))
+                .map_err(err)?;
+            if !label.is_empty() {
+                labelled = true;
+                drawn
+                    .label(label.as_str())
+                    .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], colour));
+            }
+        }
+        if labelled {
+            chart
+                .configure_series_labels()
+                .position(SeriesLabelPosition::UpperRight)
+                .background_style(WHITE.mix(0.85))
+                .border_style(BLACK)
+                .label_font(("sans-serif", 14))
+                .draw()
+                .map_err(err)?;
+        }
+        Ok(())
+    }
+}
+
+impl Figure for LinesFigure {
     fn size(&self) -> (u32, u32) {
         (900, 550)
     }
 
     fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<(), String> {
         root.fill(&WHITE).map_err(err)?;
+        let all = || {
+            self.series
+                .iter()
+                .flat_map(|s| s.1.iter())
+                .filter(|p| p.0.is_finite() && p.1.is_finite())
+        };
         let (mut x0, mut x1, mut y0, mut y1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
-        for &(x, y) in self.points {
+        for &(x, y) in all() {
             (x0, x1, y0, y1) = (x0.min(x), x1.max(x), y0.min(y), y1.max(y));
         }
-        if self.points.is_empty() {
-            (x0, x1, y0, y1) = (0.0, 1.0, 0.0, 1.0);
+        if x0 > x1 {
+            (x0, x1, y0, y1) = (1.0, 2.0, 1.0, 2.0);
         }
-        let pad = ((y1 - y0) * 0.05).max(1e-12);
-        let mut chart = ChartBuilder::on(root)
+        let mut builder = ChartBuilder::on(root);
+        builder
             .caption(&self.title, ("sans-serif", 20))
             .margin(15)
             .x_label_area_size(45)
-            .y_label_area_size(70)
-            .build_cartesian_2d(x0..x1.max(x0 + 1e-12), (y0 - pad)..(y1 + pad))
-            .map_err(err)?;
-        chart
-            .configure_mesh()
-            .x_desc(self.x_label.as_str())
-            .y_desc(self.y_label.as_str())
-            .axis_desc_style(("sans-serif", 16))
-            .draw()
-            .map_err(err)?;
-        chart
-            .draw_series(LineSeries::new(
-                self.points.iter().copied(),
-                series_colour(0).stroke_width(2),
-            ))
-            .map_err(err)?;
-        Ok(())
+            .y_label_area_size(70);
+        if self.log_axes {
+            let chart = builder
+                .build_cartesian_2d(
+                    (x0 / 1.2..x1 * 1.2).log_scale(),
+                    (y0 / 1.5..y1 * 1.5).log_scale(),
+                )
+                .map_err(err)?;
+            self.draw_on(chart)
+        } else {
+            let pad = ((y1 - y0) * 0.05).max(1e-12);
+            let chart = builder
+                .build_cartesian_2d(x0..x1.max(x0 + 1e-12), (y0 - pad)..(y1 + pad))
+                .map_err(err)?;
+            self.draw_on(chart)
+        }
     }
 }
 
@@ -383,7 +454,7 @@ mod tests {
     #[test]
     fn figures_render() {
         let dir = tempfile::tempdir().unwrap();
-        let rows = [TransportRow {
+        let rows = vec![TransportRow {
             tau_star: 0.2,
             q_star: 0.3,
             q_star_stderr: 0.05,
@@ -392,11 +463,7 @@ mod tests {
             wong_parker: 0.23,
             classes: vec![],
         }];
-        let fig = TransportFigure {
-            rows: &rows,
-            class_labels: vec![],
-            title: "test".into(),
-        };
+        let fig = TransportFigure::of_rows(&rows, &[], "test".into());
         save(&fig, dir.path(), "transport").unwrap();
         let png = std::fs::read(dir.path().join("transport.png")).unwrap();
         assert_eq!(&png[1..4], b"PNG");

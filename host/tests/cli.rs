@@ -149,7 +149,7 @@ fn pack_writes_the_settling_curve() {
     let mut lines = csv.lines();
     assert_eq!(
         lines.next(),
-        Some("time,y_gc,kinetic_energy,max_overlap,contacts")
+        Some("time,y_gc,kinetic_energy,max_overlap,contacts,max_speed")
     );
     let rows: Vec<Vec<f64>> = lines
         .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())

@@ -16,12 +16,17 @@ impl Default for Fnv1a {
 }
 
 impl Fnv1a {
-    /// Hashes 8 little-endian bytes.
-    pub fn word(&mut self, w: u64) {
-        for b in w.to_le_bytes() {
+    /// Hashes bytes.
+    pub fn bytes(&mut self, bytes: &[u8]) {
+        for &b in bytes {
             self.0 ^= u64::from(b);
             self.0 = self.0.wrapping_mul(0x0000_0100_0000_01b3);
         }
+    }
+
+    /// Hashes 8 little-endian bytes.
+    pub fn word(&mut self, w: u64) {
+        self.bytes(&w.to_le_bytes());
     }
 
     /// Hashes a float by its canonical bits.

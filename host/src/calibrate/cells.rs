@@ -1,0 +1,195 @@
+//! Cells: the independent simulations a calibration is made of, each a pure
+//! function of its specification. A cell is looked up in the [`Store`] first;
+//! otherwise it is computed (in parallel with the other cells of the same
+//! request) if this shard owns it, and stored as soon as it finishes.
+
+use super::store::Store;
+use crate::config::{Config, ConfigFile};
+use crate::error::HostError;
+use crate::experiment::{run_cell, CellResult};
+use crate::pack::{packing, Packing};
+use indicatif::ProgressBar;
+use rayon::prelude::*;
+use serde::{de::DeserializeOwned, Deserialize, Serialize};
+
+/// One slice of a stage's cells: `index` of `count` (`--shard I/N`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Shard {
+    /// 0-based slice index.
+    pub index: usize,
+    /// Number of slices.
+    pub count: usize,
+}
+
+impl Shard {
+    /// The whole stage.
+    pub const ALL: Shard = Shard { index: 0, count: 1 };
+
+    /// Whether this shard computes cell number `cell` of a stage.
+    pub fn owns(self, cell: usize) -> bool {
+        cell % self.count == self.index
+    }
+
+    /// Whether this is the whole stage.
+    pub fn is_all(self) -> bool {
+        self.count == 1
+    }
+}
+
+/// A transport cell: one (configuration, τ*, seed) run of the main job.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct TransportSpec {
+    /// Kind tag (keeps kinds apart in the store).
+    pub kind: &'static str,
+    /// The configuration, with `flow.tau_star = [τ*]`, `run.seeds = [seed]`.
+    pub config: ConfigFile,
+}
+
+impl TransportSpec {
+    /// The cell of `config` at `tau_star` and `seed`.
+    pub fn new(config: &ConfigFile, tau_star: f64, seed: u64) -> Self {
+        let mut config = canonical(config);
+        config.flow.tau_star = vec![tau_star];
+        config.run.seeds = vec![seed];
+        TransportSpec {
+            kind: "transport",
+            config,
+        }
+    }
+}
+
+/// A packing cell: the bed of `config` settling for `duration`.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct PackSpec {
+    /// Kind tag.
+    pub kind: &'static str,
+    /// The configuration, with `run.seeds = [seed]`.
+    pub config: ConfigFile,
+    /// Duration (s).
+    pub duration: f64,
+}
+
+impl PackSpec {
+    /// The packing cell of `config` with `seed` for `duration` seconds.
+    pub fn new(config: &ConfigFile, seed: u64, duration: f64) -> Self {
+        let mut config = canonical(config);
+        config.run.seeds = vec![seed];
+        PackSpec {
+            kind: "pack",
+            config,
+            duration,
+        }
+    }
+}
+
+/// The settling curve of a packing cell.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PackCurve {
+    /// Sample times (s).
+    pub time: Vec<f64>,
+    /// y_gc at those times (m).
+    pub y_gc: Vec<f64>,
+    /// Largest mobile-grain speed at the end (m/s).
+    pub final_speed: f64,
+}
+
+/// A cell's outcome: a kernel failure (e.g. grains leaving a fluidised bed)
+/// is a result too, stored with its message.
+pub type Outcome<T> = Result<T, String>;
+
+/// Fields that do not change a cell's result are fixed, so equal cells get
+/// equal keys whatever the configuration file said about them.
+fn canonical(config: &ConfigFile) -> ConfigFile {
+    let mut c = config.clone();
+    c.run.output = "-".into();
+    c
+}
+
+/// Computes and stores cells.
+pub struct Cells<'a> {
+    /// The store.
+    pub store: &'a Store,
+    /// This machine's slice of each stage.
+    pub shard: Shard,
+    /// Progress (cells).
+    pub progress: &'a ProgressBar,
+}
+
+impl Cells<'_> {
+    /// Results of `specs`: stored ones, computed ones, and `None` for cells
+    /// another shard owns that are not in the store yet. `slot(k)` numbers
+    /// the k-th spec within its stage for sharding.
+    fn evaluate<S, T>(
+        &self,
+        specs: &[S],
+        slot: &(dyn Fn(usize) -> usize + Sync),
+        compute: impl Fn(&S) -> Result<Outcome<T>, HostError> + Sync,
+    ) -> Result<Vec<Option<Outcome<T>>>, HostError>
+    where
+        S: Serialize + Sync,
+        T: Serialize + DeserializeOwned + Send,
+    {
+        let results: Vec<Result<Option<Outcome<T>>, HostError>> = specs
+            .par_iter()
+            .enumerate()
+            .map(|(k, spec)| {
+                if let Some(done) = self.store.get::<S, Outcome<T>>(spec) {
+                    return Ok(Some(done));
+                }
+                if !self.shard.owns(slot(k)) {
+                    return Ok(None);
+                }
+                let outcome = compute(spec)?;
+                self.store.put(spec, &outcome)?;
+                self.progress.inc(1);
+                Ok(Some(outcome))
+            })
+            .collect();
+        results.into_iter().collect()
+    }
+
+    /// Transport cells.
+    pub fn transport(
+        &self,
+        specs: &[TransportSpec],
+        slot: &(dyn Fn(usize) -> usize + Sync),
+    ) -> Result<Vec<Option<Outcome<CellResult>>>, HostError> {
+        self.evaluate(specs, slot, |spec| {
+            let config = Config::validate(spec.config.clone())?;
+            let (tau, seed) = (config.tau_stars[0], config.seeds[0]);
+            match run_cell(&config, tau, seed, &ProgressBar::hidden()) {
+                Ok(r) => Ok(Ok(r)),
+                Err(HostError::Kernel { context, error }) => Ok(Err(format!("{context}: {error}"))),
+                Err(e) => Err(e),
+            }
+        })
+    }
+
+    /// Packing cells, sampled every 50 steps of Δt (1 ms at the paper's Δt).
+    pub fn packing(
+        &self,
+        specs: &[PackSpec],
+        slot: &(dyn Fn(usize) -> usize + Sync),
+    ) -> Result<Vec<Option<Outcome<PackCurve>>>, HostError> {
+        self.evaluate(specs, slot, |spec| {
+            let config = Config::validate(spec.config.clone())?;
+            let every = u64::from(config.scenario.substeps) * 50;
+            let run = packing(Packing {
+                config: &config,
+                seed: config.seeds[0],
+                duration: spec.duration,
+                every,
+                progress: &ProgressBar::hidden(),
+            });
+            match run {
+                Ok(samples) => Ok(Ok(PackCurve {
+                    time: samples.iter().map(|s| s.time).collect(),
+                    y_gc: samples.iter().map(|s| s.y_gc).collect(),
+                    final_speed: samples.last().map_or(0.0, |s| s.max_speed),
+                })),
+                Err(HostError::Kernel { context, error }) => Ok(Err(format!("{context}: {error}"))),
+                Err(e) => Err(e),
+            }
+        })
+    }
+}

@@ -1,0 +1,398 @@
+//! `mbs calibrate`: the paper's parameter optimisation (SPEC §9), automated.
+//!
+//! | stage | what | paper |
+//! |---|---|---|
+//! | 1 | α_m by the fastest settling of a packed bed (α_cn = 1, β = 1) | 20 |
+//! | 2 | α_cn the same way, α_m fixed | 1.3 |
+//! | 3 | β by golden-section search of the q*(τ*) misfit to a reference | 15.8 |
+//! | 4 | Δt for other grain sizes d and layer thicknesses nvd | 9.0e-6 s at d = 0.1 mm |
+//! | 5 | a mixed bed: fractional transport per size class | — |
+//!
+//! Every simulation is a cell ([`cells`]) stored as it finishes ([`store`]);
+//! a stage is recomputed from the store on every invocation, so an
+//! interrupted calibration resumes where it stopped and a sharded one is
+//! completed by merging the shards' stores.
+
+pub mod cells;
+pub mod optimise;
+pub mod report;
+pub mod stages;
+pub mod store;
+
+use crate::config::{ConfigFile, DEFAULT_TOML};
+use crate::error::HostError;
+use crate::references::Reference;
+use cells::{Cells, TransportSpec};
+use serde::{Deserialize, Serialize};
+
+/// Name of the cell store inside the output directory.
+pub const STORE: &str = "cells.jsonl";
+
+/// The grids, seeds and durations of a calibration.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Plan {
+    /// Quick mode.
+    pub quick: bool,
+    /// Stage 1: α_m values.
+    pub alpha_m: Vec<f64>,
+    /// Stage 2: α_cn values.
+    pub alpha_cn: Vec<f64>,
+    /// Stages 1–2: packing duration (s).
+    pub pack_duration: f64,
+    /// Stages 1–2: seeds.
+    pub pack_seeds: Vec<u64>,
+    /// Stages 1–2: settled when |y_gc − final y_gc| stays below this (diameters).
+    pub settle_tolerance_d: f64,
+    /// Stages 1–2: at rest when the largest speed at the end is below this (m/s).
+    pub rest_speed: f64,
+    /// Stage 3: β grid (searched first; the search refines around its best).
+    pub beta_grid: Vec<f64>,
+    /// Stage 3: stop when the β bracket is narrower than this ratio.
+    pub beta_tolerance: f64,
+    /// Stages 3, 5: Shields numbers of the fit.
+    pub tau_stars: Vec<f64>,
+    /// Stages 3, 5: seeds.
+    pub seeds: Vec<u64>,
+    /// Transport window (s) of stages 3 and 5.
+    pub window: f64,
+    /// Transport window (s) of stage 4.
+    pub dt_window: f64,
+    /// Stage 4: grain diameters (mm).
+    pub sizes_mm: Vec<f64>,
+    /// Stage 4: layer thicknesses nvd.
+    pub layers: Vec<u32>,
+    /// Stage 4: Δt grid as multiples of the configuration's Δt.
+    pub dt_grid: Vec<f64>,
+    /// Stage 4: stop when the Δt bracket is narrower than this ratio.
+    pub dt_tolerance: f64,
+    /// Stage 4: Shields numbers.
+    pub dt_tau_stars: Vec<f64>,
+    /// Stage 4: seeds.
+    pub dt_seeds: Vec<u64>,
+    /// Stage 5: size classes (mm, fraction).
+    pub mixed: Vec<(f64, f64)>,
+}
+
+impl Plan {
+    /// The full calibration.
+    pub fn full() -> Plan {
+        Plan {
+            quick: false,
+            alpha_m: vec![5.0, 10.0, 15.0, 20.0, 25.0, 30.0, 40.0, 50.0],
+            alpha_cn: vec![0.5, 0.7, 1.0, 1.3, 1.6, 2.0, 2.5, 3.0],
+            pack_duration: 0.5,
+            pack_seeds: vec![1, 2, 3, 4],
+            settle_tolerance_d: 0.01,
+            rest_speed: 5e-3,
+            beta_grid: vec![1.0, 1.6, 2.5, 4.0, 6.3, 10.0, 15.8, 25.0],
+            beta_tolerance: 1.03,
+            tau_stars: vec![0.06, 0.08, 0.1, 0.15, 0.2, 0.3, 0.4, 0.5],
+            seeds: vec![1, 2, 3, 4],
+            window: 2.0,
+            dt_window: 1.0,
+            sizes_mm: vec![0.1, 0.2, 0.5, 1.0, 2.0],
+            layers: vec![10, 20, 30, 40, 50],
+            dt_grid: vec![0.5, 1.0, 2.0],
+            dt_tolerance: 1.15,
+            dt_tau_stars: vec![0.1, 0.2, 0.4],
+            dt_seeds: vec![1, 2],
+            mixed: vec![(0.7, 0.5), (0.5, 0.5)],
+        }
+    }
+
+    /// A few minutes on 2 cores: coarser grids, one or two seeds, short windows.
+    pub fn quick() -> Plan {
+        Plan {
+            quick: true,
+            alpha_m: vec![10.0, 20.0, 40.0],
+            alpha_cn: vec![0.7, 1.3, 2.5],
+            pack_duration: 0.25,
+            pack_seeds: vec![1],
+            beta_grid: vec![1.5, 3.0, 6.0, 12.0],
+            beta_tolerance: 1.25,
+            tau_stars: vec![0.06, 0.1, 0.2, 0.4],
+            seeds: vec![1],
+            window: 0.5,
+            dt_window: 0.5,
+            sizes_mm: vec![0.1, 0.5],
+            layers: vec![10],
+            dt_grid: vec![0.5, 1.0],
+            dt_tolerance: 1.5,
+            dt_tau_stars: vec![0.1, 0.4],
+            dt_seeds: vec![1],
+            ..Plan::full()
+        }
+    }
+}
+
+/// Everything a stage needs.
+pub struct Context<'a> {
+    /// The base configuration (stage 1 starts from it).
+    pub base: ConfigFile,
+    /// Grids and durations.
+    pub plan: Plan,
+    /// The reference relation of stages 3–5.
+    pub reference: Reference,
+    /// Cell evaluation.
+    pub cells: Cells<'a>,
+    /// Output directory.
+    pub dir: std::path::PathBuf,
+}
+
+/// q*(τ*) of one configuration, averaged over seeds.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Curve {
+    /// Shields numbers.
+    pub tau_stars: Vec<f64>,
+    /// Mean q* over seeds (NaN where a cell failed).
+    pub q_star: Vec<f64>,
+    /// Standard error between seeds.
+    pub stderr: Vec<f64>,
+    /// Per size class: mean q* per τ*.
+    pub classes: Vec<Vec<f64>>,
+    /// Kernel failures (cell message), if any.
+    pub failures: Vec<String>,
+}
+
+/// Misfit of a failed or non-positive point: a large but finite penalty so
+/// the search moves away from it.
+pub const FAILED_MISFIT: f64 = 100.0;
+
+/// Smallest q* used in a logarithm.
+pub const Q_FLOOR: f64 = 1e-4;
+
+/// In the misfit a q* below this fraction of the reference counts as this
+/// fraction: one point with (nearly) no transport near the threshold adds
+/// ln²(10) ≈ 5.3 instead of dominating the sum with an arbitrary floor.
+pub const MISFIT_FLOOR: f64 = 0.1;
+
+impl Curve {
+    /// Mean squared log-ratio of q* to `reference` (the objective of stages
+    /// 3 and 4), q* floored at [`MISFIT_FLOOR`] × reference;
+    /// [`FAILED_MISFIT`] if any cell failed.
+    pub fn misfit(&self, reference: Reference) -> f64 {
+        if !self.failures.is_empty() {
+            return FAILED_MISFIT;
+        }
+        let n = self.tau_stars.len().max(1) as f64;
+        self.tau_stars
+            .iter()
+            .zip(&self.q_star)
+            .map(|(&t, &q)| {
+                let q_ref = reference.q_star(t).max(Q_FLOOR);
+                let r = (q.max(MISFIT_FLOOR * q_ref) / q_ref).ln();
+                r * r
+            })
+            .sum::<f64>()
+            / n
+    }
+
+    /// Largest factor between q* and `reference` (either way) over the curve.
+    pub fn worst_factor(&self, reference: Reference) -> f64 {
+        self.tau_stars
+            .iter()
+            .zip(&self.q_star)
+            .map(|(&t, &q)| {
+                let r = q.max(Q_FLOOR) / reference.q_star(t).max(Q_FLOOR);
+                r.max(1.0 / r)
+            })
+            .fold(1.0, f64::max)
+    }
+}
+
+impl Context<'_> {
+    /// The transport curve of `config` over `tau_stars` × `seeds`; `None`
+    /// while cells owned by other shards are missing. `slot(k)` numbers the
+    /// cells for sharding.
+    pub fn curve(
+        &self,
+        config: &ConfigFile,
+        tau_stars: &[f64],
+        seeds: &[u64],
+        window: f64,
+        slot: &(dyn Fn(usize) -> usize + Sync),
+    ) -> Result<Option<Curve>, HostError> {
+        let mut config = config.clone();
+        config.time.window = window;
+        let specs: Vec<TransportSpec> = tau_stars
+            .iter()
+            .flat_map(|&t| seeds.iter().map(move |&s| (t, s)))
+            .map(|(t, s)| TransportSpec::new(&config, t, s))
+            .collect();
+        let results = self.cells.transport(&specs, slot)?;
+        if results.iter().any(Option::is_none) {
+            return Ok(None);
+        }
+        let n_seeds = seeds.len();
+        let n_classes = config.grains.classes.as_ref().map_or(1, Vec::len);
+        let mut curve = Curve {
+            tau_stars: tau_stars.to_vec(),
+            q_star: Vec::new(),
+            stderr: Vec::new(),
+            classes: vec![Vec::new(); n_classes],
+            failures: Vec::new(),
+        };
+        for chunk in results.chunks(n_seeds) {
+            let mut q = Vec::new();
+            let mut per_class = vec![Vec::new(); n_classes];
+            for r in chunk.iter().flatten() {
+                match r {
+                    Ok(c) => {
+                        q.push(c.q_star);
+                        for (k, v) in c.q_star_class.iter().enumerate().take(n_classes) {
+                            per_class[k].push(*v);
+                        }
+                    }
+                    Err(message) => curve.failures.push(message.clone()),
+                }
+            }
+            let (mean, err) = if q.len() == n_seeds {
+                crate::experiment::mean_stderr(&q)
+            } else {
+                (f64::NAN, f64::NAN)
+            };
+            curve.q_star.push(mean);
+            curve.stderr.push(err);
+            for (k, values) in per_class.iter().enumerate() {
+                curve.classes[k].push(crate::experiment::mean_stderr(values).0);
+            }
+        }
+        Ok(Some(curve))
+    }
+}
+
+/// The default base configuration (the embedded paper's case).
+pub fn default_base() -> ConfigFile {
+    // The embedded file parses (test `embedded_file_is_the_default`).
+    toml::from_str(DEFAULT_TOML).unwrap_or_default()
+}
+
+/// Options of `mbs calibrate`.
+#[derive(Debug, Clone, Copy)]
+pub struct Options {
+    /// The quick plan.
+    pub quick: bool,
+    /// Run stages up to this one only (1–5).
+    pub last_stage: usize,
+    /// This machine's slice.
+    pub shard: cells::Shard,
+    /// Reference relation of stages 3–5.
+    pub reference: Reference,
+    /// No progress, no report on standard output.
+    pub quiet: bool,
+}
+
+/// How far a calibration got.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Progress {
+    /// Every requested stage finished (the report is written after stage 5).
+    Done {
+        /// Stages finished.
+        stages: usize,
+    },
+    /// Stage `stage` waits for cells of other shards: merge and rerun.
+    Waiting {
+        /// The first unfinished stage.
+        stage: usize,
+    },
+}
+
+/// Runs the calibration into `dir` (resuming from its cell store).
+pub fn calibrate(
+    base: ConfigFile,
+    dir: &std::path::Path,
+    options: Options,
+) -> Result<Progress, HostError> {
+    use stages::{beta, mixed, settling, timestep};
+    crate::output::create_dir(dir)?;
+    let store = store::Store::open(&dir.join(STORE))?;
+    let plan = if options.quick {
+        Plan::quick()
+    } else {
+        Plan::full()
+    };
+    crate::output::write_json(&dir.join("plan.json"), &plan)?;
+    let bar = if options.quiet {
+        indicatif::ProgressBar::hidden()
+    } else {
+        indicatif::ProgressBar::new_spinner()
+    };
+    if let Ok(style) = indicatif::ProgressStyle::with_template(
+        "{spinner} calibrate [{elapsed_precise}] {pos} cells computed, {msg}",
+    ) {
+        bar.set_style(style);
+    }
+    bar.enable_steady_tick(std::time::Duration::from_millis(250));
+    let substeps = base.time.substeps;
+    let ctx = Context {
+        base,
+        plan,
+        reference: options.reference,
+        cells: Cells {
+            store: &store,
+            shard: options.shard,
+            progress: &bar,
+        },
+        dir: dir.to_path_buf(),
+    };
+    let waiting = |stage| Ok(Progress::Waiting { stage });
+    bar.set_message("stage 1 (α_m)");
+    let Some(s1) = settling::run(&ctx, 1, ctx.base.contact.alpha_m)? else {
+        return waiting(1);
+    };
+    if options.last_stage < 2 {
+        return Ok(Progress::Done { stages: 1 });
+    }
+    bar.set_message("stage 2 (α_cn)");
+    let Some(s2) = settling::run(&ctx, 2, s1.chosen)? else {
+        return waiting(2);
+    };
+    if options.last_stage < 3 {
+        return Ok(Progress::Done { stages: 2 });
+    }
+    bar.set_message("stage 3 (β)");
+    let Some(s3) = beta::run(&ctx, s1.chosen, s2.chosen)? else {
+        return waiting(3);
+    };
+    if options.last_stage < 4 {
+        return Ok(Progress::Done { stages: 3 });
+    }
+    bar.set_message("stage 4 (Δt for d and nvd)");
+    let Some(s4) = timestep::run(&ctx, s1.chosen, s2.chosen, s3.beta)? else {
+        return waiting(4);
+    };
+    if options.last_stage < 5 {
+        return Ok(Progress::Done { stages: 4 });
+    }
+    bar.set_message("stage 5 (mixed sizes)");
+    let Some(s5) = mixed::run(&ctx, s1.chosen, s2.chosen, s3.beta)? else {
+        return waiting(5);
+    };
+    bar.finish_and_clear();
+    report::write_report(
+        dir,
+        &ctx.plan,
+        options.reference,
+        substeps,
+        &report::Stages {
+            alpha_m: &s1,
+            alpha_cn: &s2,
+            beta: &s3,
+            timestep: &s4,
+            mixed: &s5,
+        },
+    )?;
+    Ok(Progress::Done { stages: 5 })
+}
+
+/// `mbs calibrate merge`: adds the cells of shard directories to `dir`'s
+/// store; returns how many were new.
+pub fn merge(shards: &[std::path::PathBuf], dir: &std::path::Path) -> Result<usize, HostError> {
+    crate::output::create_dir(dir)?;
+    let store = store::Store::open(&dir.join(STORE))?;
+    let mut added = 0;
+    for shard in shards {
+        added += store.merge_from(&shard.join(STORE))?;
+    }
+    Ok(added)
+}

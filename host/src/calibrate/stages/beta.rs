@@ -1,0 +1,186 @@
+//! Stage 3 (SPEC §9 step 3): scale α_m and α_cn by β (18) until q*(τ*)
+//! matches the reference relation: a grid of β first (its cells can be
+//! sharded), then a golden-section search on ln β around the best grid point.
+
+use super::{save_stage, slot_of};
+use crate::calibrate::optimise::{golden_section, Minimum};
+use crate::calibrate::{Context, Curve};
+use crate::config::ConfigFile;
+use crate::error::HostError;
+use crate::output::write_csv;
+use crate::plot::{save, LinesFigure, TransportFigure};
+use serde::{Deserialize, Serialize};
+
+/// The outcome of stage 3.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct BetaStage {
+    /// α_m of stage 1.
+    pub alpha_m: f64,
+    /// α_cn of stage 2.
+    pub alpha_cn: f64,
+    /// (β, misfit) over the grid.
+    pub grid: Vec<(f64, f64)>,
+    /// The search on ln β.
+    pub search: Minimum,
+    /// The fitted β.
+    pub beta: f64,
+    /// q*(τ*) at β = 1 (before).
+    pub before: Curve,
+    /// q*(τ*) at the fitted β (after).
+    pub after: Curve,
+    /// Largest factor between q* and the reference after the fit.
+    pub worst_factor: f64,
+    /// Misfit (mean squared log-ratio) after the fit.
+    pub misfit: f64,
+}
+
+/// The configuration of stages 3–5: α_m, α_cn from stages 1–2 and `beta`.
+pub fn configure(base: &ConfigFile, alpha_m: f64, alpha_cn: f64, beta: f64) -> ConfigFile {
+    let mut c = base.clone();
+    c.contact.alpha_m = alpha_m;
+    c.contact.alpha_cn = alpha_cn;
+    c.contact.beta = beta;
+    c
+}
+
+/// Runs stage 3.
+pub fn run(ctx: &Context<'_>, alpha_m: f64, alpha_cn: f64) -> Result<Option<BetaStage>, HostError> {
+    let plan = &ctx.plan;
+    let cells = plan.tau_stars.len() * plan.seeds.len();
+    let window = plan.window;
+    let curve_at = |beta: f64, evaluation: usize| {
+        let c = configure(&ctx.base, alpha_m, alpha_cn, beta);
+        ctx.curve(
+            &c,
+            &plan.tau_stars,
+            &plan.seeds,
+            window,
+            &slot_of(evaluation, cells),
+        )
+    };
+    // The grid: every point's cells can go to another shard.
+    let mut grid = Vec::new();
+    let mut complete = true;
+    for (e, &beta) in plan.beta_grid.iter().enumerate() {
+        match curve_at(beta, e)? {
+            Some(curve) => grid.push((beta, curve.misfit(ctx.reference))),
+            None => complete = false,
+        }
+    }
+    if !complete {
+        return Ok(None);
+    }
+    let best = grid
+        .iter()
+        .enumerate()
+        .min_by(|a, b| a.1 .1.total_cmp(&b.1 .1))
+        .map_or(0, |(i, _)| i);
+    let lo = if best == 0 {
+        grid[0].0 / 2.0
+    } else {
+        grid[best - 1].0
+    };
+    let hi = if best + 1 == grid.len() {
+        grid[best].0 * 2.0
+    } else {
+        grid[best + 1].0
+    };
+    let mut evaluation = plan.beta_grid.len();
+    let search = golden_section(lo.ln(), hi.ln(), plan.beta_tolerance.ln(), |x| {
+        let curve = curve_at(x.exp(), evaluation)?;
+        evaluation += 1;
+        Ok(curve.map(|c| c.misfit(ctx.reference)))
+    })?;
+    let Some(search) = search else {
+        return Ok(None);
+    };
+    // The grid point may beat the refined one (a rough objective).
+    let (beta, _) = std::iter::once((search.x.exp(), search.value))
+        .chain(grid.iter().copied())
+        .min_by(|a, b| a.1.total_cmp(&b.1))
+        .unwrap_or((1.0, f64::NAN));
+    let extra = evaluation;
+    let (Some(before), Some(after)) = (curve_at(1.0, extra)?, curve_at(beta, extra + 1)?) else {
+        return Ok(None);
+    };
+    let result = BetaStage {
+        alpha_m,
+        alpha_cn,
+        grid,
+        worst_factor: after.worst_factor(ctx.reference),
+        misfit: after.misfit(ctx.reference),
+        search,
+        beta,
+        before,
+        after,
+    };
+    write_outputs(ctx, &result)?;
+    Ok(Some(result))
+}
+
+/// Error-bar points of a curve.
+pub fn points(curve: &Curve) -> Vec<(f64, f64, f64)> {
+    curve
+        .tau_stars
+        .iter()
+        .zip(curve.q_star.iter().zip(&curve.stderr))
+        .map(|(&t, (&q, &e))| (t, q, e))
+        .collect()
+}
+
+fn write_outputs(ctx: &Context<'_>, r: &BetaStage) -> Result<(), HostError> {
+    let mut evaluations: Vec<(f64, f64)> = r.grid.clone();
+    evaluations.extend(r.search.evaluations.iter().map(|&(x, v)| (x.exp(), v)));
+    let header = ["beta", "misfit"].map(String::from);
+    let body: Vec<Vec<String>> = evaluations
+        .iter()
+        .map(|(b, v)| vec![b.to_string(), v.to_string()])
+        .collect();
+    write_csv(&ctx.dir.join("stage3.csv"), &header, &body)?;
+    let header = [
+        "tau_star",
+        "q_star_before",
+        "stderr_before",
+        "q_star_after",
+        "stderr_after",
+        "reference",
+    ]
+    .map(String::from);
+    let body: Vec<Vec<String>> = (0..r.after.tau_stars.len())
+        .map(|k| {
+            let t = r.after.tau_stars[k];
+            vec![
+                t.to_string(),
+                r.before.q_star[k].to_string(),
+                r.before.stderr[k].to_string(),
+                r.after.q_star[k].to_string(),
+                r.after.stderr[k].to_string(),
+                ctx.reference.q_star(t).to_string(),
+            ]
+        })
+        .collect();
+    write_csv(&ctx.dir.join("stage3_transport.csv"), &header, &body)?;
+    let figure = TransportFigure {
+        series: vec![
+            (format!("β = {:.3} (fitted)", r.beta), points(&r.after)),
+            ("β = 1 (before)".to_string(), points(&r.before)),
+        ],
+        references: vec![ctx.reference],
+        title: format!(
+            "Stage 3: q* before and after β (α_m = {}, α_cn = {})",
+            r.alpha_m, r.alpha_cn
+        ),
+    };
+    save(&figure, &ctx.dir, "stage3")?;
+    let mut sorted = evaluations;
+    sorted.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let misfit = LinesFigure {
+        series: vec![(String::new(), sorted)],
+        title: format!("Stage 3: misfit to {} against β", ctx.reference.label()),
+        x_label: "β".into(),
+        y_label: "mean squared ln(q*/q*_ref)".into(),
+        log_axes: true,
+    };
+    save(&misfit, &ctx.dir, "stage3_misfit")?;
+    save_stage(&ctx.dir, "stage3", r)
+}

@@ -1,0 +1,161 @@
+//! Stage 5 (SPEC §9 step 6): a mixed bed with the constants of stage 3 set
+//! for the largest grain; fractional transport per size class against the
+//! reference relation evaluated per class. The integration step is refined
+//! by (d_max/d_min)³ so that the finest grains stay inside the explicit
+//! damping limit (README, "The explicit damping limit").
+
+use super::{beta::configure, save_stage, slot_of};
+use crate::calibrate::{Context, Curve, Q_FLOOR};
+use crate::config::ClassEntry;
+use crate::error::HostError;
+use crate::output::write_csv;
+use crate::plot::{save, TransportFigure};
+use serde::{Deserialize, Serialize};
+
+/// One size class at one τ*.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ClassPoint {
+    /// Shields number of the bed (largest grain).
+    pub tau_star: f64,
+    /// Class diameter (mm).
+    pub diameter_mm: f64,
+    /// Its fraction of the bed.
+    pub fraction: f64,
+    /// Shields number of the class: τ* d_max/d.
+    pub tau_star_class: f64,
+    /// Fractional transport q*_k / f_k.
+    pub q_star_fraction: f64,
+    /// Reference at the class's Shields number.
+    pub reference: f64,
+}
+
+/// The outcome of stage 5.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct MixedStage {
+    /// Substeps used.
+    pub substeps: u32,
+    /// The bed's curve (all classes, d = d_max).
+    pub curve: Curve,
+    /// Per class and τ*.
+    pub points: Vec<ClassPoint>,
+    /// Worst factor between fractional transport and reference per class.
+    pub worst_factor: f64,
+}
+
+/// Runs stage 5.
+pub fn run(
+    ctx: &Context<'_>,
+    alpha_m: f64,
+    alpha_cn: f64,
+    beta: f64,
+) -> Result<Option<MixedStage>, HostError> {
+    let plan = &ctx.plan;
+    let mut c = configure(&ctx.base, alpha_m, alpha_cn, beta);
+    c.grains.diameter_mm = None;
+    c.grains.classes = Some(
+        plan.mixed
+            .iter()
+            .map(|&(d, f)| ClassEntry {
+                diameter_mm: d,
+                fraction: f,
+            })
+            .collect(),
+    );
+    let d_max = plan.mixed.iter().map(|c| c.0).fold(0.0, f64::max);
+    let d_min = plan.mixed.iter().map(|c| c.0).fold(f64::INFINITY, f64::min);
+    let ratio = (d_max / d_min).powi(3);
+    c.time.substeps = (f64::from(c.time.substeps) * ratio).ceil() as u32;
+    let Some(curve) = ctx.curve(
+        &c,
+        &plan.tau_stars,
+        &plan.seeds,
+        plan.window,
+        &slot_of(0, 0),
+    )?
+    else {
+        return Ok(None);
+    };
+    let mut points = Vec::new();
+    for (k, &(d, f)) in plan.mixed.iter().enumerate() {
+        for (i, &t) in curve.tau_stars.iter().enumerate() {
+            let tau_k = t * d_max / d;
+            points.push(ClassPoint {
+                tau_star: t,
+                diameter_mm: d,
+                fraction: f,
+                tau_star_class: tau_k,
+                q_star_fraction: curve
+                    .classes
+                    .get(k)
+                    .and_then(|q| q.get(i))
+                    .copied()
+                    .unwrap_or(f64::NAN)
+                    / f,
+                reference: ctx.reference.q_star(tau_k),
+            });
+        }
+    }
+    let worst_factor = points
+        .iter()
+        .map(|p| {
+            let r = p.q_star_fraction.max(Q_FLOOR) / p.reference.max(Q_FLOOR);
+            r.max(1.0 / r)
+        })
+        .fold(1.0, f64::max);
+    let result = MixedStage {
+        substeps: c.time.substeps,
+        curve,
+        points,
+        worst_factor,
+    };
+    write_outputs(ctx, &result)?;
+    Ok(Some(result))
+}
+
+fn write_outputs(ctx: &Context<'_>, r: &MixedStage) -> Result<(), HostError> {
+    let header = [
+        "tau_star",
+        "diameter_mm",
+        "fraction",
+        "tau_star_class",
+        "q_star_fraction",
+        "reference",
+    ]
+    .map(String::from);
+    let body: Vec<Vec<String>> = r
+        .points
+        .iter()
+        .map(|p| {
+            vec![
+                p.tau_star.to_string(),
+                p.diameter_mm.to_string(),
+                p.fraction.to_string(),
+                p.tau_star_class.to_string(),
+                p.q_star_fraction.to_string(),
+                p.reference.to_string(),
+            ]
+        })
+        .collect();
+    write_csv(&ctx.dir.join("stage5.csv"), &header, &body)?;
+    let mut diameters: Vec<f64> = r.points.iter().map(|p| p.diameter_mm).collect();
+    diameters.dedup();
+    let series = diameters
+        .iter()
+        .map(|&d| {
+            let pts = r
+                .points
+                .iter()
+                .filter(|p| p.diameter_mm == d)
+                .map(|p| (p.tau_star_class, p.q_star_fraction, 0.0))
+                .collect();
+            (format!("d = {d} mm: q*_k / f_k at τ*_k"), pts)
+        })
+        .collect();
+    let figure = TransportFigure {
+        series,
+        references: vec![ctx.reference],
+        title: "Stage 5: fractional transport per size class (mixed bed)".into(),
+    };
+    save(&figure, &ctx.dir, "stage5")?;
+    save_stage(&ctx.dir, "stage5", r)
+}

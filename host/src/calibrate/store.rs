@@ -1,0 +1,221 @@
+//! The cell store: an append-only file of finished cells, one JSON line
+//! each, written and synced as each cell completes. A calibration that is
+//! interrupted (even by SIGKILL) loses at most the cell being written: a torn
+//! last line fails its checksum and is ignored on loading, and the cell is
+//! simply computed again.
+
+use crate::error::HostError;
+use mbs_kernel::Fnv1a;
+use serde::{de::DeserializeOwned, Deserialize, Serialize};
+use std::collections::BTreeMap;
+use std::fs::{File, OpenOptions};
+use std::io::{BufRead, BufReader, Write};
+use std::path::{Path, PathBuf};
+use std::sync::Mutex;
+
+/// One stored line.
+#[derive(Serialize, Deserialize)]
+struct Line {
+    /// The cell's specification, canonical JSON.
+    key: String,
+    /// Its result, JSON.
+    value: serde_json::Value,
+    /// FNV-1a of `key` and the result's JSON text.
+    check: u64,
+}
+
+fn checksum(key: &str, value: &str) -> u64 {
+    let mut h = Fnv1a::default();
+    h.bytes(key.as_bytes());
+    h.bytes(&[0]);
+    h.bytes(value.as_bytes());
+    h.finish()
+}
+
+/// Finished cells keyed by their specification.
+pub struct Store {
+    path: PathBuf,
+    cells: Mutex<(BTreeMap<String, serde_json::Value>, Option<File>)>,
+}
+
+impl Store {
+    /// Opens (or creates) the store file at `path`, loading every intact line.
+    pub fn open(path: &Path) -> Result<Store, HostError> {
+        let map = load(path)?;
+        Ok(Store {
+            path: path.to_path_buf(),
+            cells: Mutex::new((map, None)),
+        })
+    }
+
+    /// Number of stored cells.
+    pub fn len(&self) -> usize {
+        self.cells.lock().map(|c| c.0.len()).unwrap_or(0)
+    }
+
+    /// Whether the store is empty.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// The stored result of `spec`, if any.
+    pub fn get<S: Serialize, T: DeserializeOwned>(&self, spec: &S) -> Option<T> {
+        let key = serde_json::to_string(spec).ok()?;
+        let cells = self.cells.lock().ok()?;
+        cells
+            .0
+            .get(&key)
+            .and_then(|v| serde_json::from_value(v.clone()).ok())
+    }
+
+    /// Stores the result of `spec`: appended and synced before returning.
+    pub fn put<S: Serialize, T: Serialize>(&self, spec: &S, result: &T) -> Result<(), HostError> {
+        let io = |e: serde_json::Error| HostError::Io {
+            path: self.path.clone(),
+            error: e.into(),
+        };
+        let key = serde_json::to_string(spec).map_err(io)?;
+        let value = serde_json::to_value(result).map_err(io)?;
+        self.put_raw(key, value)
+    }
+
+    /// Stores `value` under the canonical `key` as written by [`Store::put`].
+    fn put_raw(&self, key: String, value: serde_json::Value) -> Result<(), HostError> {
+        let io = |e: std::io::Error| HostError::Io {
+            path: self.path.clone(),
+            error: e,
+        };
+        let text = value.to_string();
+        let line = Line {
+            check: checksum(&key, &text),
+            key: key.clone(),
+            value: value.clone(),
+        };
+        let mut bytes = serde_json::to_vec(&line).map_err(|e| io(e.into()))?;
+        bytes.push(b'\n');
+        let mut cells = self
+            .cells
+            .lock()
+            .map_err(|_| io(std::io::Error::other("store lock poisoned")))?;
+        if cells.1.is_none() {
+            let mut file = OpenOptions::new()
+                .create(true)
+                .append(true)
+                .open(&self.path)
+                .map_err(io)?;
+            // After a crash mid-line, start on a fresh line so the torn
+            // fragment does not swallow the next cell.
+            if !ends_with_newline(&self.path).map_err(io)? {
+                file.write_all(b"\n").map_err(io)?;
+            }
+            cells.1 = Some(file);
+        }
+        if let Some(file) = cells.1.as_mut() {
+            file.write_all(&bytes).map_err(io)?;
+            file.sync_data().map_err(io)?;
+        }
+        cells.0.insert(key, value);
+        Ok(())
+    }
+
+    /// Every stored (key, value), in key order.
+    pub fn entries(&self) -> Vec<(String, serde_json::Value)> {
+        self.cells
+            .lock()
+            .map(|c| c.0.iter().map(|(k, v)| (k.clone(), v.clone())).collect())
+            .unwrap_or_default()
+    }
+
+    /// Adds the cells of other stores (merging shard outputs); returns how
+    /// many were new.
+    pub fn merge_from(&self, other: &Path) -> Result<usize, HostError> {
+        let mut added = 0;
+        for (key, value) in load(other)? {
+            let known = self
+                .cells
+                .lock()
+                .map(|c| c.0.contains_key(&key))
+                .unwrap_or(false);
+            if !known {
+                self.put_raw(key, value)?;
+                added += 1;
+            }
+        }
+        Ok(added)
+    }
+}
+
+/// Whether the file is empty or ends with a newline.
+fn ends_with_newline(path: &Path) -> std::io::Result<bool> {
+    use std::io::{Read, Seek, SeekFrom};
+    let mut f = File::open(path)?;
+    let len = f.metadata()?.len();
+    if len == 0 {
+        return Ok(true);
+    }
+    f.seek(SeekFrom::End(-1))?;
+    let mut last = [0u8];
+    f.read_exact(&mut last)?;
+    Ok(last[0] == b'\n')
+}
+
+/// Loads every intact line of a store file (a missing file is empty).
+fn load(path: &Path) -> Result<BTreeMap<String, serde_json::Value>, HostError> {
+    let mut map = BTreeMap::new();
+    let file = match File::open(path) {
+        Ok(f) => f,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(map),
+        Err(e) => return Err(HostError::io(path)(e)),
+    };
+    for line in BufReader::new(file).split(b'\n') {
+        let line = line.map_err(HostError::io(path))?;
+        let Ok(parsed) = serde_json::from_slice::<Line>(&line) else {
+            continue;
+        };
+        if checksum(&parsed.key, &parsed.value.to_string()) == parsed.check {
+            map.insert(parsed.key, parsed.value);
+        }
+    }
+    Ok(map)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn cells_survive_reopening_and_a_torn_last_line_is_ignored() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("cells.jsonl");
+        let store = Store::open(&path).unwrap();
+        // Floats must come back bit for bit (serde_json's float_roundtrip).
+        let awkward = [
+            0.0006000000000000001,
+            3.3065954920759474e-8,
+            0.0027262901272944477,
+        ];
+        store.put(&("a", 1.5), &[1.0, 2.0]).unwrap();
+        store.put(&("e", 0.1), &awkward).unwrap();
+        store.put(&("b", 2.5), &0.25).unwrap();
+        drop(store);
+        // A crash in the middle of a line, and a line edited by hand.
+        let mut text = std::fs::read_to_string(&path).unwrap();
+        text = text.replace("0.25", "0.35");
+        text.push_str("{\"key\":\"[\\\"c\\\",3.5]\",\"val");
+        std::fs::write(&path, text).unwrap();
+        let store = Store::open(&path).unwrap();
+        assert_eq!(store.get::<_, Vec<f64>>(&("a", 1.5)), Some(vec![1.0, 2.0]));
+        assert_eq!(
+            store.get::<_, Vec<f64>>(&("e", 0.1)),
+            Some(awkward.to_vec())
+        );
+        assert_eq!(store.get::<_, f64>(&("b", 2.5)), None, "checksum fails");
+        assert_eq!(store.len(), 2);
+        store.put(&("b", 2.5), &0.25).unwrap();
+        let other = dir.path().join("other.jsonl");
+        let second = Store::open(&other).unwrap();
+        second.put(&("d", 4.5), &7u32).unwrap();
+        assert_eq!(store.merge_from(&other).unwrap(), 1);
+        assert_eq!(Store::open(&path).unwrap().len(), 4);
+    }
+}

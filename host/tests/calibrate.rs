@@ -1,0 +1,181 @@
+//! `mbs calibrate` end to end in its quick mode: every stage and the report,
+//! resuming after an interruption, shards merged to the serial result, and
+//! results independent of the thread count.
+
+use assert_cmd::Command;
+use std::path::Path;
+
+fn mbs() -> Command {
+    let mut c = Command::cargo_bin("mbs").unwrap();
+    c.arg("--quiet");
+    c
+}
+
+fn calibrate(dir: &Path, extra: &[&str]) {
+    mbs()
+        .args(["calibrate", "--quick", "--out"])
+        .arg(dir)
+        .args(extra)
+        .assert()
+        .success();
+}
+
+fn read(dir: &Path, name: &str) -> String {
+    std::fs::read_to_string(dir.join(name)).unwrap_or_else(|e| panic!("{name}: {e}"))
+}
+
+fn json(dir: &Path, name: &str) -> serde_json::Value {
+    serde_json::from_str(&read(dir, name)).unwrap()
+}
+
+#[test]
+fn quick_calibration_writes_every_stage_and_the_report() {
+    let dir = tempfile::tempdir().unwrap();
+    calibrate(dir.path(), &[]);
+    for f in [
+        "report.md",
+        "plan.json",
+        "stage1.png",
+        "stage2.svg",
+        "stage3.png",
+        "stage3.csv",
+        "stage4.csv",
+        "stage4_dt.png",
+        "stage4_sizes.png",
+        "stage4_layers.png",
+        "stage5.png",
+    ] {
+        assert!(dir.path().join(f).metadata().unwrap().len() > 0, "{f}");
+    }
+    let report = read(dir.path(), "report.md");
+    let s1 = json(dir.path(), "stage1.json");
+    let s3 = json(dir.path(), "stage3.json");
+    let s4 = json(dir.path(), "stage4.json");
+    // The summary table states our values next to the paper's, from the stage results.
+    let alpha_m = s1["chosen"].as_f64().unwrap();
+    assert!(
+        report.contains(&format!("| α_m | {alpha_m} | 20 |")),
+        "{report}"
+    );
+    let beta = s3["beta"].as_f64().unwrap();
+    assert!(report.contains(&format!("| β | {beta:.3} | 15.8 |")));
+    assert!(beta > 1.0 && beta < 30.0);
+    let dt01 = s4["rows"][0]["dt"].as_f64().unwrap();
+    assert_eq!(s4["rows"][0]["diameter_mm"], 0.1);
+    assert!(report.contains(&format!("| {dt01:.2e} s | 9.0e-6 s |")));
+    let worst = s3["worst_factor"].as_f64().unwrap();
+    assert!(report.contains(&format!("**{worst:.2}** (target 1.5)")));
+    // Stage 3 fitted: better than the unsoftened contacts.
+    let before: Vec<f64> = s3["before"]["q_star"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_f64().unwrap_or(f64::NAN))
+        .collect();
+    let after: Vec<f64> = s3["after"]["q_star"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_f64().unwrap())
+        .collect();
+    assert_eq!(before.len(), after.len());
+    assert!(s3["misfit"].as_f64().unwrap() < s3["grid"][0][1].as_f64().unwrap());
+}
+
+#[test]
+fn an_interrupted_calibration_resumes_and_loses_no_finished_cell() {
+    let dir = tempfile::tempdir().unwrap();
+    calibrate(dir.path(), &["--stage", "2"]);
+    let cells = read(dir.path(), "cells.jsonl");
+    let stage2 = read(dir.path(), "stage2.json");
+    // Nothing to do the second time.
+    calibrate(dir.path(), &["--stage", "2"]);
+    assert_eq!(read(dir.path(), "cells.jsonl"), cells);
+    // A crash while the last cell was being written: that cell is computed again.
+    let torn = &cells[..cells.len() - 40];
+    std::fs::write(dir.path().join("cells.jsonl"), torn).unwrap();
+    std::fs::remove_file(dir.path().join("stage2.json")).unwrap();
+    calibrate(dir.path(), &["--stage", "2"]);
+    assert_eq!(read(dir.path(), "stage2.json"), stage2);
+    let lines = read(dir.path(), "cells.jsonl").lines().count();
+    assert_eq!(
+        lines,
+        cells.lines().count() + 1,
+        "one torn line + one recomputed cell"
+    );
+}
+
+#[test]
+fn shards_merge_to_the_serial_result_and_threads_change_nothing() {
+    let root = tempfile::tempdir().unwrap();
+    let serial = root.path().join("serial");
+    mbs()
+        .args([
+            "--threads",
+            "1",
+            "calibrate",
+            "--quick",
+            "--stage",
+            "2",
+            "--out",
+        ])
+        .arg(&serial)
+        .assert()
+        .success();
+    let parallel = root.path().join("parallel");
+    mbs()
+        .args([
+            "--threads",
+            "2",
+            "calibrate",
+            "--quick",
+            "--stage",
+            "2",
+            "--out",
+        ])
+        .arg(&parallel)
+        .assert()
+        .success();
+    for f in ["stage1.json", "stage2.json", "stage1.csv"] {
+        assert_eq!(read(&serial, f), read(&parallel, f), "{f}");
+    }
+    let shards: Vec<_> = (1..=3)
+        .map(|i| root.path().join(format!("shard{i}")))
+        .collect();
+    for (i, dir) in shards.iter().enumerate() {
+        mbs()
+            .args([
+                "calibrate",
+                "--quick",
+                "--stage",
+                "1",
+                "--shard",
+                &format!("{}/3", i + 1),
+                "--out",
+            ])
+            .arg(dir)
+            .assert()
+            .success();
+        assert!(
+            !dir.join("stage1.json").exists(),
+            "a shard alone cannot finish stage 1"
+        );
+    }
+    let merged = root.path().join("merged");
+    mbs()
+        .args(["calibrate", "merge"])
+        .args(&shards)
+        .arg("--out")
+        .arg(&merged)
+        .assert()
+        .success();
+    let before = read(&merged, "cells.jsonl").lines().count();
+    calibrate(&merged, &["--stage", "1"]);
+    assert_eq!(
+        read(&merged, "cells.jsonl").lines().count(),
+        before,
+        "no cell recomputed"
+    );
+    assert_eq!(read(&merged, "stage1.json"), read(&serial, "stage1.json"));
+    mbs().args(["calibrate", "--shard", "4/3"]).assert().code(2);
+}
