@@ -6,7 +6,7 @@
 #![no_main]
 
 use cortex_m_rt::{entry, exception, ExceptionFrame};
-use cortex_m_semihosting::{debug, hprintln};
+use cortex_m_semihosting::debug;
 use mbs_kernel::{Scenario, Sim};
 use panic_semihosting as _;
 
@@ -22,22 +22,8 @@ type Real = f64;
 fn main() -> ! {
     let sim: &'static mut Sim<Real, 64, 8> =
         cortex_m::singleton!(: Sim<Real, 64, 8> = Sim::new()).expect("first and only call");
-    match Scenario::paper().digests(sim, STEPS, STEPS) {
-        Ok((settled, flow)) => {
-            hprintln!("precision {}", core::any::type_name::<Real>());
-            hprintln!("steps {}", sim.step_count());
-            hprintln!("settled {:#018x}", settled);
-            hprintln!("flow {:#018x}", flow);
-            debug::exit(debug::EXIT_SUCCESS);
-        }
-        Err(e) => {
-            hprintln!("error: {}", e);
-            debug::exit(debug::EXIT_FAILURE);
-        }
-    }
-    loop {
-        cortex_m::asm::wfi();
-    }
+    let peripherals = cortex_m::Peripherals::take().expect("first and only call");
+    firmware::run(sim, &Scenario::paper(), STEPS, peripherals.SYST)
 }
 
 #[exception]
