@@ -57,10 +57,12 @@ pub struct Plan {
     pub window: f64,
     /// Transport window (s) of stage 4.
     pub dt_window: f64,
-    /// Stage 4: grain diameters (mm).
+    /// Stage 4: grain diameters (mm), searched at the first of `layers`.
     pub sizes_mm: Vec<f64>,
-    /// Stage 4: layer thicknesses nvd.
+    /// Stage 4: layer thicknesses nvd, searched at the study diameter.
     pub layers: Vec<u32>,
+    /// Stage 4: the diameter of the layer study (mm).
+    pub study_mm: f64,
     /// Stage 4: Δt grid as multiples of the configuration's Δt.
     pub dt_grid: Vec<f64>,
     /// Stage 4: stop when the Δt bracket is narrower than this ratio.
@@ -85,13 +87,14 @@ impl Plan {
             settle_tolerance_d: 0.01,
             rest_speed: 5e-3,
             beta_grid: vec![1.0, 1.6, 2.5, 4.0, 6.3, 10.0, 15.8, 25.0],
-            beta_tolerance: 1.03,
+            beta_tolerance: 1.05,
             tau_stars: vec![0.06, 0.08, 0.1, 0.15, 0.2, 0.3, 0.4, 0.5],
             seeds: vec![1, 2, 3, 4],
             window: 2.0,
             dt_window: 1.0,
             sizes_mm: vec![0.1, 0.2, 0.5, 1.0, 2.0],
             layers: vec![10, 20, 30, 40, 50],
+            study_mm: 0.5,
             dt_grid: vec![0.5, 1.0, 2.0],
             dt_tolerance: 1.15,
             dt_tau_stars: vec![0.1, 0.2, 0.4],
@@ -115,11 +118,12 @@ impl Plan {
             window: 0.5,
             dt_window: 0.5,
             sizes_mm: vec![0.1, 0.5],
-            layers: vec![10],
+            layers: vec![10, 20],
             dt_grid: vec![0.5, 1.0],
             dt_tolerance: 1.5,
             dt_tau_stars: vec![0.1, 0.4],
             dt_seeds: vec![1],
+            study_mm: 0.5,
             ..Plan::full()
         }
     }

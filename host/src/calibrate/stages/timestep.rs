@@ -41,6 +41,15 @@ pub struct TimestepStage {
     pub rows: Vec<TimestepRow>,
 }
 
+/// The (d, nvd) searches: every size at the first layer thickness (the d
+/// study), then every other thickness at the study diameter (the nvd study).
+pub fn units(plan: &crate::calibrate::Plan) -> Vec<(f64, u32)> {
+    let first = plan.layers.first().copied().unwrap_or(10);
+    let mut units: Vec<(f64, u32)> = plan.sizes_mm.iter().map(|&d| (d, first)).collect();
+    units.extend(plan.layers.iter().skip(1).map(|&n| (plan.study_mm, n)));
+    units
+}
+
 /// Runs stage 4 with the constants of stage 3.
 pub fn run(
     ctx: &Context<'_>,
@@ -52,11 +61,7 @@ pub fn run(
     let base_dt = ctx.base.time.dt;
     let mut rows = Vec::new();
     let mut complete = true;
-    let units: Vec<(f64, u32)> = plan
-        .sizes_mm
-        .iter()
-        .flat_map(|&d| plan.layers.iter().map(move |&n| (d, n)))
-        .collect();
+    let units = units(plan);
     for (unit, &(d, layers)) in units.iter().enumerate() {
         let slot = move |_k: usize| unit;
         let curve_at = |dt: f64| {
@@ -160,52 +165,71 @@ fn write_outputs(ctx: &Context<'_>, r: &TimestepStage) -> Result<(), HostError> 
         })
         .collect();
     write_csv(&ctx.dir.join("stage4.csv"), &header, &body)?;
-    // Fig. 11: Δt against d, one line per nvd.
-    let mut layers: Vec<u32> = r.rows.iter().map(|row| row.layers).collect();
-    layers.dedup();
-    layers.sort_unstable();
-    layers.dedup();
-    let chart = LinesFigure {
-        series: layers
-            .iter()
-            .map(|&n| {
-                let points = r
-                    .rows
-                    .iter()
-                    .filter(|row| row.layers == n)
-                    .map(|row| (row.diameter_mm, row.dt))
-                    .collect();
-                (format!("nvd = {n}"), points)
-            })
-            .collect(),
-        title: "Stage 4: the Δt restoring agreement against d and nvd (paper Fig. 11)".into(),
-        x_label: "grain diameter d (mm)".into(),
+    // Fig. 11: Δt against d (first nvd) and against nvd (study diameter).
+    let first_layers = r.rows.first().map_or(10, |row| row.layers);
+    let study_d = ctx.plan.study_mm;
+    let by_size: Vec<&TimestepRow> = r
+        .rows
+        .iter()
+        .filter(|row| row.layers == first_layers)
+        .collect();
+    let by_layers: Vec<&TimestepRow> = r
+        .rows
+        .iter()
+        .filter(|row| row.diameter_mm == study_d)
+        .collect();
+    let chart = |rows: &[&TimestepRow],
+                 x: &dyn Fn(&TimestepRow) -> f64,
+                 x_label: &str,
+                 title: String| LinesFigure {
+        series: vec![(
+            String::new(),
+            rows.iter().map(|row| (x(row), row.dt)).collect(),
+        )],
+        title,
+        x_label: x_label.into(),
         y_label: "time step Δt (s)".into(),
         log_axes: true,
     };
-    save(&chart, &ctx.dir, "stage4_dt")?;
-    // Figs. 7–10: q* before and after the Δt change, per d (first nvd) and per nvd (d = 0.5 mm or the first d).
-    let first_layers = layers.first().copied().unwrap_or(10);
-    let study_d = if r.rows.iter().any(|row| row.diameter_mm == 0.5) {
-        0.5
-    } else {
-        r.rows.first().map_or(0.5, |row| row.diameter_mm)
-    };
-    for (name, title, keep) in [
+    save(
+        &chart(
+            &by_size,
+            &|row| row.diameter_mm,
+            "grain diameter d (mm)",
+            format!(
+                "Stage 4: Δt restoring agreement against d (nvd = {first_layers}; paper Fig. 11)"
+            ),
+        ),
+        &ctx.dir,
+        "stage4_dt",
+    )?;
+    save(
+        &chart(
+            &by_layers,
+            &|row| f64::from(row.layers),
+            "layer thickness nvd",
+            format!(
+                "Stage 4: Δt restoring agreement against nvd (d = {study_d} mm; paper Fig. 11)"
+            ),
+        ),
+        &ctx.dir,
+        "stage4_dt_layers",
+    )?;
+    // Figs. 7–10: q* at the base and the fitted Δt, per d and per nvd.
+    for (name, title, rows) in [
         (
             "stage4_sizes",
             format!("Stage 4: q* for each d (nvd = {first_layers}), base and fitted Δt"),
-            Box::new(move |row: &TimestepRow| row.layers == first_layers)
-                as Box<dyn Fn(&TimestepRow) -> bool>,
+            &by_size,
         ),
         (
             "stage4_layers",
             format!("Stage 4: q* for each nvd (d = {study_d} mm), base and fitted Δt"),
-            Box::new(move |row: &TimestepRow| row.diameter_mm == study_d),
+            &by_layers,
         ),
     ] {
         let mut series = Vec::new();
-        for row in r.rows.iter().filter(|row| keep(row)) {
+        for row in rows.iter() {
             let label = format!("d = {} mm, nvd = {}", row.diameter_mm, row.layers);
             series.push((
                 format!("{label}, Δt = {:.2e} s", r.base_dt),
