@@ -38,6 +38,24 @@ pub enum Quantity {
     Spin,
 }
 
+/// Why a checkpoint was refused.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum CheckpointFault {
+    /// It ends before the state does.
+    Truncated,
+    /// It does not start with the checkpoint magic.
+    Magic,
+    /// Written by another format version.
+    Version,
+    /// Written in the other precision.
+    Precision,
+    /// A field is out of range (a non-finite number, an index, a flag).
+    Value,
+    /// Bytes follow the state.
+    Trailing,
+}
+
 /// An error returned by the kernel.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -69,6 +87,13 @@ pub enum Error {
         /// Its height y (m).
         y: f64,
     },
+    /// A checkpoint could not be restored; the simulation is unchanged.
+    BadCheckpoint {
+        /// What is wrong.
+        fault: CheckpointFault,
+        /// Byte offset where it was found.
+        offset: usize,
+    },
     /// A parameter is outside its allowed range.
     InvalidParameter {
         /// Parameter name, e.g. `"dt"`.
@@ -96,6 +121,9 @@ impl fmt::Display for Error {
             ),
             Error::LeftDomain { step, grain, y } => {
                 write!(f, "grain {grain} left the domain at step {step} (y = {y:e} m)")
+            }
+            Error::BadCheckpoint { fault, offset } => {
+                write!(f, "checkpoint refused: {fault:?} at byte {offset}")
             }
             Error::InvalidParameter {
                 name,

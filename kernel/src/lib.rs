@@ -32,6 +32,7 @@
 extern crate std;
 
 mod bed;
+mod checkpoint;
 mod constants;
 pub mod contact;
 mod digest;
@@ -46,11 +47,12 @@ mod scenario;
 mod sim;
 
 pub use bed::{BedInfo, BedSpec, Settled, SizeClass};
+pub use checkpoint::CHECKPOINT_VERSION;
 pub use constants::{
     contact_constants, explicit_damping_number, ContactConstants, Material, TimeStepRule, A2, A3,
 };
 pub use digest::Fnv1a;
-pub use error::{Capacity, Error, Quantity};
+pub use error::{Capacity, CheckpointFault, Error, Quantity};
 pub use flow::{shear_velocity, FlowConfig};
 pub use grains::{GrainSpec, MAX_CLASSES};
 pub use observe::{q_star, Observation};

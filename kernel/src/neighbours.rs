@@ -203,6 +203,21 @@ impl<R: Real, const N: usize, const K: usize> Neighbours<R, N, K> {
         })
     }
 
+    /// Appends pair (i, j) with its history to grain i's slots (restoring a
+    /// checkpoint: pairs arrive in (i, j) order and the caller has checked
+    /// that at most `K` arrive per grain).
+    pub(crate) fn push_history(&mut self, i: usize, j: usize, spring: Spring<R>) {
+        let Some(count) = self.count.get_mut(i) else {
+            return;
+        };
+        let k = usize::from(*count);
+        if k < K {
+            self.other[i][k] = j as u32;
+            self.spring[i][k] = spring;
+            *count += 1;
+        }
+    }
+
     /// The history of pair (i, j), if listed.
     pub(crate) fn history(&self, i: usize, j: usize) -> Option<Spring<R>> {
         let (a, b) = if i < j { (i, j) } else { (j, i) };

@@ -64,6 +64,12 @@ pub trait Real:
     fn is_finite(x: Self) -> bool;
     /// Bits for hashing with −0.0 mapped to +0.0 and every NaN to one pattern.
     fn canonical_bits(x: Self) -> u64;
+    /// Bytes of the IEEE representation (4 or 8).
+    const BYTES: usize;
+    /// The raw IEEE bits, zero-extended.
+    fn to_raw(self) -> u64;
+    /// The value of raw IEEE bits (the low `BYTES` bytes).
+    fn from_raw(bits: u64) -> Self;
     /// The larger of two values (the first if they compare equal or unordered).
     #[inline]
     fn max(a: Self, b: Self) -> Self {
@@ -89,6 +95,15 @@ impl Real for f64 {
     const ONE: Self = 1.0;
     const HALF: Self = 0.5;
     const NAME: &'static str = "f64";
+    const BYTES: usize = 8;
+    #[inline]
+    fn to_raw(self) -> u64 {
+        self.to_bits()
+    }
+    #[inline]
+    fn from_raw(bits: u64) -> Self {
+        f64::from_bits(bits)
+    }
     #[inline]
     fn from_f64(x: f64) -> Self {
         x
@@ -134,6 +149,15 @@ impl Real for f32 {
     const ONE: Self = 1.0;
     const HALF: Self = 0.5;
     const NAME: &'static str = "f32";
+    const BYTES: usize = 4;
+    #[inline]
+    fn to_raw(self) -> u64 {
+        u64::from(self.to_bits())
+    }
+    #[inline]
+    fn from_raw(bits: u64) -> Self {
+        f32::from_bits(bits as u32)
+    }
     #[inline]
     fn from_f64(x: f64) -> Self {
         x as f32

@@ -53,6 +53,46 @@ impl SimConfig {
     }
 }
 
+/// The checks of [`Sim::add_grain`] against a configuration: diameter > 0,
+/// position inside the domain, finite velocities, a known size class and,
+/// for a mobile grain, the stability bound (11).
+pub(crate) fn check_grain(c: &SimConfig, spec: &GrainSpec) -> Result<(), Error> {
+    positive("grain.diameter", spec.diameter)?;
+    check(
+        spec.x.is_finite() && spec.x >= 0.0 && spec.x < c.width,
+        "grain.x",
+        spec.x,
+        "in [0, width)",
+    )?;
+    check(
+        spec.y.is_finite() && spec.y >= c.y_min && spec.y <= c.y_max,
+        "grain.y",
+        spec.y,
+        "in [y_min, y_max]",
+    )?;
+    finite("grain.u", spec.u)?;
+    finite("grain.v", spec.v)?;
+    finite("grain.spin", spec.spin)?;
+    if usize::from(spec.class) >= MAX_CLASSES {
+        return Err(Error::CapacityExceeded {
+            what: Capacity::SizeClasses,
+            capacity: MAX_CLASSES,
+        });
+    }
+    if !spec.fixed {
+        let limit = c
+            .contact
+            .stable_dt_limit(c.material.translational_mass(spec.diameter));
+        check(
+            c.dt <= limit,
+            "time.dt",
+            c.dt,
+            "<= 2 sqrt(m/k_n) of every grain (SPEC (11))",
+        )?;
+    }
+    Ok(())
+}
+
 /// A simulation of up to `N` grains with up to `K` neighbours (j > i) per grain,
 /// in precision `R` (`f32` or `f64`).
 ///
@@ -190,39 +230,9 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
     /// range (named). A mobile grain must satisfy the stability bound (11).
     pub fn add_grain(&mut self, spec: &GrainSpec) -> Result<usize, Error> {
         check(self.configured, "sim", 0.0, "configured by reset() first")?;
+        check_grain(&self.config, spec)?;
         let c = &self.config;
-        positive("grain.diameter", spec.diameter)?;
-        check(
-            spec.x.is_finite() && spec.x >= 0.0 && spec.x < c.width,
-            "grain.x",
-            spec.x,
-            "in [0, width)",
-        )?;
-        check(
-            spec.y.is_finite() && spec.y >= c.y_min && spec.y <= c.y_max,
-            "grain.y",
-            spec.y,
-            "in [y_min, y_max]",
-        )?;
-        finite("grain.u", spec.u)?;
-        finite("grain.v", spec.v)?;
-        finite("grain.spin", spec.spin)?;
-        if usize::from(spec.class) >= MAX_CLASSES {
-            return Err(Error::CapacityExceeded {
-                what: Capacity::SizeClasses,
-                capacity: MAX_CLASSES,
-            });
-        }
         let mass = c.material.translational_mass(spec.diameter);
-        if !spec.fixed {
-            let limit = c.contact.stable_dt_limit(mass);
-            check(
-                c.dt <= limit,
-                "time.dt",
-                c.dt,
-                "<= 2 sqrt(m/k_n) of every grain (SPEC (11))",
-            )?;
-        }
         let i = self.grains.len;
         if i >= N {
             return Err(Error::CapacityExceeded {

@@ -1,0 +1,383 @@
+//! Checkpoints: the complete state of a [`Sim`] as bytes, and back.
+//!
+//! Little-endian whatever the machine, floats as their raw IEEE bits in the
+//! working precision, so a checkpoint written on x86_64 restores on a
+//! Cortex-M and continues bit for bit. Layout (version 1):
+//!
+//! | field | bytes |
+//! |---|---|
+//! | magic `MBSK`, version u16, precision bytes u8 (4/8), 0 u8 | 8 |
+//! | `SimConfig`: dt, ρ, s, C_M, C_D, μ, ν, k_n, k_s, η_n, η_s, g_x, g_y, L, y_min, y_max, skin (f64), seed (u64) | 144 |
+//! | flow on (u8); `FlowConfig`: u*, κ, h, ε0, k_s, d (f64), turbulence (u8), hold, bed-level interval (u32) | 58 |
+//! | flow epoch, step (u64), bed level (R) | 16 + R |
+//! | grains n (u32); per grain x, y, u, v, ω, d/2, z_u, z_v, 1/m, 1/I, drag factor (R), fixed, class (u8) | 4 + n (11R + 2) |
+//! | contacts m (u32); per contact i, j (u32), e_n, e_s (R), in (i, j) order | 4 + m (8 + 2R) |
+//!
+//! The inertias and drag factor are stored, not recomputed: they were derived
+//! from the f64 diameter, which an f32 radius does not give back exactly.
+//! Forces are not state (each step computes them afresh) and the neighbour
+//! list is rebuilt on the next step from the restored contacts, which
+//! changes no bit (results do not depend on when the list is rebuilt).
+//! Restoring parses everything twice: a dry run that validates, then the
+//! real one, so a refused checkpoint leaves the simulation unchanged.
+
+use crate::constants::{ContactConstants, Material};
+use crate::contact::Spring;
+use crate::error::{Capacity, CheckpointFault, Error};
+use crate::flow::FlowConfig;
+use crate::grains::{GrainSpec, MAX_CLASSES};
+use crate::real::Real;
+use crate::sim::{check_grain, Sim, SimConfig};
+
+/// Format version written by [`Sim::checkpoint`].
+pub const CHECKPOINT_VERSION: u16 = 1;
+
+const MAGIC: [u8; 4] = *b"MBSK";
+
+/// Reads little-endian fields from a byte slice.
+struct Reader<'a> {
+    bytes: &'a [u8],
+    at: usize,
+}
+
+impl Reader<'_> {
+    fn fail(&self, fault: CheckpointFault) -> Error {
+        Error::BadCheckpoint {
+            fault,
+            offset: self.at,
+        }
+    }
+
+    fn take(&mut self, n: usize) -> Result<&[u8], Error> {
+        let end = self.at.checked_add(n).filter(|&e| e <= self.bytes.len());
+        let Some(end) = end else {
+            return Err(self.fail(CheckpointFault::Truncated));
+        };
+        let out = &self.bytes[self.at..end];
+        self.at = end;
+        Ok(out)
+    }
+
+    fn uint(&mut self, n: usize) -> Result<u64, Error> {
+        let mut v = 0u64;
+        for (k, b) in self.take(n)?.iter().enumerate() {
+            v |= u64::from(*b) << (8 * k);
+        }
+        Ok(v)
+    }
+
+    fn u8(&mut self) -> Result<u8, Error> {
+        Ok(self.uint(1)? as u8)
+    }
+
+    fn u32(&mut self) -> Result<u32, Error> {
+        Ok(self.uint(4)? as u32)
+    }
+
+    fn u64(&mut self) -> Result<u64, Error> {
+        self.uint(8)
+    }
+
+    fn flag(&mut self) -> Result<bool, Error> {
+        match self.u8()? {
+            0 => Ok(false),
+            1 => Ok(true),
+            _ => Err(self.fail(CheckpointFault::Value)),
+        }
+    }
+
+    fn f64(&mut self) -> Result<f64, Error> {
+        let x = f64::from_bits(self.u64()?);
+        if x.is_finite() {
+            Ok(x)
+        } else {
+            Err(self.fail(CheckpointFault::Value))
+        }
+    }
+
+    fn real<R: Real>(&mut self) -> Result<R, Error> {
+        let x = R::from_raw(self.uint(R::BYTES)?);
+        if R::is_finite(x) {
+            Ok(x)
+        } else {
+            Err(self.fail(CheckpointFault::Value))
+        }
+    }
+}
+
+/// Writes little-endian fields to a byte sink.
+struct Writer<'a, F: FnMut(&[u8])> {
+    sink: &'a mut F,
+}
+
+impl<F: FnMut(&[u8])> Writer<'_, F> {
+    fn uint(&mut self, v: u64, n: usize) {
+        let bytes = v.to_le_bytes();
+        (self.sink)(&bytes[..n]);
+    }
+    fn f64(&mut self, x: f64) {
+        self.uint(x.to_bits(), 8);
+    }
+    fn real<R: Real>(&mut self, x: R) {
+        self.uint(x.to_raw(), R::BYTES);
+    }
+}
+
+/// The parsed header and configuration.
+struct Head {
+    config: SimConfig,
+    flow: Option<FlowConfig>,
+    flow_epoch: u64,
+    step: u64,
+}
+
+fn read_head<R: Real>(r: &mut Reader<'_>) -> Result<Head, Error> {
+    if r.take(4)? != MAGIC {
+        r.at = 0;
+        return Err(r.fail(CheckpointFault::Magic));
+    }
+    if r.uint(2)? != u64::from(CHECKPOINT_VERSION) {
+        return Err(r.fail(CheckpointFault::Version));
+    }
+    if usize::from(r.u8()?) != R::BYTES {
+        return Err(r.fail(CheckpointFault::Precision));
+    }
+    r.u8()?;
+    let mut f = [0.0; 17];
+    for x in f.iter_mut() {
+        *x = r.f64()?;
+    }
+    let config = SimConfig {
+        dt: f[0],
+        material: Material {
+            rho: f[1],
+            s: f[2],
+            c_m: f[3],
+            c_d: f[4],
+            mu: f[5],
+            nu: f[6],
+        },
+        contact: ContactConstants {
+            k_n: f[7],
+            k_s: f[8],
+            eta_n: f[9],
+            eta_s: f[10],
+        },
+        gravity: [f[11], f[12]],
+        width: f[13],
+        y_min: f[14],
+        y_max: f[15],
+        skin: f[16],
+        seed: r.u64()?,
+    };
+    let at = r.at;
+    config.validate().map_err(|_| Error::BadCheckpoint {
+        fault: CheckpointFault::Value,
+        offset: at,
+    })?;
+    let flow_on = r.flag()?;
+    let mut g = [0.0; 6];
+    for x in g.iter_mut() {
+        *x = r.f64()?;
+    }
+    let flow = FlowConfig {
+        u_star: g[0],
+        kappa: g[1],
+        depth: g[2],
+        eps0: g[3],
+        roughness: g[4],
+        reference_diameter: g[5],
+        turbulence: r.flag()?,
+        hold_steps: r.u32()?,
+        bed_level_interval: r.u32()?,
+    };
+    let at = r.at;
+    if flow_on {
+        flow.validate().map_err(|_| Error::BadCheckpoint {
+            fault: CheckpointFault::Value,
+            offset: at,
+        })?;
+    }
+    Ok(Head {
+        config,
+        flow: flow_on.then_some(flow),
+        flow_epoch: r.u64()?,
+        step: r.u64()?,
+    })
+}
+
+impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
+    /// Writes the complete state to `sink` in the format of this module.
+    pub fn checkpoint(&self, mut sink: impl FnMut(&[u8])) {
+        let mut w = Writer { sink: &mut sink };
+        (w.sink)(&MAGIC);
+        w.uint(u64::from(CHECKPOINT_VERSION), 2);
+        w.uint(R::BYTES as u64, 1);
+        w.uint(0, 1);
+        let c = &self.config;
+        let m = &c.material;
+        let k = &c.contact;
+        for x in [
+            c.dt,
+            m.rho,
+            m.s,
+            m.c_m,
+            m.c_d,
+            m.mu,
+            m.nu,
+            k.k_n,
+            k.k_s,
+            k.eta_n,
+            k.eta_s,
+            c.gravity[0],
+            c.gravity[1],
+            c.width,
+            c.y_min,
+            c.y_max,
+            c.skin,
+        ] {
+            w.f64(x);
+        }
+        w.uint(c.seed, 8);
+        let f = &self.flow;
+        w.uint(u64::from(self.flow_on), 1);
+        for x in [
+            f.u_star,
+            f.kappa,
+            f.depth,
+            f.eps0,
+            f.roughness,
+            f.reference_diameter,
+        ] {
+            w.f64(x);
+        }
+        w.uint(u64::from(f.turbulence), 1);
+        w.uint(u64::from(f.hold_steps), 4);
+        w.uint(u64::from(f.bed_level_interval), 4);
+        w.uint(self.flow_epoch, 8);
+        w.uint(self.step, 8);
+        w.real(self.bed_level);
+        let g = &self.grains;
+        w.uint(g.len as u64, 4);
+        for i in 0..g.len {
+            for x in [
+                g.x[i],
+                g.y[i],
+                g.u[i],
+                g.v[i],
+                g.w[i],
+                g.r[i],
+                g.z_u[i],
+                g.z_v[i],
+                g.inv_mass[i],
+                g.inv_inertia[i],
+                g.drag_coef[i],
+            ] {
+                w.real(x);
+            }
+            w.uint(u64::from(g.fixed[i]), 1);
+            w.uint(u64::from(g.class[i]), 1);
+        }
+        w.uint(self.nbrs.contacts(g.len).count() as u64, 4);
+        for (i, j, s) in self.nbrs.contacts(g.len) {
+            w.uint(i as u64, 4);
+            w.uint(j as u64, 4);
+            w.real(s.e_n);
+            w.real(s.e_s);
+        }
+    }
+
+    /// Replaces the state with a checkpoint written by [`Sim::checkpoint`]
+    /// (any machine, same precision). On error the simulation is unchanged.
+    pub fn restore(&mut self, bytes: &[u8]) -> Result<(), Error> {
+        self.read_state(bytes, false)?;
+        self.read_state(bytes, true)
+    }
+
+    /// Parses a checkpoint; applies it only if `apply` (after a dry run
+    /// without `apply` has succeeded).
+    fn read_state(&mut self, bytes: &[u8], apply: bool) -> Result<(), Error> {
+        let mut r = Reader { bytes, at: 0 };
+        let head = read_head::<R>(&mut r)?;
+        let bed_level = r.real::<R>()?;
+        if apply {
+            self.reset(&head.config)?;
+            self.set_flow(head.flow.as_ref())?;
+        }
+        let n = r.u32()? as usize;
+        if n > N {
+            return Err(Error::CapacityExceeded {
+                what: Capacity::Grains,
+                capacity: N,
+            });
+        }
+        for i in 0..n {
+            let mut v = [R::ZERO; 11];
+            for x in v.iter_mut() {
+                *x = r.real::<R>()?;
+            }
+            let fixed = r.flag()?;
+            let class = r.u8()?;
+            let at = r.at;
+            let bad = || Error::BadCheckpoint {
+                fault: CheckpointFault::Value,
+                offset: at,
+            };
+            if usize::from(class) >= MAX_CLASSES || v[8..].iter().any(|&x| x < R::ZERO) {
+                return Err(bad());
+            }
+            let spec = GrainSpec {
+                x: v[0].to_f64(),
+                y: v[1].to_f64(),
+                u: v[2].to_f64(),
+                v: v[3].to_f64(),
+                spin: v[4].to_f64(),
+                diameter: 2.0 * v[5].to_f64(),
+                fixed,
+                class,
+            };
+            check_grain(&head.config, &spec).map_err(|_| bad())?;
+            if apply {
+                self.add_grain(&spec).map_err(|_| bad())?;
+                let g = &mut self.grains;
+                (g.x[i], g.y[i], g.u[i], g.v[i], g.w[i]) = (v[0], v[1], v[2], v[3], v[4]);
+                (g.r[i], g.z_u[i], g.z_v[i]) = (v[5], v[6], v[7]);
+                (g.inv_mass[i], g.inv_inertia[i], g.drag_coef[i]) = (v[8], v[9], v[10]);
+            }
+        }
+        let m = r.u32()? as usize;
+        let mut last = (0usize, 0usize);
+        let mut slots = 0usize;
+        for c in 0..m {
+            let (i, j) = (r.u32()? as usize, r.u32()? as usize);
+            let spring = Spring {
+                e_n: r.real::<R>()?,
+                e_s: r.real::<R>()?,
+            };
+            if !((c == 0 || (i, j) > last) && i < j && j < n) {
+                return Err(r.fail(CheckpointFault::Value));
+            }
+            slots = if c > 0 && i == last.0 { slots + 1 } else { 1 };
+            if slots > K {
+                return Err(Error::CapacityExceeded {
+                    what: Capacity::NeighboursPerGrain,
+                    capacity: K,
+                });
+            }
+            last = (i, j);
+            if apply {
+                self.nbrs.push_history(i, j, spring);
+            }
+        }
+        if r.at != bytes.len() {
+            return Err(r.fail(CheckpointFault::Trailing));
+        }
+        if apply {
+            self.nbrs.stale = true;
+            self.flow_epoch = head.flow_epoch;
+            self.step = head.step;
+            self.bed_level = bed_level;
+        }
+        Ok(())
+    }
+}

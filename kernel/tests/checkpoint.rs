@@ -1,0 +1,150 @@
+//! Checkpoints: a run stopped anywhere and restored (into a simulation of
+//! another capacity) continues bit for bit; every damaged checkpoint is
+//! refused with a named fault and leaves the simulation unchanged.
+
+use mbs_kernel::{Capacity, CheckpointFault, Error, Real, Scenario, Sim, CHECKPOINT_VERSION};
+
+type Big<R> = Sim<R, 256, 8>;
+type Other<R> = Sim<R, 64, 10>;
+
+fn bytes<R: Real, const N: usize, const K: usize>(sim: &Sim<R, N, K>) -> Vec<u8> {
+    let mut out = Vec::new();
+    sim.checkpoint(|b| out.extend_from_slice(b));
+    out
+}
+
+/// Runs the paper's scenario: `settle` steps, flow on, `flow` steps.
+fn run<R: Real, const N: usize, const K: usize>(sim: &mut Sim<R, N, K>, settle: u64, flow: u64) {
+    let sc = Scenario::paper();
+    sc.build(sim).unwrap();
+    sim.run(settle).unwrap();
+    sim.set_flow(Some(&sc.flow())).unwrap();
+    sim.run(flow).unwrap();
+}
+
+fn resume_is_bit_identical<R: Real>() {
+    // Stops before the flow, right after it starts, inside a hold period
+    // (800 steps at 8 substeps), on a bed-level update and after several.
+    for (settle, flow) in [(700, 0), (1500, 1), (1500, 333), (1500, 800), (1500, 1999)] {
+        let mut straight = Box::new(Big::<R>::new());
+        run(&mut *straight, settle, flow);
+        let saved = bytes(&*straight);
+        let mut resumed = Box::new(Other::<R>::new());
+        resumed.restore(&saved).unwrap();
+        assert_eq!(
+            resumed.digest(),
+            straight.digest(),
+            "restored state ({settle}, {flow})"
+        );
+        assert_eq!(bytes(&*resumed), saved, "checkpoint of the restored state");
+        if flow == 0 {
+            let sc = Scenario::paper();
+            straight.run(300).unwrap();
+            resumed.run(300).unwrap();
+            straight.set_flow(Some(&sc.flow())).unwrap();
+            resumed.set_flow(Some(&sc.flow())).unwrap();
+        }
+        straight.run(1200).unwrap();
+        resumed.run(1200).unwrap();
+        assert_eq!(
+            resumed.digest(),
+            straight.digest(),
+            "continued ({settle}, {flow})"
+        );
+        assert_eq!(resumed.step_count(), straight.step_count());
+    }
+}
+
+#[test]
+fn resume_is_bit_identical_f32() {
+    resume_is_bit_identical::<f32>();
+}
+
+#[test]
+fn resume_is_bit_identical_f64() {
+    resume_is_bit_identical::<f64>();
+}
+
+fn refused(sim: &mut Big<f64>, damaged: &[u8]) -> Error {
+    let before = (sim.digest(), bytes(sim));
+    let err = sim.restore(damaged).unwrap_err();
+    assert_eq!(
+        (sim.digest(), bytes(sim)),
+        before,
+        "unchanged after {err:?}"
+    );
+    err
+}
+
+fn fault(e: Error) -> CheckpointFault {
+    match e {
+        Error::BadCheckpoint { fault, .. } => fault,
+        other => panic!("not a checkpoint fault: {other:?}"),
+    }
+}
+
+#[test]
+fn damaged_checkpoints_are_refused_and_change_nothing() {
+    let mut source = Box::new(Big::<f64>::new());
+    run(&mut *source, 1000, 500);
+    let good = bytes(&*source);
+    assert_eq!(&good[..4], b"MBSK");
+    assert_eq!(u16::from_le_bytes([good[4], good[5]]), CHECKPOINT_VERSION);
+    let mut sim = Box::new(Big::<f64>::new());
+    run(&mut *sim, 10, 0);
+    // Every truncation.
+    for len in 0..good.len() {
+        assert_eq!(
+            fault(refused(&mut sim, &good[..len])),
+            CheckpointFault::Truncated,
+            "length {len}"
+        );
+    }
+    let mut bad = good.clone();
+    bad[0] = b'X';
+    assert_eq!(fault(refused(&mut sim, &bad)), CheckpointFault::Magic);
+    let mut bad = good.clone();
+    bad[4] = 99;
+    assert_eq!(fault(refused(&mut sim, &bad)), CheckpointFault::Version);
+    let mut f32_sim = Box::new(Big::<f32>::new());
+    assert!(matches!(
+        f32_sim.restore(&good),
+        Err(Error::BadCheckpoint {
+            fault: CheckpointFault::Precision,
+            offset: 7
+        })
+    ));
+    let mut bad = good.clone();
+    bad.push(0);
+    assert_eq!(fault(refused(&mut sim, &bad)), CheckpointFault::Trailing);
+    // A NaN where the first grain's x is: after the header (8 + 144 + 58 +
+    // 16 + 8 (bed level) + 4 (grain count)) bytes.
+    let mut bad = good.clone();
+    let x0 = 8 + 144 + 58 + 16 + 8 + 4;
+    bad[x0..x0 + 8].copy_from_slice(&f64::NAN.to_bits().to_le_bytes());
+    assert_eq!(fault(refused(&mut sim, &bad)), CheckpointFault::Value);
+    // Every single flipped byte is refused or restores to a valid state:
+    // never a panic, never a half-applied state.
+    for k in (0..good.len()).step_by(7) {
+        let mut flipped = good.clone();
+        flipped[k] ^= 0x5a;
+        let mut target = Box::new(Big::<f64>::new());
+        run(&mut *target, 10, 0);
+        let before = target.digest();
+        match target.restore(&flipped) {
+            Ok(()) => {
+                let _ = target.run(10);
+            }
+            Err(_) => assert_eq!(target.digest(), before, "byte {k}"),
+        }
+    }
+    // Too many grains for the capacity.
+    let mut tiny = Box::new(Sim::<f64, 32, 8>::new());
+    assert!(matches!(
+        tiny.restore(&good),
+        Err(Error::CapacityExceeded {
+            what: Capacity::Grains,
+            capacity: 32
+        })
+    ));
+}
