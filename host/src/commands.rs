@@ -4,8 +4,9 @@
 use crate::bench::bench;
 use crate::config::{warnings, Config, Precision, DEFAULT_TOML};
 use crate::error::HostError;
+use crate::experiment::RunControl;
 use crate::experiment::{aggregate, cell_steps, run_all, transport_table, TransportRow};
-use crate::output::{create_dir, write_csv, write_json};
+use crate::output::{create_dir, write_csv, write_json, write_text};
 use crate::pack::{packing, write_packing, Packing};
 use crate::plot::{save, TransportFigure};
 use crate::sims::{with_sim, SimJob, NEIGHBOURS};
@@ -15,6 +16,8 @@ use mbs_kernel::{explicit_damping_number, Real, Scenario, Sim};
 use serde::Serialize;
 use std::io::Write;
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Duration;
 use std::time::Instant;
 
 /// Options shared by every subcommand.
@@ -130,6 +133,8 @@ struct Summary<'a> {
     config: &'a crate::config::ConfigFile,
     derived: Derived,
     threads: usize,
+    cells_reused: usize,
+    cells_resumed: usize,
     wall_time_s: f64,
     grain_steps: u64,
     grain_steps_per_s: f64,
@@ -137,17 +142,62 @@ struct Summary<'a> {
     cells: &'a [crate::experiment::CellResult],
 }
 
+/// Set by Ctrl-C: running cells checkpoint and stop.
+static STOP: AtomicBool = AtomicBool::new(false);
+
+/// Options of `mbs run` beyond the configuration.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct RunOptions {
+    /// Wall-clock seconds between checkpoints of each running cell.
+    pub checkpoint_every: Option<f64>,
+    /// Stop every cell after this many steps, as if interrupted (tests).
+    pub stop_after_steps: Option<u64>,
+}
+
+/// The configuration a run directory was started with (`mbs run --resume`).
+pub const RUN_CONFIG: &str = "config.toml";
+
 /// `mbs run`: q*(τ*) over seeds → `transport.csv`, `transport.png`/`.svg`,
-/// `summary.json` in `out` (or the configuration's `run.output`).
-pub fn run(config: &Config, out: Option<&Path>, common: Common) -> Result<(), HostError> {
+/// `summary.json` in `out` (or the configuration's `run.output`). Finished
+/// cells are kept in `cells.jsonl` and reused; running cells checkpoint
+/// every `checkpoint_every` seconds and on Ctrl-C.
+pub fn run(
+    config: &Config,
+    out: Option<&Path>,
+    options: RunOptions,
+    common: Common,
+) -> Result<(), HostError> {
     report_warnings(config, common.quiet);
     let dir = out.map_or_else(|| config.file.run.output.clone(), Path::to_path_buf);
     create_dir(&dir)?;
+    let text = toml::to_string(&config.file)
+        .map_err(|e| HostError::io(dir.join(RUN_CONFIG))(std::io::Error::other(e)))?;
+    write_text(&dir.join(RUN_CONFIG), &text)?;
+    // A second handler cannot be installed (e.g. in-process tests); Ctrl-C then just kills.
+    let _ = ctrlc::set_handler(|| STOP.store(true, Ordering::Relaxed));
     let cells = (config.tau_stars.len() * config.seeds.len()) as u64;
     let bar = progress(cells * cell_steps(config), "transport", common.quiet);
     let start = Instant::now();
-    let results = on_pool(common.threads, || run_all(config, &bar))??;
+    let control = RunControl {
+        dir: &dir,
+        every: options.checkpoint_every.map(Duration::from_secs_f64),
+        stop: &STOP,
+        stop_after: options.stop_after_steps,
+    };
+    let outcome = on_pool(common.threads, || run_all(config, &bar, &control))?;
     bar.finish_and_clear();
+    let outcome = match outcome {
+        Err(HostError::Interrupted { cells }) => {
+            eprintln!(
+                "stopped: {cells} cell(s) checkpointed in {}/checkpoints; resume with `mbs run --resume {}`",
+                dir.display(),
+                dir.display()
+            );
+            return Err(HostError::Interrupted { cells });
+        }
+        other => other?,
+    };
+    let results = outcome.results;
     let wall = start.elapsed().as_secs_f64();
     let rows = aggregate(config, &results);
     let (header, body) = transport_table(config, &rows);
@@ -187,6 +237,8 @@ pub fn run(config: &Config, out: Option<&Path>, common: Common) -> Result<(), Ho
             config: &config.file,
             derived: Derived::of(config),
             threads: on_pool(common.threads, rayon::current_num_threads)?,
+            cells_reused: outcome.reused,
+            cells_resumed: outcome.resumed,
             wall_time_s: wall,
             grain_steps,
             grain_steps_per_s: grain_steps as f64 / wall,

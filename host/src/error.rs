@@ -23,6 +23,18 @@ pub enum HostError {
         /// Why.
         error: std::io::Error,
     },
+    /// Cells stopped (Ctrl-C or a test's step budget) after writing their checkpoints.
+    Interrupted {
+        /// How many.
+        cells: usize,
+    },
+    /// A checkpoint file was refused; nothing was changed.
+    Checkpoint {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        message: String,
+    },
     /// A calibration stage cannot proceed (e.g. no candidate settles).
     Calibration(String),
     /// A plot could not be drawn.
@@ -39,6 +51,7 @@ impl HostError {
     pub fn exit_code(&self) -> u8 {
         match self {
             HostError::Config(_) => 2,
+            HostError::Interrupted { .. } => 130,
             _ => 1,
         }
     }
@@ -63,6 +76,15 @@ impl fmt::Display for HostError {
             HostError::Kernel { context, error } => write!(f, "{context}: {error}"),
             HostError::Io { path, error } => write!(f, "{}: {error}", path.display()),
             HostError::Calibration(message) => write!(f, "calibration: {message}"),
+            HostError::Interrupted { cells } => write!(
+                f,
+                "interrupted: {cells} running cell(s) checkpointed; finished cells are stored"
+            ),
+            HostError::Checkpoint { path, message } => write!(
+                f,
+                "{}: checkpoint refused: {message}; nothing changed (delete the file to run that cell afresh)",
+                path.display()
+            ),
             HostError::Plot { path, message } => write!(f, "{}: {message}", path.display()),
         }
     }

@@ -4,14 +4,22 @@
 //! from its own seed and the results are combined in a fixed order, so the
 //! output does not depend on the number of threads.
 
+use crate::cell::{
+    cell_key, run_cell_job, CellCheckpoint, CellJob, CellOutcome, Control, TransportSpec,
+};
 use crate::config::Config;
 use crate::error::HostError;
+use crate::output::{create_dir, remove_temporaries};
 use crate::references::Reference;
-use crate::sims::{with_sim, SimJob, NEIGHBOURS};
+use crate::sims::NEIGHBOURS;
+use crate::store::{Store, STORE};
 use indicatif::ProgressBar;
-use mbs_kernel::{Real, Sim, G};
+use mbs_kernel::{Real, Sim};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::AtomicBool;
+use std::time::Duration;
 
 /// Batches of the window used for the standard error of a single seed.
 pub const BATCHES: usize = 10;
@@ -68,94 +76,149 @@ pub fn run_steps<R: Real, const N: usize>(
     Ok(())
 }
 
-struct TransportJob<'a> {
-    config: &'a Config,
-    tau_star: f64,
-    seed: u64,
-    progress: &'a ProgressBar,
-}
-
-impl SimJob for TransportJob<'_> {
-    type Output = Result<CellResult, HostError>;
-
-    fn run<R: Real, const N: usize>(self, sim: &mut Sim<R, N, NEIGHBOURS>) -> Self::Output {
-        let config = self.config;
-        let sc = config.scenario_at(self.tau_star, self.seed);
-        let fail = || HostError::kernel(format!("tau* = {}, seed {}", self.tau_star, self.seed));
-        let t = &config.file.time;
-        sc.build(sim).map_err(fail())?;
-        run_steps(sim, config.steps(t.settle), self.progress).map_err(fail())?;
-        sim.set_flow(Some(&sc.flow())).map_err(fail())?;
-        run_steps(sim, config.steps(t.spin_up), self.progress).map_err(fail())?;
-        let d_max = sc.bed.max_diameter();
-        let s = sc.material.s;
-        let classes = &sc.bed.classes;
-        let samples = window_samples(config);
-        let mut total = 0.0;
-        let mut per_class = vec![0.0; classes.len()];
-        let mut batch_sum = [0.0; BATCHES];
-        let mut batch_n = [0u64; BATCHES];
-        for k in 0..samples {
-            sim.run(sample_steps(config)).map_err(fail())?;
-            self.progress.inc(sample_steps(config));
-            let o = sim.observe();
-            let q = o.q_star(d_max, s, G);
-            total += q;
-            let b = (k as usize * BATCHES) / samples as usize;
-            batch_sum[b] += q;
-            batch_n[b] += 1;
-            for (c, sum) in per_class.iter_mut().enumerate() {
-                *sum += o.q_star_class(c, classes[c].diameter, s, G);
-            }
-        }
-        let n = samples as f64;
-        Ok(CellResult {
-            tau_star: self.tau_star,
-            seed: self.seed,
-            q_star: total / n,
-            q_star_class: per_class.iter().map(|q| q / n).collect(),
-            batch_means: batch_sum
-                .iter()
-                .zip(batch_n)
-                .filter(|(_, n)| *n > 0)
-                .map(|(s, n)| s / n as f64)
-                .collect(),
-            bed_level: sim.bed_level(),
-            grain_steps: sim.step_count() * sim.len() as u64,
-        })
-    }
-}
-
-/// Runs one cell.
+/// Runs one cell from the start to the end (no checkpoints).
 pub fn run_cell(
     config: &Config,
     tau_star: f64,
     seed: u64,
     progress: &ProgressBar,
 ) -> Result<CellResult, HostError> {
-    let job = TransportJob {
+    let never = AtomicBool::new(false);
+    let control = Control {
+        path: None,
+        every: None,
+        stop: &never,
+        stop_after: None,
+    };
+    let job = CellJob {
         config,
         tau_star,
         seed,
+        key: 0,
+        resume: None,
+        control: &control,
         progress,
     };
-    with_sim(config.precision, config.capacity, job)
+    match run_cell_job(job)? {
+        CellOutcome::Done(r) => Ok(r),
+        CellOutcome::Stopped => Err(HostError::Interrupted { cells: 1 }),
+    }
 }
 
-/// Runs every (τ*, seed) cell in parallel on the current rayon pool; results
-/// in τ*-major, seed-minor order. The first failing cell in that order is
-/// the error returned.
-pub fn run_all(config: &Config, progress: &ProgressBar) -> Result<Vec<CellResult>, HostError> {
+/// Where `run_all` keeps finished cells and checkpoints, and when it stops.
+pub struct RunControl<'a> {
+    /// Output directory: `cells.jsonl` and `checkpoints/` live here.
+    pub dir: &'a Path,
+    /// Wall-clock interval between checkpoints of a running cell.
+    pub every: Option<Duration>,
+    /// Set by Ctrl-C: running cells checkpoint and stop.
+    pub stop: &'a AtomicBool,
+    /// Stop every running cell after this many steps (tests of resuming).
+    pub stop_after: Option<u64>,
+}
+
+/// What `run_all` did.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RunOutcome {
+    /// Cell results in τ*-major, seed-minor order (complete runs only).
+    pub results: Vec<CellResult>,
+    /// Cells taken from the store.
+    pub reused: usize,
+    /// Cells continued from a checkpoint.
+    pub resumed: usize,
+}
+
+/// The checkpoint file of a cell.
+pub fn checkpoint_path(dir: &Path, tau_star: f64, seed: u64) -> PathBuf {
+    dir.join("checkpoints")
+        .join(format!("tau{tau_star}_seed{seed}.ckpt"))
+}
+
+/// Runs every (τ*, seed) cell in parallel on the current rayon pool: cells
+/// already in `DIR/cells.jsonl` are reused, cells with a checkpoint continue
+/// from it, every finished cell is stored at once. Errors: the first failing
+/// cell in (τ*, seed) order; [`HostError::Interrupted`] if cells stopped.
+pub fn run_all(
+    config: &Config,
+    progress: &ProgressBar,
+    control: &RunControl<'_>,
+) -> Result<RunOutcome, HostError> {
+    create_dir(&control.dir.join("checkpoints"))?;
+    remove_temporaries(control.dir)?;
+    remove_temporaries(&control.dir.join("checkpoints"))?;
+    let store = Store::open(&control.dir.join(STORE))?;
     let cells: Vec<(f64, u64)> = config
         .tau_stars
         .iter()
         .flat_map(|&t| config.seeds.iter().map(move |&s| (t, s)))
         .collect();
-    let results: Vec<Result<CellResult, HostError>> = cells
+    let outcomes: Vec<Result<(CellOutcome, u8), HostError>> = cells
         .par_iter()
-        .map(|&(t, s)| run_cell(config, t, s, progress))
+        .map(|&(tau_star, seed)| {
+            let spec = TransportSpec::new(&config.file, tau_star, seed);
+            if let Some(Ok(done)) = store.get::<_, Result<CellResult, String>>(&spec) {
+                progress.inc(cell_steps(config));
+                return Ok((CellOutcome::Done(done), 1));
+            }
+            let key = cell_key(&serde_json::to_string(&spec).unwrap_or_default());
+            let path = checkpoint_path(control.dir, tau_star, seed);
+            let resume = match std::fs::read(&path) {
+                Ok(bytes) => Some(CellCheckpoint::decode(&bytes, key).map_err(|e| {
+                    HostError::Checkpoint {
+                        path: path.clone(),
+                        message: e.to_string(),
+                    }
+                })?),
+                Err(e) if e.kind() == std::io::ErrorKind::NotFound => None,
+                Err(e) => return Err(HostError::io(&path)(e)),
+            };
+            let resumed = u8::from(resume.is_some()) * 2;
+            let cell_control = Control {
+                path: Some(path.clone()),
+                every: control.every,
+                stop: control.stop,
+                stop_after: control.stop_after,
+            };
+            let outcome = run_cell_job(CellJob {
+                config,
+                tau_star,
+                seed,
+                key,
+                resume,
+                control: &cell_control,
+                progress,
+            })?;
+            if let CellOutcome::Done(result) = &outcome {
+                store.put(&spec, &Ok::<_, String>(result.clone()))?;
+                match std::fs::remove_file(&path) {
+                    Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
+                        return Err(HostError::io(&path)(e))
+                    }
+                    _ => {}
+                }
+            }
+            Ok((outcome, resumed))
+        })
         .collect();
-    results.into_iter().collect()
+    let mut out = RunOutcome {
+        results: Vec::new(),
+        reused: 0,
+        resumed: 0,
+    };
+    let mut stopped = 0;
+    for o in outcomes {
+        let (outcome, how) = o?;
+        out.reused += usize::from(how == 1);
+        out.resumed += usize::from(how == 2);
+        match outcome {
+            CellOutcome::Done(r) => out.results.push(r),
+            CellOutcome::Stopped => stopped += 1,
+        }
+    }
+    if stopped > 0 {
+        return Err(HostError::Interrupted { cells: stopped });
+    }
+    Ok(out)
 }
 
 /// Mean and standard error of the mean (0 for fewer than two values).

@@ -5,7 +5,9 @@
 //! |---|---|
 //! | [`config`] | TOML configuration, defaults, validation |
 //! | [`sims`] | heap simulations of a run-time precision and capacity |
+//! | [`cell`] | one resumable (τ*, seed) run with its checkpoint file |
 //! | [`experiment`] | q*(τ*) over seeds, in parallel, thread-count independent |
+//! | [`store`] | append-only file of finished cells |
 //! | [`references`] | bed-load relations of SPEC §10 |
 //! | [`pack`] | packing test (SPEC §9.1) |
 //! | [`snapshot`] | bed pictures and VTK series |
@@ -16,6 +18,7 @@
 
 pub mod bench;
 pub mod calibrate;
+pub mod cell;
 pub mod commands;
 pub mod config;
 pub mod error;
@@ -26,6 +29,7 @@ pub mod plot;
 pub mod references;
 pub mod sims;
 pub mod snapshot;
+pub mod store;
 
 pub use config::{Config, ConfigError, Precision};
 pub use error::HostError;

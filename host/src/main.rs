@@ -32,10 +32,20 @@ enum Command {
     /// The main job: q* against τ* over seeds → transport.csv, transport.png/.svg, summary.json.
     Run {
         /// Configuration file (TOML); the embedded paper's case when omitted.
+        #[arg(conflicts_with = "resume")]
         config: Option<PathBuf>,
         /// Output directory (default: run.output of the configuration).
-        #[arg(long)]
+        #[arg(long, conflicts_with = "resume")]
         out: Option<PathBuf>,
+        /// Continue an interrupted run in DIR with the configuration it started with.
+        #[arg(long, value_name = "DIR")]
+        resume: Option<PathBuf>,
+        /// Checkpoint every running cell every SECONDS of wall time (Ctrl-C always checkpoints).
+        #[arg(long, value_name = "SECONDS")]
+        checkpoint_every: Option<f64>,
+        /// Stop every cell after N steps as if interrupted (for tests of resuming).
+        #[arg(long, hide = true)]
+        stop_after_steps: Option<u64>,
     },
     /// Prints the embedded default configuration (the paper's case), commented.
     Config,
@@ -174,8 +184,35 @@ fn execute(cli: Cli) -> Result<(), HostError> {
     match cli.command.unwrap_or(Command::Run {
         config: None,
         out: None,
+        resume: None,
+        checkpoint_every: None,
+        stop_after_steps: None,
     }) {
-        Command::Run { config, out } => commands::run(&load(&config)?, out.as_deref(), common),
+        Command::Run {
+            config,
+            out,
+            resume,
+            checkpoint_every,
+            stop_after_steps,
+        } => {
+            if let Some(s) = checkpoint_every.filter(|s| !(s.is_finite() && *s > 0.0)) {
+                return Err(mbs::ConfigError::Invalid {
+                    key: "--checkpoint-every".into(),
+                    value: s.to_string(),
+                    allowed: "> 0 seconds".into(),
+                }
+                .into());
+            }
+            let (config, out) = match resume {
+                Some(dir) => (Some(dir.join(commands::RUN_CONFIG)), Some(dir)),
+                None => (config, out),
+            };
+            let options = commands::RunOptions {
+                checkpoint_every,
+                stop_after_steps,
+            };
+            commands::run(&load(&config)?, out.as_deref(), options, common)
+        }
         Command::Config => commands::config(),
         Command::Pack {
             config,

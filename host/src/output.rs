@@ -6,6 +6,26 @@ use crate::error::HostError;
 use std::io::Write;
 use std::path::Path;
 
+/// Prefix of every temporary file; [`remove_temporaries`] deletes leftovers.
+pub const TEMPORARY: &str = ".mbs-tmp.";
+
+/// Deletes temporary files left in `dir` by a killed process (only names
+/// starting with [`TEMPORARY`]).
+pub fn remove_temporaries(dir: &Path) -> Result<(), HostError> {
+    let entries = match std::fs::read_dir(dir) {
+        Ok(e) => e,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(()),
+        Err(e) => return Err(HostError::io(dir)(e)),
+    };
+    for entry in entries {
+        let entry = entry.map_err(HostError::io(dir))?;
+        if entry.file_name().to_string_lossy().starts_with(TEMPORARY) {
+            std::fs::remove_file(entry.path()).map_err(HostError::io(entry.path()))?;
+        }
+    }
+    Ok(())
+}
+
 /// Creates `dir` (and parents) if missing.
 pub fn create_dir(dir: &Path) -> Result<(), HostError> {
     std::fs::create_dir_all(dir).map_err(HostError::io(dir))
@@ -33,7 +53,7 @@ pub fn write_atomic_with(
         .extension()
         .map(|e| format!(".{}", e.to_string_lossy()))
         .unwrap_or_default();
-    let prefix = format!(".{name}.");
+    let prefix = format!("{TEMPORARY}{name}.");
     let mut builder = tempfile::Builder::new();
     builder.prefix(&prefix).suffix(&suffix);
     #[cfg(unix)]

@@ -86,7 +86,7 @@ fn run_writes_table_plots_and_summary() {
     let leftovers: Vec<_> = std::fs::read_dir(&out)
         .unwrap()
         .filter_map(|e| e.ok())
-        .filter(|e| e.file_name().to_string_lossy().starts_with('.'))
+        .filter(|e| e.file_name().to_string_lossy().starts_with(".mbs-tmp."))
         .collect();
     assert!(leftovers.is_empty(), "no temporary files left");
 }

@@ -4,13 +4,22 @@
 //! numbers change only when the model does.
 
 use indicatif::ProgressBar;
-use mbs::experiment::{aggregate, run_all, TransportRow};
+use mbs::experiment::{aggregate, run_all, RunControl, TransportRow};
 use mbs::Config;
 use std::path::Path;
+use std::sync::atomic::AtomicBool;
 
 fn transport(config: &Config) -> Vec<TransportRow> {
-    let results = run_all(config, &ProgressBar::hidden()).expect("the case runs");
-    aggregate(config, &results)
+    let dir = tempfile::tempdir().unwrap();
+    let never = AtomicBool::new(false);
+    let control = RunControl {
+        dir: dir.path(),
+        every: None,
+        stop: &never,
+        stop_after: None,
+    };
+    let outcome = run_all(config, &ProgressBar::hidden(), &control).expect("the case runs");
+    aggregate(config, &outcome.results)
 }
 
 fn q_at(rows: &[TransportRow], tau: f64) -> f64 {

@@ -3,11 +3,13 @@
 //! otherwise it is computed (in parallel with the other cells of the same
 //! request) if this shard owns it, and stored as soon as it finishes.
 
-use super::store::Store;
+use crate::cell::canonical;
+pub use crate::cell::TransportSpec;
 use crate::config::{Config, ConfigFile};
 use crate::error::HostError;
 use crate::experiment::{run_cell, CellResult};
 use crate::pack::{packing, Packing};
+use crate::store::Store;
 use indicatif::ProgressBar;
 use rayon::prelude::*;
 use serde::{de::DeserializeOwned, Deserialize, Serialize};
@@ -33,28 +35,6 @@ impl Shard {
     /// Whether this is the whole stage.
     pub fn is_all(self) -> bool {
         self.count == 1
-    }
-}
-
-/// A transport cell: one (configuration, τ*, seed) run of the main job.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct TransportSpec {
-    /// Kind tag (keeps kinds apart in the store).
-    pub kind: &'static str,
-    /// The configuration, with `flow.tau_star = [τ*]`, `run.seeds = [seed]`.
-    pub config: ConfigFile,
-}
-
-impl TransportSpec {
-    /// The cell of `config` at `tau_star` and `seed`.
-    pub fn new(config: &ConfigFile, tau_star: f64, seed: u64) -> Self {
-        let mut config = canonical(config);
-        config.flow.tau_star = vec![tau_star];
-        config.run.seeds = vec![seed];
-        TransportSpec {
-            kind: "transport",
-            config,
-        }
     }
 }
 
@@ -96,14 +76,6 @@ pub struct PackCurve {
 /// A cell's outcome: a kernel failure (e.g. grains leaving a fluidised bed)
 /// is a result too, stored with its message.
 pub type Outcome<T> = Result<T, String>;
-
-/// Fields that do not change a cell's result are fixed, so equal cells get
-/// equal keys whatever the configuration file said about them.
-fn canonical(config: &ConfigFile) -> ConfigFile {
-    let mut c = config.clone();
-    c.run.output = "-".into();
-    c
-}
 
 /// Computes and stores cells.
 pub struct Cells<'a> {

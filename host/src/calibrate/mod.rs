@@ -17,7 +17,6 @@ pub mod cells;
 pub mod optimise;
 pub mod report;
 pub mod stages;
-pub mod store;
 
 use crate::config::{ConfigFile, DEFAULT_TOML};
 use crate::error::HostError;
@@ -25,8 +24,7 @@ use crate::references::Reference;
 use cells::{Cells, TransportSpec};
 use serde::{Deserialize, Serialize};
 
-/// Name of the cell store inside the output directory.
-pub const STORE: &str = "cells.jsonl";
+use crate::store::STORE;
 
 /// The grids, seeds and durations of a calibration.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -309,7 +307,7 @@ pub fn calibrate(
 ) -> Result<Progress, HostError> {
     use stages::{beta, mixed, settling, timestep};
     crate::output::create_dir(dir)?;
-    let store = store::Store::open(&dir.join(STORE))?;
+    let store = crate::store::Store::open(&dir.join(STORE))?;
     let plan = if options.quick {
         Plan::quick()
     } else {
@@ -393,7 +391,7 @@ pub fn calibrate(
 /// store; returns how many were new.
 pub fn merge(shards: &[std::path::PathBuf], dir: &std::path::Path) -> Result<usize, HostError> {
     crate::output::create_dir(dir)?;
-    let store = store::Store::open(&dir.join(STORE))?;
+    let store = crate::store::Store::open(&dir.join(STORE))?;
     let mut added = 0;
     for shard in shards {
         added += store.merge_from(&shard.join(STORE))?;

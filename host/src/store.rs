@@ -1,5 +1,5 @@
-//! The cell store: an append-only file of finished cells, one JSON line
-//! each, written and synced as each cell completes. A calibration that is
+//! The cell store: an append-only file of finished cells (of `mbs run` and
+//! `mbs calibrate`), one JSON line each, written and synced as each cell completes. A calibration that is
 //! interrupted (even by SIGKILL) loses at most the cell being written: a torn
 //! last line fails its checksum and is ignored on loading, and the cell is
 //! simply computed again.
@@ -12,6 +12,9 @@ use std::fs::{File, OpenOptions};
 use std::io::{BufRead, BufReader, Write};
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
+
+/// Name of the store file in an output directory.
+pub const STORE: &str = "cells.jsonl";
 
 /// One stored line.
 #[derive(Serialize, Deserialize)]

@@ -1,0 +1,467 @@
+//! One transport cell — a (τ*, seed) run of the main job — as a resumable
+//! state machine: settle, spin up, average over the window. Between chunks
+//! of steps the cell can write a checkpoint (its progress and accumulated
+//! sums plus the kernel's checkpoint) and stop; restoring it continues bit
+//! for bit, so a cell stopped anywhere gives the same result as one never
+//! stopped.
+//!
+//! Checkpoint file (version 1, little-endian): magic `MBSC`, version u16,
+//! the cell's key (FNV-1a of its specification) u64, phase u8, steps done in
+//! the phase u64, samples u64, the sums (q*, per class, per batch) as f64
+//! bits and batch counts u64, the kernel checkpoint (length-prefixed), and
+//! an FNV-1a checksum of everything before it.
+
+use crate::config::{Config, ConfigFile};
+use crate::error::HostError;
+use crate::experiment::{CellResult, BATCHES};
+use crate::sims::{with_sim, SimJob, NEIGHBOURS};
+use indicatif::ProgressBar;
+use mbs_kernel::{Fnv1a, Real, Sim, G};
+use serde::Serialize;
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
+
+/// Steps run between checks for stopping and checkpointing.
+const CHUNK: u64 = 2000;
+
+const MAGIC: [u8; 4] = *b"MBSC";
+const VERSION: u16 = 1;
+
+/// Where a cell is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Phase {
+    /// Settling without flow.
+    Settle = 0,
+    /// Under the flow, before averaging.
+    SpinUp = 1,
+    /// Averaging q*.
+    Window = 2,
+}
+
+/// Progress and sums of a cell.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CellState {
+    /// Current phase.
+    pub phase: Phase,
+    /// Steps done in the phase.
+    pub done: u64,
+    /// Window samples taken.
+    pub samples: u64,
+    /// Σ q*.
+    pub total: f64,
+    /// Σ q* per class.
+    pub per_class: Vec<f64>,
+    /// Σ q* per batch.
+    pub batch_sum: [f64; BATCHES],
+    /// Samples per batch.
+    pub batch_n: [u64; BATCHES],
+}
+
+impl CellState {
+    fn new(classes: usize) -> Self {
+        CellState {
+            phase: Phase::Settle,
+            done: 0,
+            samples: 0,
+            total: 0.0,
+            per_class: vec![0.0; classes],
+            batch_sum: [0.0; BATCHES],
+            batch_n: [0; BATCHES],
+        }
+    }
+}
+
+/// A cell's checkpoint: its key, state and the kernel's checkpoint.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CellCheckpoint {
+    /// FNV-1a of the cell's specification.
+    pub key: u64,
+    /// Progress and sums.
+    pub state: CellState,
+    /// Kernel checkpoint bytes.
+    pub sim: Vec<u8>,
+}
+
+/// Why a cell checkpoint was refused.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum CheckpointError {
+    /// Shorter than its contents.
+    Truncated,
+    /// Not a cell checkpoint.
+    Magic,
+    /// Another format version.
+    Version(u16),
+    /// Checksum mismatch: damaged.
+    Checksum,
+    /// Written for another configuration, τ* or seed.
+    OtherCell,
+    /// A field is out of range.
+    Value(&'static str),
+}
+
+impl std::fmt::Display for CheckpointError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            CheckpointError::Truncated => write!(f, "truncated"),
+            CheckpointError::Magic => write!(f, "not an mbs cell checkpoint"),
+            CheckpointError::Version(v) => {
+                write!(f, "format version {v}, this mbs reads {VERSION}")
+            }
+            CheckpointError::Checksum => write!(f, "checksum mismatch (damaged)"),
+            CheckpointError::OtherCell => {
+                write!(f, "written for another configuration, tau* or seed")
+            }
+            CheckpointError::Value(what) => write!(f, "{what} out of range"),
+        }
+    }
+}
+
+fn fnv(bytes: &[u8]) -> u64 {
+    let mut h = Fnv1a::default();
+    h.bytes(bytes);
+    h.finish()
+}
+
+/// The key of a cell: FNV-1a of its canonical specification text.
+pub fn cell_key(spec_json: &str) -> u64 {
+    fnv(spec_json.as_bytes())
+}
+
+impl CellCheckpoint {
+    /// Encodes the checkpoint.
+    pub fn encode(&self) -> Vec<u8> {
+        let mut b = Vec::with_capacity(self.sim.len() + 256);
+        b.extend_from_slice(&MAGIC);
+        b.extend_from_slice(&VERSION.to_le_bytes());
+        b.extend_from_slice(&self.key.to_le_bytes());
+        let s = &self.state;
+        b.push(s.phase as u8);
+        b.extend_from_slice(&s.done.to_le_bytes());
+        b.extend_from_slice(&s.samples.to_le_bytes());
+        b.extend_from_slice(&s.total.to_bits().to_le_bytes());
+        b.extend_from_slice(&(s.per_class.len() as u32).to_le_bytes());
+        for x in &s.per_class {
+            b.extend_from_slice(&x.to_bits().to_le_bytes());
+        }
+        for x in &s.batch_sum {
+            b.extend_from_slice(&x.to_bits().to_le_bytes());
+        }
+        for n in &s.batch_n {
+            b.extend_from_slice(&n.to_le_bytes());
+        }
+        b.extend_from_slice(&(self.sim.len() as u64).to_le_bytes());
+        b.extend_from_slice(&self.sim);
+        let sum = fnv(&b);
+        b.extend_from_slice(&sum.to_le_bytes());
+        b
+    }
+
+    /// Decodes and checks a checkpoint written for the cell `key`.
+    pub fn decode(bytes: &[u8], key: u64) -> Result<CellCheckpoint, CheckpointError> {
+        let mut at = 0usize;
+        let mut take = |n: usize| -> Result<&[u8], CheckpointError> {
+            let end = at
+                .checked_add(n)
+                .filter(|&e| e <= bytes.len())
+                .ok_or(CheckpointError::Truncated)?;
+            let out = &bytes[at..end];
+            at = end;
+            Ok(out)
+        };
+        let u64_of = |b: &[u8]| u64::from_le_bytes(b.try_into().unwrap_or([0; 8]));
+        if take(4)? != MAGIC {
+            return Err(CheckpointError::Magic);
+        }
+        let version = u16::from_le_bytes([take(1)?[0], take(1)?[0]]);
+        if version != VERSION {
+            return Err(CheckpointError::Version(version));
+        }
+        if bytes.len() < 8 {
+            return Err(CheckpointError::Truncated);
+        }
+        let (body, sum) = bytes.split_at(bytes.len() - 8);
+        if fnv(body) != u64_of(sum) {
+            return Err(CheckpointError::Checksum);
+        }
+        if u64_of(take(8)?) != key {
+            return Err(CheckpointError::OtherCell);
+        }
+        let phase = match take(1)?[0] {
+            0 => Phase::Settle,
+            1 => Phase::SpinUp,
+            2 => Phase::Window,
+            _ => return Err(CheckpointError::Value("phase")),
+        };
+        let done = u64_of(take(8)?);
+        let samples = u64_of(take(8)?);
+        let total = f64::from_bits(u64_of(take(8)?));
+        let classes = u32::from_le_bytes(take(4)?.try_into().unwrap_or([0; 4])) as usize;
+        if classes > mbs_kernel::MAX_CLASSES {
+            return Err(CheckpointError::Value("size classes"));
+        }
+        let mut per_class = Vec::with_capacity(classes);
+        for _ in 0..classes {
+            per_class.push(f64::from_bits(u64_of(take(8)?)));
+        }
+        let mut batch_sum = [0.0; BATCHES];
+        for x in batch_sum.iter_mut() {
+            *x = f64::from_bits(u64_of(take(8)?));
+        }
+        let mut batch_n = [0u64; BATCHES];
+        for n in batch_n.iter_mut() {
+            *n = u64_of(take(8)?);
+        }
+        let len = u64_of(take(8)?);
+        let len = usize::try_from(len).map_err(|_| CheckpointError::Truncated)?;
+        let sim = take(len)?.to_vec();
+        if at != body.len() {
+            return Err(CheckpointError::Value("length"));
+        }
+        Ok(CellCheckpoint {
+            key,
+            state: CellState {
+                phase,
+                done,
+                samples,
+                total,
+                per_class,
+                batch_sum,
+                batch_n,
+            },
+            sim,
+        })
+    }
+}
+
+/// A transport cell: one (configuration, τ*, seed) run of the main job.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct TransportSpec {
+    /// Kind tag (keeps kinds apart in the store).
+    pub kind: &'static str,
+    /// The configuration, with `flow.tau_star = [τ*]`, `run.seeds = [seed]`.
+    pub config: ConfigFile,
+}
+
+impl TransportSpec {
+    /// The cell of `config` at `tau_star` and `seed`.
+    pub fn new(config: &ConfigFile, tau_star: f64, seed: u64) -> Self {
+        let mut config = canonical(config);
+        config.flow.tau_star = vec![tau_star];
+        config.run.seeds = vec![seed];
+        TransportSpec {
+            kind: "transport",
+            config,
+        }
+    }
+}
+
+/// Fields that do not change a cell's result are fixed, so equal cells get
+/// equal keys whatever the configuration file said about them.
+pub fn canonical(config: &ConfigFile) -> ConfigFile {
+    let mut c = config.clone();
+    c.run.output = "-".into();
+    c
+}
+
+/// When a cell stops early and where it checkpoints.
+pub struct Control<'a> {
+    /// Checkpoint file of this cell.
+    pub path: Option<PathBuf>,
+    /// Wall-clock interval between checkpoints.
+    pub every: Option<Duration>,
+    /// Set asynchronously (Ctrl-C): checkpoint and stop at the next chunk.
+    pub stop: &'a AtomicBool,
+    /// Stop (with a checkpoint) after this many steps of this invocation (tests).
+    pub stop_after: Option<u64>,
+}
+
+/// How a cell ended.
+#[derive(Debug, Clone, PartialEq)]
+pub enum CellOutcome {
+    /// Finished.
+    Done(CellResult),
+    /// Stopped after writing its checkpoint.
+    Stopped,
+}
+
+/// A cell to run, possibly from a checkpoint.
+pub struct CellJob<'a> {
+    /// Configuration.
+    pub config: &'a Config,
+    /// Shields number.
+    pub tau_star: f64,
+    /// Seed.
+    pub seed: u64,
+    /// The cell's key.
+    pub key: u64,
+    /// Where to continue from.
+    pub resume: Option<CellCheckpoint>,
+    /// Stopping and checkpointing.
+    pub control: &'a Control<'a>,
+    /// Progress (steps).
+    pub progress: &'a ProgressBar,
+}
+
+impl SimJob for CellJob<'_> {
+    type Output = Result<CellOutcome, HostError>;
+
+    fn run<R: Real, const N: usize>(self, sim: &mut Sim<R, N, NEIGHBOURS>) -> Self::Output {
+        let config = self.config;
+        let sc = config.scenario_at(self.tau_star, self.seed);
+        let context = format!("tau* = {}, seed {}", self.tau_star, self.seed);
+        let fail = || HostError::kernel(context.clone());
+        let classes = &sc.bed.classes;
+        let mut state = match self.resume {
+            Some(ck) => {
+                sim.restore(&ck.sim).map_err(fail())?;
+                ck.state
+            }
+            None => {
+                sc.build(sim).map_err(fail())?;
+                CellState::new(classes.len())
+            }
+        };
+        let t = &config.file.time;
+        let sample = u64::from(t.sample_steps);
+        let samples = (config.steps(t.window) / sample).max(1);
+        let phase_steps = |p: Phase| match p {
+            Phase::Settle => config.steps(t.settle),
+            Phase::SpinUp => config.steps(t.spin_up),
+            Phase::Window => samples * sample,
+        };
+        let (d_max, s) = (sc.bed.max_diameter(), sc.material.s);
+        let mut last_checkpoint = Instant::now();
+        let mut stepped = 0u64;
+        loop {
+            if state.done >= phase_steps(state.phase) {
+                match state.phase {
+                    Phase::Settle => {
+                        sim.set_flow(Some(&sc.flow())).map_err(fail())?;
+                        state.phase = Phase::SpinUp;
+                    }
+                    Phase::SpinUp => state.phase = Phase::Window,
+                    Phase::Window => break,
+                }
+                state.done = 0;
+                continue;
+            }
+            let stop_now = self.control.stop.load(Ordering::Relaxed)
+                || self.control.stop_after.is_some_and(|n| stepped >= n);
+            let due = self
+                .control
+                .every
+                .is_some_and(|every| last_checkpoint.elapsed() >= every);
+            if stop_now || due {
+                if let Some(path) = &self.control.path {
+                    let mut bytes = Vec::new();
+                    sim.checkpoint(|b| bytes.extend_from_slice(b));
+                    let ck = CellCheckpoint {
+                        key: self.key,
+                        state: state.clone(),
+                        sim: bytes,
+                    };
+                    crate::output::write_atomic(path, &ck.encode())?;
+                }
+                last_checkpoint = Instant::now();
+                if stop_now {
+                    return Ok(CellOutcome::Stopped);
+                }
+            }
+            if state.phase == Phase::Window {
+                sim.run(sample).map_err(fail())?;
+                let o = sim.observe();
+                let q = o.q_star(d_max, s, G);
+                state.total += q;
+                let b = (state.samples as usize * BATCHES) / samples as usize;
+                state.batch_sum[b] += q;
+                state.batch_n[b] += 1;
+                for (c, sum) in state.per_class.iter_mut().enumerate() {
+                    *sum += o.q_star_class(c, classes[c].diameter, s, G);
+                }
+                state.samples += 1;
+                state.done += sample;
+                stepped += sample;
+                self.progress.inc(sample);
+            } else {
+                let n = (phase_steps(state.phase) - state.done).min(CHUNK);
+                sim.run(n).map_err(fail())?;
+                state.done += n;
+                stepped += n;
+                self.progress.inc(n);
+            }
+        }
+        let n = state.samples.max(1) as f64;
+        Ok(CellOutcome::Done(CellResult {
+            tau_star: self.tau_star,
+            seed: self.seed,
+            q_star: state.total / n,
+            q_star_class: state.per_class.iter().map(|q| q / n).collect(),
+            batch_means: state
+                .batch_sum
+                .iter()
+                .zip(state.batch_n)
+                .filter(|(_, n)| *n > 0)
+                .map(|(s, n)| s / n as f64)
+                .collect(),
+            bed_level: sim.bed_level(),
+            grain_steps: sim.step_count() * sim.len() as u64,
+        }))
+    }
+}
+
+/// Runs a cell job on a simulation of the configuration's precision and capacity.
+pub fn run_cell_job(job: CellJob<'_>) -> Result<CellOutcome, HostError> {
+    let (precision, capacity) = (job.config.precision, job.config.capacity);
+    with_sim(precision, capacity, job)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn checkpoints_round_trip_and_damage_is_named() {
+        let ck = CellCheckpoint {
+            key: 42,
+            state: CellState {
+                phase: Phase::Window,
+                done: 1230,
+                samples: 123,
+                total: 0.125,
+                per_class: vec![0.5, 0.25],
+                batch_sum: [0.1; BATCHES],
+                batch_n: [3; BATCHES],
+            },
+            sim: vec![1, 2, 3, 4, 5],
+        };
+        let bytes = ck.encode();
+        assert_eq!(CellCheckpoint::decode(&bytes, 42), Ok(ck));
+        assert_eq!(
+            CellCheckpoint::decode(&bytes, 43),
+            Err(CheckpointError::OtherCell)
+        );
+        for len in 0..bytes.len() {
+            assert!(
+                CellCheckpoint::decode(&bytes[..len], 42).is_err(),
+                "length {len}"
+            );
+        }
+        let mut bad = bytes.clone();
+        bad[30] ^= 1;
+        assert_eq!(
+            CellCheckpoint::decode(&bad, 42),
+            Err(CheckpointError::Checksum)
+        );
+        let mut bad = bytes.clone();
+        bad[4] = 9;
+        assert_eq!(
+            CellCheckpoint::decode(&bad, 42),
+            Err(CheckpointError::Version(9))
+        );
+        assert_eq!(
+            CellCheckpoint::decode(b"nope", 42),
+            Err(CheckpointError::Magic)
+        );
+    }
+}
