@@ -179,3 +179,36 @@ fn shards_merge_to_the_serial_result_and_threads_change_nothing() {
     assert_eq!(read(&merged, "stage1.json"), read(&serial, "stage1.json"));
     mbs().args(["calibrate", "--shard", "4/3"]).assert().code(2);
 }
+
+#[test]
+fn a_calibration_killed_at_random_moments_finishes_with_the_same_results() {
+    let root = tempfile::tempdir().unwrap();
+    let reference = root.path().join("reference");
+    calibrate(&reference, &["--stage", "2"]);
+    let out = root.path().join("killed");
+    let bin = assert_cmd::cargo::cargo_bin("mbs");
+    let mut state = 99u64;
+    let mut kills = 0;
+    for _ in 0..5 {
+        state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        let delay = std::time::Duration::from_millis(30 + (state >> 33) % 300);
+        let mut child = std::process::Command::new(&bin)
+            .args(["--quiet", "calibrate", "--quick", "--stage", "2", "--out"])
+            .arg(&out)
+            .spawn()
+            .unwrap();
+        std::thread::sleep(delay);
+        if child.try_wait().unwrap().is_none() {
+            child.kill().unwrap();
+            kills += 1;
+        }
+        child.wait().unwrap();
+    }
+    calibrate(&out, &["--stage", "2"]);
+    for f in ["stage1.json", "stage2.json", "stage2.csv"] {
+        assert_eq!(read(&out, f), read(&reference, f), "{f}");
+    }
+    assert!(kills >= 1, "killed {kills} times");
+}

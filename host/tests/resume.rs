@@ -4,6 +4,7 @@
 //! stopped; damaged checkpoints are refused and change nothing.
 
 use assert_cmd::Command;
+use predicates::prelude::*;
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
@@ -199,4 +200,59 @@ fn a_damaged_checkpoint_is_refused_and_kept() {
         .assert()
         .code(1)
         .stderr(predicates::str::contains("checkpoint refused"));
+}
+
+#[test]
+fn ctrl_c_checkpoints_and_says_how_to_resume() {
+    let (dir, cfg) = setup_with(&SMALL.replace("window = 0.05", "window = 0.5"));
+    let reference = uninterrupted(&cfg, &dir.path().join("reference"));
+    let out = dir.path().join("interrupted");
+    let child = std::process::Command::new(assert_cmd::cargo::cargo_bin("mbs"))
+        .args(["--quiet", "run"])
+        .arg(&cfg)
+        .arg("--out")
+        .arg(&out)
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(Duration::from_millis(300));
+    let status = std::process::Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(status.success());
+    let output = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(output.status.code(), Some(130), "{stderr}");
+    assert!(stderr.contains("resume with `mbs run --resume"), "{stderr}");
+    assert!(std::fs::read_dir(out.join("checkpoints")).unwrap().count() > 0);
+    mbs()
+        .arg("run")
+        .arg("--resume")
+        .arg(&out)
+        .assert()
+        .success();
+    assert_eq!(std::fs::read(out.join("transport.csv")).unwrap(), reference);
+}
+
+#[test]
+fn grains_leaving_the_domain_are_a_named_error_not_nan() {
+    // Unsoftened contacts (β = 1) at τ* = 5 throw grains above a 3.7 mm deep flow.
+    let text = SMALL
+        .replace("tau_star = [0.1, 0.3]", "tau_star = [5.0]\ndepth = 0.0037")
+        .replace("[time]", "[contact]\nbeta = 1.0\n[time]");
+    let (dir, cfg) = setup_with(&text);
+    let out = dir.path().join("out");
+    mbs()
+        .arg("run")
+        .arg(&cfg)
+        .arg("--out")
+        .arg(&out)
+        .assert()
+        .code(1)
+        .stderr(
+            predicates::str::contains("tau* = 5, seed 1: grain")
+                .and(predicates::str::contains("left the domain at step")),
+        );
+    assert!(!out.join("transport.csv").exists(), "no table with NaN");
 }

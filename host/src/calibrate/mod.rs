@@ -307,6 +307,7 @@ pub fn calibrate(
 ) -> Result<Progress, HostError> {
     use stages::{beta, mixed, settling, timestep};
     crate::output::create_dir(dir)?;
+    crate::output::remove_temporaries(dir)?;
     let store = crate::store::Store::open(&dir.join(STORE))?;
     let plan = if options.quick {
         Plan::quick()
