@@ -7,9 +7,10 @@
 //!
 //! Checkpoint file (version 1, little-endian): magic `MBSC`, version u16,
 //! the cell's key (FNV-1a of its specification) u64, phase u8, steps done in
-//! the phase u64, samples u64, the sums (q*, per class, per batch) as f64
-//! bits and batch counts u64, the kernel checkpoint (length-prefixed), and
-//! an FNV-1a checksum of everything before it.
+//! the phase u64, samples u64, Σq* (f64 bits), the class count u32 and Σq*
+//! per class, Σq* per batch (f64 bits) and batch counts (u64), the kernel
+//! checkpoint (u64 length, bytes), and an FNV-1a checksum of everything
+//! before it.
 
 use crate::config::{Config, ConfigFile};
 use crate::error::HostError;
@@ -312,9 +313,29 @@ impl SimJob for CellJob<'_> {
         let context = format!("tau* = {}, seed {}", self.tau_star, self.seed);
         let fail = || HostError::kernel(context.clone());
         let classes = &sc.bed.classes;
+        let t = &config.file.time;
+        let sample = u64::from(t.sample_steps);
+        let samples = (config.steps(t.window) / sample).max(1);
         let mut state = match self.resume {
             Some(ck) => {
+                let s = &ck.state;
+                let consistent = s.per_class.len() == classes.len()
+                    && s.samples <= samples
+                    && s.batch_n.iter().sum::<u64>() == s.samples
+                    && (s.phase != Phase::Window || s.done == s.samples * sample);
+                if !consistent {
+                    return Err(HostError::Checkpoint {
+                        path: self.control.path.clone().unwrap_or_default(),
+                        message: "its progress does not fit this configuration".into(),
+                    });
+                }
                 sim.restore(&ck.sim).map_err(fail())?;
+                if sim.flow().is_some() != (s.phase != Phase::Settle) {
+                    return Err(HostError::Checkpoint {
+                        path: self.control.path.clone().unwrap_or_default(),
+                        message: "its flow state does not fit its phase".into(),
+                    });
+                }
                 ck.state
             }
             None => {
@@ -322,9 +343,6 @@ impl SimJob for CellJob<'_> {
                 CellState::new(classes.len())
             }
         };
-        let t = &config.file.time;
-        let sample = u64::from(t.sample_steps);
-        let samples = (config.steps(t.window) / sample).max(1);
         let phase_steps = |p: Phase| match p {
             Phase::Settle => config.steps(t.settle),
             Phase::SpinUp => config.steps(t.spin_up),

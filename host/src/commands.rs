@@ -67,7 +67,7 @@ fn report_warnings(config: &Config, quiet: bool) {
 }
 
 /// Runs `f` on a rayon pool of `threads` workers (0: rayon's default).
-fn on_pool<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> Result<T, HostError> {
+pub fn on_pool<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> Result<T, HostError> {
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
@@ -172,6 +172,22 @@ pub fn run(
     create_dir(&dir)?;
     let text = toml::to_string(&config.file)
         .map_err(|e| HostError::io(dir.join(RUN_CONFIG))(std::io::Error::other(e)))?;
+    let started = std::fs::read_to_string(dir.join(RUN_CONFIG)).ok();
+    let has_checkpoints = std::fs::read_dir(dir.join("checkpoints"))
+        .map(|mut d| d.next().is_some())
+        .unwrap_or(false);
+    if started.as_ref().is_some_and(|old| *old != text) && has_checkpoints {
+        return Err(HostError::Checkpoint {
+            path: dir.join("checkpoints"),
+            message: format!(
+                "{} holds an interrupted run of another configuration ({}); \
+                 resume it with `mbs run --resume {}` or choose another --out",
+                dir.display(),
+                RUN_CONFIG,
+                dir.display()
+            ),
+        });
+    }
     write_text(&dir.join(RUN_CONFIG), &text)?;
     // A second handler cannot be installed (e.g. in-process tests); Ctrl-C then just kills.
     let _ = ctrlc::set_handler(|| STOP.store(true, Ordering::Relaxed));

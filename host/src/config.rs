@@ -680,6 +680,15 @@ fn flow_config(f: &FlowSection, d: f64) -> Result<FlowConfig, ConfigError> {
             "in (0, 5]",
         )?;
     }
+    let mut sorted = f.tau_star.clone();
+    sorted.sort_by(f64::total_cmp);
+    sorted.dedup();
+    need(
+        sorted.len() == f.tau_star.len(),
+        "flow.tau_star",
+        format!("{:?}", f.tau_star),
+        "distinct values",
+    )?;
     positive("flow.kappa", f.kappa)?;
     need(
         f.depth.is_finite() && f.depth > 0.0 && f.depth <= 100.0,
@@ -798,6 +807,7 @@ mod tests {
             ("[contact]\nk_n = 1.0", "contact.k_n = 1: must be given with contact.eta_n"),
             ("[grains]\nclasses = [{ diameter_mm = 1.0, fraction = 0.6 }, { diameter_mm = 0.7, fraction = 0.6 }]", "grains.classes (sum of fractions) = 1.2: must be 1"),
             ("[run]\nseeds = [1, 1]", "run.seeds = [1, 1]: must be distinct"),
+            ("[flow]\ntau_star = [0.1, 0.1]", "flow.tau_star = [0.1, 0.1]: must be distinct values"),
         ];
         for (text, message) in cases {
             let e = Config::from_toml(text).unwrap_err().to_string();

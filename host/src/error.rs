@@ -7,7 +7,9 @@ use std::path::PathBuf;
 /// An error of the host.
 #[derive(Debug)]
 pub enum HostError {
-    /// A bad configuration or command line: exit status 2, nothing written.
+    /// A bad configuration or command line: exit status 2; checked before
+    /// anything is written (a calibration stage's own bad cell is a failed
+    /// cell instead).
     Config(ConfigError),
     /// The kernel refused or failed a run.
     Kernel {

@@ -128,6 +128,14 @@ pub struct RunOutcome {
     pub resumed: usize,
 }
 
+/// Deletes `path` if it exists.
+fn remove_if_present(path: &Path) -> Result<(), HostError> {
+    match std::fs::remove_file(path) {
+        Err(e) if e.kind() != std::io::ErrorKind::NotFound => Err(HostError::io(path)(e)),
+        _ => Ok(()),
+    }
+}
+
 /// The checkpoint file of a cell.
 pub fn checkpoint_path(dir: &Path, tau_star: f64, seed: u64) -> PathBuf {
     dir.join("checkpoints")
@@ -156,12 +164,14 @@ pub fn run_all(
         .par_iter()
         .map(|&(tau_star, seed)| {
             let spec = TransportSpec::new(&config.file, tau_star, seed);
+            let path = checkpoint_path(control.dir, tau_star, seed);
             if let Some(Ok(done)) = store.get::<_, Result<CellResult, String>>(&spec) {
+                // A checkpoint left by a crash between storing and removing it.
+                remove_if_present(&path)?;
                 progress.inc(cell_steps(config));
                 return Ok((CellOutcome::Done(done), 1));
             }
             let key = cell_key(&serde_json::to_string(&spec).unwrap_or_default());
-            let path = checkpoint_path(control.dir, tau_star, seed);
             let resume = match std::fs::read(&path) {
                 Ok(bytes) => Some(CellCheckpoint::decode(&bytes, key).map_err(|e| {
                     HostError::Checkpoint {
@@ -190,12 +200,7 @@ pub fn run_all(
             })?;
             if let CellOutcome::Done(result) = &outcome {
                 store.put(&spec, &Ok::<_, String>(result.clone()))?;
-                match std::fs::remove_file(&path) {
-                    Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
-                        return Err(HostError::io(&path)(e))
-                    }
-                    _ => {}
-                }
+                remove_if_present(&path)?;
             }
             Ok((outcome, resumed))
         })

@@ -195,7 +195,9 @@ fn execute(cli: Cli) -> Result<(), HostError> {
             checkpoint_every,
             stop_after_steps,
         } => {
-            if let Some(s) = checkpoint_every.filter(|s| !(s.is_finite() && *s > 0.0)) {
+            if let Some(s) = checkpoint_every
+                .filter(|s| !(*s > 0.0 && std::time::Duration::try_from_secs_f64(*s).is_ok()))
+            {
                 return Err(mbs::ConfigError::Invalid {
                     key: "--checkpoint-every".into(),
                     value: s.to_string(),
@@ -281,7 +283,8 @@ fn execute(cli: Cli) -> Result<(), HostError> {
                 reference,
                 quiet: cli.quiet,
             };
-            let message = match calibrate(base, &out, options)? {
+            let message = match commands::on_pool(cli.threads, || calibrate(base, &out, options))??
+            {
                 Progress::Done { stages: 5 } => {
                     format!("calibration done: {}/report.md\n", out.display())
                 }

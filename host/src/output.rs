@@ -6,20 +6,30 @@ use crate::error::HostError;
 use std::io::Write;
 use std::path::Path;
 
-/// Prefix of every temporary file; [`remove_temporaries`] deletes leftovers.
+/// Prefix of every temporary file, followed by the writer's process id;
+/// [`remove_temporaries`] deletes those of processes that no longer run.
 pub const TEMPORARY: &str = ".mbs-tmp.";
 
-/// Deletes temporary files left in `dir` by a killed process (only names
-/// starting with [`TEMPORARY`]).
+/// Deletes temporary files left in `dir` by killed processes: names
+/// `.mbs-tmp.<pid>.*` whose process is gone (checked in `/proc`; where there
+/// is no `/proc`, nothing is deleted). Another live `mbs` writing into the
+/// same directory keeps its files.
 pub fn remove_temporaries(dir: &Path) -> Result<(), HostError> {
     let entries = match std::fs::read_dir(dir) {
         Ok(e) => e,
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(()),
         Err(e) => return Err(HostError::io(dir)(e)),
     };
+    let proc_fs = Path::new("/proc/self").exists();
     for entry in entries {
         let entry = entry.map_err(HostError::io(dir))?;
-        if entry.file_name().to_string_lossy().starts_with(TEMPORARY) {
+        let name = entry.file_name().to_string_lossy().to_string();
+        let Some(rest) = name.strip_prefix(TEMPORARY) else {
+            continue;
+        };
+        let pid = rest.split('.').next().unwrap_or("");
+        let gone = proc_fs && !Path::new("/proc").join(pid).exists();
+        if gone && pid.parse::<u32>().is_ok_and(|p| p != std::process::id()) {
             std::fs::remove_file(entry.path()).map_err(HostError::io(entry.path()))?;
         }
     }
@@ -53,7 +63,7 @@ pub fn write_atomic_with(
         .extension()
         .map(|e| format!(".{}", e.to_string_lossy()))
         .unwrap_or_default();
-    let prefix = format!("{TEMPORARY}{name}.");
+    let prefix = format!("{TEMPORARY}{}.{name}.", std::process::id());
     let mut builder = tempfile::Builder::new();
     builder.prefix(&prefix).suffix(&suffix);
     #[cfg(unix)]

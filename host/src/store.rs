@@ -1,8 +1,9 @@
 //! The cell store: an append-only file of finished cells (of `mbs run` and
-//! `mbs calibrate`), one JSON line each, written and synced as each cell completes. A calibration that is
-//! interrupted (even by SIGKILL) loses at most the cell being written: a torn
-//! last line fails its checksum and is ignored on loading, and the cell is
-//! simply computed again.
+//! `mbs calibrate`), one JSON line each, written and synced as each cell
+//! completes. A run that is interrupted (even by SIGKILL) loses only the
+//! cells still being computed (one per worker thread; `mbs run` checkpoints
+//! those): a torn last line fails its checksum and is ignored on loading,
+//! and its cell is simply computed again.
 
 use crate::error::HostError;
 use mbs_kernel::Fnv1a;
@@ -114,8 +115,12 @@ impl Store {
             cells.1 = Some(file);
         }
         if let Some(file) = cells.1.as_mut() {
-            file.write_all(&bytes).map_err(io)?;
-            file.sync_data().map_err(io)?;
+            let written = file.write_all(&bytes).and_then(|()| file.sync_data());
+            if let Err(e) = written {
+                // Reopen next time, so the next line starts on a fresh line.
+                cells.1 = None;
+                return Err(io(e));
+            }
         }
         cells.0.insert(key, value);
         Ok(())

@@ -178,6 +178,14 @@ fn shards_merge_to_the_serial_result_and_threads_change_nothing() {
     );
     assert_eq!(read(&merged, "stage1.json"), read(&serial, "stage1.json"));
     mbs().args(["calibrate", "--shard", "4/3"]).assert().code(2);
+    mbs()
+        .args(["calibrate", "merge"])
+        .arg(root.path().join("no-such-shard"))
+        .arg("--out")
+        .arg(root.path().join("m2"))
+        .assert()
+        .code(1)
+        .stderr(predicates::str::contains("no cell store here"));
 }
 
 #[test]

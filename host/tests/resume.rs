@@ -192,6 +192,21 @@ fn a_damaged_checkpoint_is_refused_and_kept() {
         bytes,
         "the damaged file is left as it was"
     );
+    // Another configuration into the same directory is refused, nothing changed.
+    let other = dir.path().join("other.toml");
+    std::fs::write(&other, SMALL.replace("seeds = [1, 2]", "seeds = [1, 3]")).unwrap();
+    let started = std::fs::read(out.join("config.toml")).unwrap();
+    mbs()
+        .arg("run")
+        .arg(&other)
+        .arg("--out")
+        .arg(&out)
+        .assert()
+        .code(1)
+        .stderr(predicates::str::contains(
+            "holds an interrupted run of another configuration",
+        ));
+    assert_eq!(std::fs::read(out.join("config.toml")).unwrap(), started);
     std::fs::write(&path, &bytes[..100]).unwrap();
     mbs()
         .arg("run")

@@ -127,7 +127,10 @@ impl Cells<'_> {
         slot: &(dyn Fn(usize) -> usize + Sync),
     ) -> Result<Vec<Option<Outcome<CellResult>>>, HostError> {
         self.evaluate(specs, slot, |spec| {
-            let config = Config::validate(spec.config.clone())?;
+            let config = match Config::validate(spec.config.clone()) {
+                Ok(c) => c,
+                Err(e) => return Ok(Err(format!("configuration: {e}"))),
+            };
             let (tau, seed) = (config.tau_stars[0], config.seeds[0]);
             match run_cell(&config, tau, seed, &ProgressBar::hidden()) {
                 Ok(r) => Ok(Ok(r)),
@@ -144,7 +147,10 @@ impl Cells<'_> {
         slot: &(dyn Fn(usize) -> usize + Sync),
     ) -> Result<Vec<Option<Outcome<PackCurve>>>, HostError> {
         self.evaluate(specs, slot, |spec| {
-            let config = Config::validate(spec.config.clone())?;
+            let config = match Config::validate(spec.config.clone()) {
+                Ok(c) => c,
+                Err(e) => return Ok(Err(format!("configuration: {e}"))),
+            };
             let every = u64::from(config.scenario.substeps) * 50;
             let run = packing(Packing {
                 config: &config,

@@ -395,7 +395,14 @@ pub fn merge(shards: &[std::path::PathBuf], dir: &std::path::Path) -> Result<usi
     let store = crate::store::Store::open(&dir.join(STORE))?;
     let mut added = 0;
     for shard in shards {
-        added += store.merge_from(&shard.join(STORE))?;
+        let path = shard.join(STORE);
+        if !path.is_file() {
+            return Err(HostError::io(&path)(std::io::Error::new(
+                std::io::ErrorKind::NotFound,
+                "no cell store here: is this a shard's --out directory?",
+            )));
+        }
+        added += store.merge_from(&path)?;
     }
     Ok(added)
 }

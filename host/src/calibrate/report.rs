@@ -43,7 +43,7 @@ fn settling_table(out: &mut String, s: &SettlingStage, symbol: &str) {
 
 fn reason(same: bool, text: &str) -> String {
     if same {
-        "agrees (within 15 % for continuous values)".into()
+        "agrees (α: the same grid value; β within ±0.5; Δt within 15 %)".into()
     } else {
         text.into()
     }
@@ -209,5 +209,8 @@ pub fn write_report(
         );
     }
     let _ = writeln!(o, "\nWorst factor per class: {:.2}.", s.mixed.worst_factor);
+    if !s.mixed.curve.failures.is_empty() {
+        let _ = writeln!(o, "\nFailed cells: {}.", s.mixed.curve.failures.join("; "));
+    }
     write_text(&dir.join("report.md"), &o)
 }

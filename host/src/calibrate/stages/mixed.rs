@@ -95,11 +95,16 @@ pub fn run(
             });
         }
     }
+    // A failed cell (NaN) counts as an infinite factor, never as a good one.
     let worst_factor = points
         .iter()
         .map(|p| {
             let r = p.q_star_fraction.max(Q_FLOOR) / p.reference.max(Q_FLOOR);
-            r.max(1.0 / r)
+            if r.is_finite() {
+                r.max(1.0 / r)
+            } else {
+                f64::INFINITY
+            }
         })
         .fold(1.0, f64::max);
     let result = MixedStage {
