@@ -2,14 +2,10 @@
 //! resuming after an interruption, shards merged to the serial result, and
 //! results independent of the thread count.
 
-use assert_cmd::Command;
-use std::path::Path;
+mod common;
 
-fn mbs() -> Command {
-    let mut c = Command::cargo_bin("mbs").unwrap();
-    c.arg("--quiet");
-    c
-}
+use common::*;
+use std::path::Path;
 
 fn calibrate(dir: &Path, extra: &[&str]) {
     mbs()
@@ -79,7 +75,7 @@ fn quick_calibration_writes_every_stage_and_the_report() {
         .map(|v| v.as_f64().unwrap())
         .collect();
     assert_eq!(before.len(), after.len());
-    assert!(s3["misfit"].as_f64().unwrap() < s3["grid"][0][1].as_f64().unwrap());
+    assert!(s3["misfit"].as_f64().unwrap() < s3["search"]["grid"][0][1].as_f64().unwrap());
 }
 
 #[test]

@@ -2,37 +2,11 @@
 //! its files, thread-count independence, and bad input (exit status 2, a
 //! message naming key, value and range, nothing written).
 
-use assert_cmd::Command;
+mod common;
+
+use common::*;
 use predicates::prelude::*;
 use std::path::Path;
-
-/// A bed small and short enough for a test: 5 × 4 grains, 0.05 s windows.
-const SMALL: &str = r#"
-[bed]
-columns = 5
-rows = 4
-[time]
-settle = 0.05
-spin_up = 0.02
-window = 0.05
-[flow]
-tau_star = [0.1, 0.3]
-[run]
-seeds = [1, 2]
-capacity = 256
-"#;
-
-fn mbs() -> Command {
-    let mut c = Command::cargo_bin("mbs").unwrap();
-    c.arg("--quiet");
-    c
-}
-
-fn write(dir: &Path, name: &str, text: &str) -> std::path::PathBuf {
-    let p = dir.join(name);
-    std::fs::write(&p, text).unwrap();
-    p
-}
 
 #[test]
 fn config_prints_the_embedded_default() {

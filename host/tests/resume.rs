@@ -3,32 +3,12 @@
 //! resumed, writes the same `transport.csv`, byte for byte, as a run never
 //! stopped; damaged checkpoints are refused and change nothing.
 
-use assert_cmd::Command;
+mod common;
+
+use common::*;
 use predicates::prelude::*;
 use std::path::{Path, PathBuf};
 use std::time::Duration;
-
-/// 5 × 4 bed; per cell 20 000 settling + 8 000 spin-up + 20 000 window steps.
-const SMALL: &str = r#"
-[bed]
-columns = 5
-rows = 4
-[time]
-settle = 0.05
-spin_up = 0.02
-window = 0.05
-[flow]
-tau_star = [0.1, 0.3]
-[run]
-seeds = [1, 2]
-capacity = 256
-"#;
-
-fn mbs() -> Command {
-    let mut c = Command::cargo_bin("mbs").unwrap();
-    c.arg("--quiet");
-    c
-}
 
 fn setup_with(text: &str) -> (tempfile::TempDir, PathBuf) {
     let dir = tempfile::tempdir().unwrap();

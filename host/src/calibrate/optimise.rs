@@ -65,6 +65,69 @@ pub fn golden_section(
     }))
 }
 
+/// A grid scan refined by golden section.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Search {
+    /// (argument, objective) on the grid.
+    pub grid: Vec<(f64, f64)>,
+    /// (argument, objective) of the golden-section refinement, in order.
+    pub refinement: Vec<(f64, f64)>,
+    /// The best (argument, objective) of all.
+    pub best: (f64, f64),
+}
+
+/// Minimises `f` over positive arguments: evaluates every `grid` point
+/// (all of them, so a shard computes all its cells), then searches ln x by
+/// golden section between the neighbours of the best grid point (half or
+/// twice the end point beyond the grid's ends) until the bracket ratio is
+/// below `ratio`. Returns the best evaluation of all (the objective may be
+/// rough), or `None` while any value is missing.
+pub fn grid_then_golden(
+    grid: &[f64],
+    ratio: f64,
+    mut f: impl FnMut(f64) -> Result<Option<f64>, HostError>,
+) -> Result<Option<Search>, HostError> {
+    let mut scanned = Vec::new();
+    for &x in grid {
+        if let Some(v) = f(x)? {
+            scanned.push((x, v));
+        }
+    }
+    if scanned.len() < grid.len() || scanned.is_empty() {
+        return Ok(None);
+    }
+    let best = scanned
+        .iter()
+        .enumerate()
+        .min_by(|a, b| a.1 .1.total_cmp(&b.1 .1))
+        .map_or(0, |(i, _)| i);
+    let lo = if best == 0 {
+        scanned[0].0 / 2.0
+    } else {
+        scanned[best - 1].0
+    };
+    let hi = if best + 1 == scanned.len() {
+        scanned[best].0 * 2.0
+    } else {
+        scanned[best + 1].0
+    };
+    let Some(m) = golden_section(lo.ln(), hi.ln(), ratio.ln(), |x| f(x.exp()))? else {
+        return Ok(None);
+    };
+    let refinement: Vec<(f64, f64)> = m.evaluations.iter().map(|&(x, v)| (x.exp(), v)).collect();
+    let best = scanned
+        .iter()
+        .chain(&refinement)
+        .copied()
+        .min_by(|a, b| a.1.total_cmp(&b.1))
+        .unwrap_or(scanned[0]);
+    Ok(Some(Search {
+        grid: scanned,
+        refinement,
+        best,
+    }))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -78,6 +141,31 @@ mod tests {
         assert!((m.value - 2.0).abs() < 1e-8);
         // Each iteration shrinks the bracket by 0.618: ln(3e4)/ln(1/0.618) ≈ 22.
         assert!(m.evaluations.len() <= 25, "{}", m.evaluations.len());
+    }
+
+    #[test]
+    fn grid_then_golden_refines_around_the_best_grid_point() {
+        let f = |x: f64| Ok(Some((x.ln() - 3.1f64.ln()).powi(2)));
+        let s = grid_then_golden(&[1.0, 2.0, 4.0, 8.0], 1.01, f)
+            .unwrap()
+            .unwrap();
+        assert_eq!(s.grid.len(), 4);
+        assert!((s.best.0 / 3.1 - 1.0).abs() < 0.01, "{:?}", s.best);
+        // The best grid point is 4: the search runs between its neighbours 2 and 8.
+        assert!(s
+            .refinement
+            .iter()
+            .all(|&(x, _)| (1.999..=8.001).contains(&x)));
+        let beyond = grid_then_golden(&[1.0, 2.0], 1.01, |x| Ok(Some((x - 3.0).abs())))
+            .unwrap()
+            .unwrap();
+        assert!(
+            (beyond.best.0 - 3.0).abs() < 0.05,
+            "past the end: {:?}",
+            beyond.best
+        );
+        let missing = grid_then_golden(&[1.0, 2.0], 1.1, |x| Ok((x < 1.5).then_some(x))).unwrap();
+        assert_eq!(missing, None);
     }
 
     #[test]

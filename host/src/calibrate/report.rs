@@ -173,8 +173,8 @@ pub fn write_report(
         "## Stage 3: β (paper Figs. 5–6)\n\nMisfit = mean over τ* of ln²(q*/q*_ref), q* the mean of seeds {:?} over a {} s window; a grid of β, then golden-section search on ln β (to a bracket ratio {}).\n\n![](stage3.png)\n\n![](stage3_misfit.png)\n\n| β | misfit |\n|---|---|",
         plan.seeds, plan.window, plan.beta_tolerance
     );
-    let mut evaluations = s.beta.grid.clone();
-    evaluations.extend(s.beta.search.evaluations.iter().map(|&(x, v)| (x.exp(), v)));
+    let mut evaluations = s.beta.search.grid.clone();
+    evaluations.extend(s.beta.search.refinement.iter().copied());
     for (b, v) in &evaluations {
         let _ = writeln!(o, "| {b:.4} | {v:.4} |");
     }

@@ -3,7 +3,7 @@
 //! sharded), then a golden-section search on ln β around the best grid point.
 
 use super::{save_stage, slot_of};
-use crate::calibrate::optimise::{golden_section, Minimum};
+use crate::calibrate::optimise::{grid_then_golden, Search};
 use crate::calibrate::{Context, Curve};
 use crate::config::ConfigFile;
 use crate::error::HostError;
@@ -18,10 +18,8 @@ pub struct BetaStage {
     pub alpha_m: f64,
     /// α_cn of stage 2.
     pub alpha_cn: f64,
-    /// (β, misfit) over the grid.
-    pub grid: Vec<(f64, f64)>,
-    /// The search on ln β.
-    pub search: Minimum,
+    /// The grid scan and its golden-section refinement in β.
+    pub search: Search,
     /// The fitted β.
     pub beta: f64,
     /// q*(τ*) at β = 1 (before).
@@ -58,47 +56,17 @@ pub fn run(ctx: &Context<'_>, alpha_m: f64, alpha_cn: f64) -> Result<Option<Beta
             &slot_of(evaluation, cells),
         )
     };
-    // The grid: every point's cells can go to another shard.
-    let mut grid = Vec::new();
-    let mut complete = true;
-    for (e, &beta) in plan.beta_grid.iter().enumerate() {
-        match curve_at(beta, e)? {
-            Some(curve) => grid.push((beta, curve.misfit(ctx.reference))),
-            None => complete = false,
-        }
-    }
-    if !complete {
-        return Ok(None);
-    }
-    let best = grid
-        .iter()
-        .enumerate()
-        .min_by(|a, b| a.1 .1.total_cmp(&b.1 .1))
-        .map_or(0, |(i, _)| i);
-    let lo = if best == 0 {
-        grid[0].0 / 2.0
-    } else {
-        grid[best - 1].0
-    };
-    let hi = if best + 1 == grid.len() {
-        grid[best].0 * 2.0
-    } else {
-        grid[best + 1].0
-    };
-    let mut evaluation = plan.beta_grid.len();
-    let search = golden_section(lo.ln(), hi.ln(), plan.beta_tolerance.ln(), |x| {
-        let curve = curve_at(x.exp(), evaluation)?;
+    // The grid's cells can go to other shards; the refinement follows it.
+    let mut evaluation = 0;
+    let search = grid_then_golden(&plan.beta_grid, plan.beta_tolerance, |beta| {
+        let curve = curve_at(beta, evaluation)?;
         evaluation += 1;
         Ok(curve.map(|c| c.misfit(ctx.reference)))
     })?;
     let Some(search) = search else {
         return Ok(None);
     };
-    // The grid point may beat the refined one (a rough objective).
-    let (beta, _) = std::iter::once((search.x.exp(), search.value))
-        .chain(grid.iter().copied())
-        .min_by(|a, b| a.1.total_cmp(&b.1))
-        .unwrap_or((1.0, f64::NAN));
+    let beta = search.best.0;
     let extra = evaluation;
     let (Some(before), Some(after)) = (curve_at(1.0, extra)?, curve_at(beta, extra + 1)?) else {
         return Ok(None);
@@ -106,7 +74,6 @@ pub fn run(ctx: &Context<'_>, alpha_m: f64, alpha_cn: f64) -> Result<Option<Beta
     let result = BetaStage {
         alpha_m,
         alpha_cn,
-        grid,
         worst_factor: after.worst_factor(ctx.reference),
         misfit: after.misfit(ctx.reference),
         search,
@@ -129,8 +96,8 @@ pub fn points(curve: &Curve) -> Vec<(f64, f64, f64)> {
 }
 
 fn write_outputs(ctx: &Context<'_>, r: &BetaStage) -> Result<(), HostError> {
-    let mut evaluations: Vec<(f64, f64)> = r.grid.clone();
-    evaluations.extend(r.search.evaluations.iter().map(|&(x, v)| (x.exp(), v)));
+    let mut evaluations: Vec<(f64, f64)> = r.search.grid.clone();
+    evaluations.extend(r.search.refinement.iter().copied());
     let header = ["beta", "misfit"].map(String::from);
     let body: Vec<Vec<String>> = evaluations
         .iter()

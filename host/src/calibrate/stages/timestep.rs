@@ -4,7 +4,7 @@
 //! Each (d, nvd) search is one unit of sharding.
 
 use super::{beta::configure, beta::points, save_stage};
-use crate::calibrate::optimise::golden_section;
+use crate::calibrate::optimise::grid_then_golden;
 use crate::calibrate::{Context, Curve};
 use crate::error::HostError;
 use crate::output::write_csv;
@@ -78,45 +78,17 @@ pub fn run(
                 &slot,
             )
         };
-        let mut grid = Vec::new();
-        for &m in &plan.dt_grid {
-            if let Some(c) = curve_at(base_dt * m)? {
-                grid.push((base_dt * m, c.misfit(ctx.reference)));
-            }
-        }
-        if grid.len() < plan.dt_grid.len() {
-            complete = false;
-            continue;
-        }
-        let best = grid
-            .iter()
-            .enumerate()
-            .min_by(|a, b| a.1 .1.total_cmp(&b.1 .1))
-            .map_or(0, |(i, _)| i);
-        let lo = if best == 0 {
-            grid[0].0 / 2.0
-        } else {
-            grid[best - 1].0
-        };
-        let hi = if best + 1 == grid.len() {
-            grid[best].0 * 2.0
-        } else {
-            grid[best + 1].0
-        };
-        let search = golden_section(lo.ln(), hi.ln(), plan.dt_tolerance.ln(), |x| {
-            Ok(curve_at(x.exp())?.map(|c| c.misfit(ctx.reference)))
+        let grid: Vec<f64> = plan.dt_grid.iter().map(|m| base_dt * m).collect();
+        let search = grid_then_golden(&grid, plan.dt_tolerance, |dt| {
+            Ok(curve_at(dt)?.map(|c| c.misfit(ctx.reference)))
         })?;
         let Some(search) = search else {
             complete = false;
             continue;
         };
-        let mut evaluations = grid.clone();
-        evaluations.extend(search.evaluations.iter().map(|&(x, v)| (x.exp(), v)));
-        let (dt, misfit) = evaluations
-            .iter()
-            .copied()
-            .min_by(|a, b| a.1.total_cmp(&b.1))
-            .unwrap_or((base_dt, f64::NAN));
+        let (dt, misfit) = search.best;
+        let mut evaluations = search.grid;
+        evaluations.extend(search.refinement);
         let (Some(before), Some(after)) = (curve_at(base_dt)?, curve_at(dt)?) else {
             complete = false;
             continue;

@@ -1,0 +1,36 @@
+//! Helpers shared by the command-line tests.
+#![allow(dead_code)]
+
+use assert_cmd::Command;
+use std::path::{Path, PathBuf};
+
+/// A bed small and short enough for a test: 5 × 4 grains; per cell 20 000
+/// settling + 8 000 spin-up + 20 000 window steps (0.05 s windows).
+pub const SMALL: &str = r#"
+[bed]
+columns = 5
+rows = 4
+[time]
+settle = 0.05
+spin_up = 0.02
+window = 0.05
+[flow]
+tau_star = [0.1, 0.3]
+[run]
+seeds = [1, 2]
+capacity = 256
+"#;
+
+/// `mbs --quiet`.
+pub fn mbs() -> Command {
+    let mut c = Command::cargo_bin("mbs").unwrap();
+    c.arg("--quiet");
+    c
+}
+
+/// Writes `text` to `dir/name` and returns the path.
+pub fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
+    let p = dir.join(name);
+    std::fs::write(&p, text).unwrap();
+    p
+}
