@@ -251,3 +251,23 @@ fn grains_leaving_the_domain_are_a_named_error_not_nan() {
         );
     assert!(!out.join("transport.csv").exists(), "no table with NaN");
 }
+
+#[test]
+fn an_unusable_output_directory_is_a_clear_error_and_earlier_results_stay() {
+    let (dir, cfg) = setup();
+    // A file where the output directory should be: nothing can be created in it.
+    let blocked = dir.path().join("blocked");
+    std::fs::write(&blocked, "earlier results\n").unwrap();
+    mbs()
+        .arg("run")
+        .arg(&cfg)
+        .arg("--out")
+        .arg(&blocked)
+        .assert()
+        .code(1)
+        .stderr(predicates::str::contains("blocked"));
+    assert_eq!(
+        std::fs::read_to_string(&blocked).unwrap(),
+        "earlier results\n"
+    );
+}
