@@ -271,3 +271,45 @@ fn an_unusable_output_directory_is_a_clear_error_and_earlier_results_stay() {
         "earlier results\n"
     );
 }
+
+#[test]
+fn a_full_disk_is_a_clear_error_and_earlier_results_stay() {
+    let (dir, cfg) = setup();
+    let out = dir.path().join("out");
+    mbs()
+        .arg("run")
+        .arg(&cfg)
+        .arg("--out")
+        .arg(&out)
+        .assert()
+        .success();
+    let png = std::fs::read(out.join("transport.png")).unwrap();
+    let store = std::fs::read(out.join("cells.jsonl")).unwrap();
+    // A 16 KiB file-size limit with SIGXFSZ ignored: every write beyond it
+    // fails with EFBIG, as a full disk fails with ENOSPC.
+    let bin = assert_cmd::cargo::cargo_bin("mbs");
+    let output = std::process::Command::new("bash")
+        .arg("-c")
+        .arg(r#"trap "" XFSZ; ulimit -f 16; exec "$0" --quiet run "$1" --out "$2""#)
+        .arg(&bin)
+        .arg(&cfg)
+        .arg(&out)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(output.status.code(), Some(1), "{stderr}");
+    assert!(
+        stderr.contains("transport.png") && stderr.contains("too large"),
+        "{stderr}"
+    );
+    assert_eq!(
+        std::fs::read(out.join("transport.png")).unwrap(),
+        png,
+        "earlier figure intact"
+    );
+    assert_eq!(
+        std::fs::read(out.join("cells.jsonl")).unwrap(),
+        store,
+        "finished cells intact"
+    );
+}
