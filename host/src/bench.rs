@@ -8,16 +8,20 @@ use std::time::Instant;
 /// Rows of the benchmark bed.
 pub const ROWS: u32 = 10;
 
-/// Steps of settling before timing.
-pub const SETTLE_STEPS: u64 = 4000;
+/// Most steps of settling before timing (0.5 s at Δt/8).
+pub const SETTLE_MAX_STEPS: u64 = 200_000;
+
+/// Settled: every mobile grain slower than this (m/s).
+pub const REST_SPEED: f64 = 1e-3;
 
 /// Lattice columns giving about `grains` grains (fixed row included).
 pub fn columns_for(grains: usize) -> u32 {
     (grains / (ROWS as usize + 1)).clamp(3, u32::MAX as usize) as u32
 }
 
-/// Builds the paper's bed with `columns` columns into `sim`, settles it for
-/// [`SETTLE_STEPS`] and switches the flow (τ* = 0.2) on if `flow`.
+/// Builds the paper's bed with `columns` columns into `sim`, settles it
+/// until every grain is slower than [`REST_SPEED`] (at most
+/// [`SETTLE_MAX_STEPS`]) and switches the flow (τ* = 0.2) on if `flow`.
 pub fn settled_bed<R: Real, const N: usize, const K: usize>(
     sim: &mut Sim<R, N, K>,
     columns: u32,
@@ -26,7 +30,7 @@ pub fn settled_bed<R: Real, const N: usize, const K: usize>(
     let mut sc = Scenario::paper();
     sc.bed = BedSpec::uniform(0.5e-3, columns, ROWS);
     sc.build(sim)?;
-    sim.run(SETTLE_STEPS)?;
+    sim.settle(SETTLE_MAX_STEPS, REST_SPEED)?;
     if flow {
         sim.set_flow(Some(&sc.flow()))?;
     }
