@@ -30,13 +30,7 @@ fn run_writes_table_plots_and_summary() {
     let dir = tempfile::tempdir().unwrap();
     let cfg = write(dir.path(), "small.toml", SMALL);
     let out = dir.path().join("out");
-    mbs()
-        .arg("run")
-        .arg(&cfg)
-        .arg("--out")
-        .arg(&out)
-        .assert()
-        .success();
+    run_into(&cfg, &out).assert().success();
     let csv = std::fs::read_to_string(out.join("transport.csv")).unwrap();
     let lines: Vec<&str> = csv.lines().collect();
     assert_eq!(
@@ -94,13 +88,7 @@ fn mixed_beds_get_columns_per_size_class() {
     let text = text.replace("[time]", "[time]\nsubsteps = 8");
     let cfg = write(dir.path(), "mixed.toml", &text);
     let out = dir.path().join("out");
-    mbs()
-        .arg("run")
-        .arg(&cfg)
-        .arg("--out")
-        .arg(&out)
-        .assert()
-        .success();
+    run_into(&cfg, &out).assert().success();
     let csv = std::fs::read_to_string(out.join("transport.csv")).unwrap();
     assert!(
         csv.starts_with("tau_star,q_star,q_star_stderr,seeds,mpm,wong_parker,q_star_1mm,q_star_1mm_stderr,q_star_0.7mm,q_star_0.7mm_stderr\n"),

@@ -22,13 +22,7 @@ fn setup() -> (tempfile::TempDir, PathBuf) {
 }
 
 fn uninterrupted(cfg: &Path, out: &Path) -> Vec<u8> {
-    mbs()
-        .arg("run")
-        .arg(cfg)
-        .arg("--out")
-        .arg(out)
-        .assert()
-        .success();
+    run_into(cfg, out).assert().success();
     std::fs::read(out.join("transport.csv")).unwrap()
 }
 
@@ -66,12 +60,7 @@ fn stopped_anywhere_and_resumed_gives_the_same_table() {
                 "no table before the end"
             );
         }
-        mbs()
-            .arg("run")
-            .arg("--resume")
-            .arg(&out)
-            .assert()
-            .success();
+        resume_in(&out).assert().success();
         assert_eq!(
             std::fs::read(out.join("transport.csv")).unwrap(),
             reference,
@@ -127,12 +116,7 @@ fn killed_at_random_moments_and_resumed_gives_the_same_table() {
             assert_eq!(&bytes[..4], b"MBSC", "{}", path.display());
         }
     }
-    mbs()
-        .arg("run")
-        .arg("--resume")
-        .arg(&out)
-        .assert()
-        .success();
+    resume_in(&out).assert().success();
     assert_eq!(std::fs::read(out.join("transport.csv")).unwrap(), reference);
     for d in [out.clone(), out.join("checkpoints")] {
         for entry in std::fs::read_dir(&d).unwrap() {
@@ -147,11 +131,7 @@ fn killed_at_random_moments_and_resumed_gives_the_same_table() {
 fn a_damaged_checkpoint_is_refused_and_kept() {
     let (dir, cfg) = setup();
     let out = dir.path().join("damaged");
-    mbs()
-        .arg("run")
-        .arg(&cfg)
-        .arg("--out")
-        .arg(&out)
+    run_into(&cfg, &out)
         .args(["--stop-after-steps", "3000"])
         .assert()
         .code(130);
@@ -160,10 +140,7 @@ fn a_damaged_checkpoint_is_refused_and_kept() {
     let n = bytes.len();
     bytes[n / 2] ^= 0xff;
     std::fs::write(&path, &bytes).unwrap();
-    mbs()
-        .arg("run")
-        .arg("--resume")
-        .arg(&out)
+    resume_in(&out)
         .assert()
         .code(1)
         .stderr(predicates::str::contains("checksum mismatch"));
@@ -176,11 +153,7 @@ fn a_damaged_checkpoint_is_refused_and_kept() {
     let other = dir.path().join("other.toml");
     std::fs::write(&other, SMALL.replace("seeds = [1, 2]", "seeds = [1, 3]")).unwrap();
     let started = std::fs::read(out.join("config.toml")).unwrap();
-    mbs()
-        .arg("run")
-        .arg(&other)
-        .arg("--out")
-        .arg(&out)
+    run_into(&other, &out)
         .assert()
         .code(1)
         .stderr(predicates::str::contains(
@@ -188,10 +161,7 @@ fn a_damaged_checkpoint_is_refused_and_kept() {
         ));
     assert_eq!(std::fs::read(out.join("config.toml")).unwrap(), started);
     std::fs::write(&path, &bytes[..100]).unwrap();
-    mbs()
-        .arg("run")
-        .arg("--resume")
-        .arg(&out)
+    resume_in(&out)
         .assert()
         .code(1)
         .stderr(predicates::str::contains("checkpoint refused"));
@@ -221,12 +191,7 @@ fn ctrl_c_checkpoints_and_says_how_to_resume() {
     assert_eq!(output.status.code(), Some(130), "{stderr}");
     assert!(stderr.contains("resume with `mbs run --resume"), "{stderr}");
     assert!(std::fs::read_dir(out.join("checkpoints")).unwrap().count() > 0);
-    mbs()
-        .arg("run")
-        .arg("--resume")
-        .arg(&out)
-        .assert()
-        .success();
+    resume_in(&out).assert().success();
     assert_eq!(std::fs::read(out.join("transport.csv")).unwrap(), reference);
 }
 
@@ -238,17 +203,10 @@ fn grains_leaving_the_domain_are_a_named_error_not_nan() {
         .replace("[time]", "[contact]\nbeta = 1.0\n[time]");
     let (dir, cfg) = setup_with(&text);
     let out = dir.path().join("out");
-    mbs()
-        .arg("run")
-        .arg(&cfg)
-        .arg("--out")
-        .arg(&out)
-        .assert()
-        .code(1)
-        .stderr(
-            predicates::str::contains("tau* = 5, seed 1: grain")
-                .and(predicates::str::contains("left the domain at step")),
-        );
+    run_into(&cfg, &out).assert().code(1).stderr(
+        predicates::str::contains("tau* = 5, seed 1: grain")
+            .and(predicates::str::contains("left the domain at step")),
+    );
     assert!(!out.join("transport.csv").exists(), "no table with NaN");
 }
 
@@ -258,11 +216,7 @@ fn an_unusable_output_directory_is_a_clear_error_and_earlier_results_stay() {
     // A file where the output directory should be: nothing can be created in it.
     let blocked = dir.path().join("blocked");
     std::fs::write(&blocked, "earlier results\n").unwrap();
-    mbs()
-        .arg("run")
-        .arg(&cfg)
-        .arg("--out")
-        .arg(&blocked)
+    run_into(&cfg, &blocked)
         .assert()
         .code(1)
         .stderr(predicates::str::contains("blocked"));
@@ -276,13 +230,7 @@ fn an_unusable_output_directory_is_a_clear_error_and_earlier_results_stay() {
 fn a_full_disk_is_a_clear_error_and_earlier_results_stay() {
     let (dir, cfg) = setup();
     let out = dir.path().join("out");
-    mbs()
-        .arg("run")
-        .arg(&cfg)
-        .arg("--out")
-        .arg(&out)
-        .assert()
-        .success();
+    run_into(&cfg, &out).assert().success();
     let png = std::fs::read(out.join("transport.png")).unwrap();
     let store = std::fs::read(out.join("cells.jsonl")).unwrap();
     // A 16 KiB file-size limit with SIGXFSZ ignored: every write beyond it

@@ -28,6 +28,20 @@ pub fn mbs() -> Command {
     c
 }
 
+/// `mbs --quiet run CONFIG --out OUT`.
+pub fn run_into(config: &Path, out: &Path) -> Command {
+    let mut c = mbs();
+    c.arg("run").arg(config).arg("--out").arg(out);
+    c
+}
+
+/// `mbs --quiet run --resume DIR`.
+pub fn resume_in(dir: &Path) -> Command {
+    let mut c = mbs();
+    c.arg("run").arg("--resume").arg(dir);
+    c
+}
+
 /// Writes `text` to `dir/name` and returns the path.
 pub fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
     let p = dir.join(name);
