@@ -1,35 +1,100 @@
-//! Criterion benchmarks of the hot loop in isolation: one step of a settled
-//! paper bed (d = 0.5 mm, α_m = 20, α_cn = 1.3, β = 15.8, Δt/8 integration),
-//! without and with flow at τ* = 0.2. Throughput is in grain-steps, fixed
-//! grains included. Run: `cargo bench --bench step`.
+//! Criterion benchmarks of the hot loop in isolation (`mbs::bench`): settled
+//! beds of the paper's grains (d = 0.5 mm, α_m = 20, α_cn = 1.3, constants
+//! from Δt = 2.0e-5 s, integrated at Δt/8), 10 rows over a fixed row,
+//! periodic in x, of about 64, 1 024, 16 384 and 65 536 grains, β = 15.8 and
+//! 1, f64 and f32; cases: step without flow, step with flow at τ* = 0.2,
+//! neighbour rebuild alone, contact law alone. Each bed runs on the same
+//! capacity as `mbs bench` gives it.
+//!
+//! Throughput is in grain-steps with every grain counted (fixed ones
+//! included): criterion's "elem/s" inverted is ns per grain-step. Prepared
+//! beds are kept in target/tmp/bench-beds (shared with
+//! `benches/instructions.sh`), so only the first run settles them.
+//!
+//! Run: `cargo bench --bench step` (all), or e.g.
+//! `cargo bench --bench step -- 'f64/still/beta15.8/16368'`.
 
-use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
-use mbs::bench::settled_bed;
-use mbs::boxed_sim;
+use criterion::measurement::WallTime;
+use criterion::{
+    criterion_group, criterion_main, BenchmarkGroup, BenchmarkId, Criterion, Throughput,
+};
+use mbs::bench::{prepare, BenchBed, Case, ContactLawCase};
+use mbs::sims::{with_sim, SimJob, NEIGHBOURS};
+use mbs::Precision;
 use mbs_kernel::{Real, Sim};
+use std::path::{Path, PathBuf};
+use std::time::Duration;
 
-const N: usize = 16_384;
+/// Grains wanted; the beds have whole columns (66, 1 023, 16 368, 65 472).
+const SIZES: [usize; 4] = [64, 1_024, 16_384, 65_536];
 
-fn settled<R: Real>(columns: u32, flow: bool) -> Box<Sim<R, N, 8>> {
-    let mut sim = boxed_sim::<R, N, 8>();
-    settled_bed(&mut *sim, columns, flow).expect("bed fits and settles");
-    sim
+/// β of the paper, and 1.
+const BETAS: [f64; 2] = [15.8, 1.0];
+
+/// Prepared beds, shared with `benches/instructions.sh`.
+fn beds() -> PathBuf {
+    Path::new(env!("CARGO_TARGET_TMPDIR")).join("bench-beds")
 }
 
-fn bench<R: Real>(c: &mut Criterion) {
-    let mut group = c.benchmark_group(format!("step_{}", R::NAME));
-    for columns in [6u32, 93, 1489] {
-        for flow in [false, true] {
-            let mut sim = settled::<R>(columns, flow);
-            group.throughput(Throughput::Elements(sim.len() as u64));
-            let name = if flow { "flow" } else { "still" };
-            group.bench_with_input(BenchmarkId::new(name, sim.len()), &(), |b, _| {
-                b.iter(|| sim.step().expect("step"))
-            });
-        }
+/// One benchmark: prepare `bed`, then time `case` on it.
+struct Measure<'g, 'c> {
+    group: &'g mut BenchmarkGroup<'c, WallTime>,
+    bed: BenchBed,
+    case: Case,
+}
+
+impl SimJob for Measure<'_, '_> {
+    type Output = ();
+
+    fn run<R: Real, const N: usize>(self, sim: &mut Sim<R, N, NEIGHBOURS>) {
+        let flow = self.case == Case::Flow;
+        prepare(sim, &self.bed, flow, Some(&beds())).expect("bench bed");
+        sim.rebuild_neighbours().expect("rebuild");
+        self.group
+            .throughput(Throughput::Elements(sim.len() as u64));
+        let id = BenchmarkId::new(format!("beta{}", self.bed.beta), sim.len());
+        let mut law = ContactLawCase::new(sim);
+        self.group.bench_function(id, |b| match self.case {
+            Case::Still | Case::Flow => b.iter(|| sim.step().expect("step")),
+            Case::Rebuild => b.iter(|| sim.rebuild_neighbours().expect("rebuild")),
+            Case::Contacts => b.iter(|| law.pass()),
+        });
     }
-    group.finish();
 }
 
-criterion_group!(benches, bench::<f64>, bench::<f32>);
+fn bench(c: &mut Criterion, precision: Precision) {
+    let name = format!("{precision:?}").to_lowercase();
+    for case in Case::ALL {
+        let mut group = c.benchmark_group(format!("{name}/{}", case.name()));
+        for beta in BETAS {
+            for grains in SIZES {
+                let bed = BenchBed { grains, beta };
+                let group = &mut group;
+                with_sim(precision, bed.len(), Measure { group, bed, case });
+            }
+        }
+        group.finish();
+    }
+}
+
+fn f64_beds(c: &mut Criterion) {
+    bench(c, Precision::F64);
+}
+
+fn f32_beds(c: &mut Criterion) {
+    bench(c, Precision::F32);
+}
+
+fn config() -> Criterion {
+    Criterion::default()
+        .sample_size(10)
+        .warm_up_time(Duration::from_millis(500))
+        .measurement_time(Duration::from_secs(2))
+}
+
+criterion_group! {
+    name = benches;
+    config = config();
+    targets = f64_beds, f32_beds
+}
 criterion_main!(benches);

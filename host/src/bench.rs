@@ -1,40 +1,244 @@
-//! The hot-loop benchmark shared by `mbs bench` and the criterion benches:
-//! a settled bed of the paper's grains, 10 rows deep, periodic in x.
+//! The hot-loop benchmarks shared by `mbs bench` and the criterion benches
+//! (`benches/step.rs`): settled beds of the paper's grains (d = 0.5 mm,
+//! α_m = 20, α_cn = 1.3, constants from Δt = 2.0e-5 s, integrated at Δt/8),
+//! [`ROWS`] rows deep over a fixed row, periodic in x, and four cases: a
+//! step without flow, a step with the flow at τ* = 0.2, the neighbour
+//! rebuild alone and the contact law alone.
+//!
+//! Beds wider than one tile of [`TILE_COLUMNS`] columns are that settled
+//! tile repeated side by side and settled again, so a 65 536-grain bed costs
+//! little more to prepare than a 1 023-grain one. Prepared beds can be kept
+//! as kernel checkpoints in a directory and reused.
 
+use crate::error::HostError;
+use crate::output::{create_dir, write_atomic};
 use crate::sims::{with_sim, SimJob, NEIGHBOURS};
-use mbs_kernel::{BedSpec, Error, Real, Scenario, Sim};
+use mbs_kernel::contact::{ContactLaw, Spring};
+use mbs_kernel::{BedSpec, Error, GrainSpec, Real, Scenario, Sim};
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-/// Rows of the benchmark bed.
+/// Rows of mobile grains of the benchmark bed.
 pub const ROWS: u32 = 10;
 
-/// Most steps of settling before timing (0.5 s at Δt/8).
+/// Columns of one tile: 93 × 11 = 1 023 grains.
+pub const TILE_COLUMNS: u32 = 93;
+
+/// Most steps of settling (0.5 s at Δt/8).
 pub const SETTLE_MAX_STEPS: u64 = 200_000;
 
 /// Settled: every mobile grain slower than this (m/s).
 pub const REST_SPEED: f64 = 1e-3;
 
-/// Lattice columns giving about `grains` grains (fixed row included).
-pub fn columns_for(grains: usize) -> u32 {
-    (grains / (ROWS as usize + 1)).clamp(3, u32::MAX as usize) as u32
+/// Steps of flow before a flow case is timed (0.02 s at Δt/8): saltation
+/// has started, so the neighbour lists are rebuilt as often as in a run.
+pub const FLOW_WARM_UP: u64 = 8_000;
+
+/// Shields number of the flow case.
+pub const TAU_STAR: f64 = 0.2;
+
+/// What one benchmark times.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Case {
+    /// One step of the settled bed without flow.
+    Still,
+    /// One step with the flow at τ* = 0.2 (drag, turbulence, log law).
+    Flow,
+    /// The neighbour-list rebuild alone.
+    Rebuild,
+    /// The contact law (6)–(9) alone, over the bed's contacts.
+    Contacts,
 }
 
-/// Builds the paper's bed with `columns` columns into `sim`, settles it
-/// until every grain is slower than [`REST_SPEED`] (at most
-/// [`SETTLE_MAX_STEPS`]) and switches the flow (τ* = 0.2) on if `flow`.
-pub fn settled_bed<R: Real, const N: usize, const K: usize>(
+impl Case {
+    /// Every case, in table order.
+    pub const ALL: [Case; 4] = [Case::Still, Case::Flow, Case::Rebuild, Case::Contacts];
+
+    /// Lower-case name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Case::Still => "still",
+            Case::Flow => "flow",
+            Case::Rebuild => "rebuild",
+            Case::Contacts => "contacts",
+        }
+    }
+}
+
+/// A benchmark bed: about `grains` grains (fixed row included) with the
+/// paper's constants scaled by `beta`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BenchBed {
+    /// Grains wanted; the bed has whole columns of 11 grains.
+    pub grains: usize,
+    /// β of the contact constants (the paper's is 15.8).
+    pub beta: f64,
+}
+
+impl BenchBed {
+    /// Columns: whole tiles from 1.5 tiles on, else the nearest count.
+    pub fn columns(&self) -> u32 {
+        let per_column = ROWS as usize + 1;
+        let tile = TILE_COLUMNS as usize * per_column;
+        let columns = if self.grains >= tile + tile / 2 {
+            (self.grains + tile / 2) / tile * TILE_COLUMNS as usize
+        } else {
+            (self.grains + per_column / 2) / per_column
+        };
+        columns.clamp(3, u32::MAX as usize) as u32
+    }
+
+    /// Grains of the bed.
+    pub fn len(&self) -> usize {
+        self.columns() as usize * (ROWS as usize + 1)
+    }
+
+    /// Never empty (at least 3 columns).
+    pub fn is_empty(&self) -> bool {
+        false
+    }
+
+    /// The paper's scenario with this β and `columns` columns.
+    pub fn scenario(&self, columns: u32) -> Scenario {
+        let mut sc = Scenario::paper();
+        sc.rule.beta = self.beta;
+        sc.tau_star = TAU_STAR;
+        sc.bed = BedSpec::uniform(0.5e-3, columns, ROWS);
+        sc
+    }
+
+    /// File of the prepared bed in `dir`.
+    fn file<R: Real>(&self, dir: &Path, columns: u32, flow: bool) -> PathBuf {
+        let phase = if flow { "flow" } else { "still" };
+        dir.join(format!(
+            "{}_{columns}c_beta{}_{phase}_v{}.ckpt",
+            R::NAME,
+            self.beta,
+            mbs_kernel::CHECKPOINT_VERSION
+        ))
+    }
+}
+
+/// Puts a prepared bed into `sim`: settled (`flow` false) or after
+/// [`FLOW_WARM_UP`] steps of flow at τ* = 0.2. With `beds`, prepared beds
+/// are read from and written to that directory.
+pub fn prepare<R: Real, const N: usize, const K: usize>(
     sim: &mut Sim<R, N, K>,
+    bed: &BenchBed,
+    flow: bool,
+    beds: Option<&Path>,
+) -> Result<(), HostError> {
+    prepare_columns(sim, bed, bed.columns(), flow, beds)
+}
+
+fn prepare_columns<R: Real, const N: usize, const K: usize>(
+    sim: &mut Sim<R, N, K>,
+    bed: &BenchBed,
     columns: u32,
     flow: bool,
-) -> Result<(), Error> {
-    let mut sc = Scenario::paper();
-    sc.bed = BedSpec::uniform(0.5e-3, columns, ROWS);
-    sc.build(sim)?;
-    sim.settle(SETTLE_MAX_STEPS, REST_SPEED)?;
+    beds: Option<&Path>,
+) -> Result<(), HostError> {
+    if let Some(dir) = beds {
+        if let Ok(bytes) = std::fs::read(bed.file::<R>(dir, columns, flow)) {
+            if sim.restore(&bytes).is_ok() {
+                return Ok(());
+            }
+        }
+    }
+    let sc = bed.scenario(columns);
     if flow {
-        sim.set_flow(Some(&sc.flow()))?;
+        prepare_columns(sim, bed, columns, false, beds)?;
+        sim.set_flow(Some(&sc.flow())).map_err(bed_error)?;
+        sim.run(FLOW_WARM_UP).map_err(bed_error)?;
+    } else if columns > TILE_COLUMNS && columns.is_multiple_of(TILE_COLUMNS) {
+        prepare_columns(sim, bed, TILE_COLUMNS, false, beds)?;
+        tile(sim, columns / TILE_COLUMNS).map_err(bed_error)?;
+        sim.settle(SETTLE_MAX_STEPS, REST_SPEED)
+            .map_err(bed_error)?;
+    } else {
+        sc.build(sim).map_err(bed_error)?;
+        sim.settle(SETTLE_MAX_STEPS, REST_SPEED)
+            .map_err(bed_error)?;
+    }
+    if let Some(dir) = beds {
+        create_dir(dir)?;
+        let mut bytes = Vec::new();
+        sim.checkpoint(|b| bytes.extend_from_slice(b));
+        write_atomic(&bed.file::<R>(dir, columns, flow), &bytes)?;
     }
     Ok(())
+}
+
+fn bed_error(error: Error) -> HostError {
+    HostError::kernel("bench bed")(error)
+}
+
+/// Replaces the bed in `sim` by `copies` copies of it side by side (grain
+/// positions and velocities; contacts restart from their overlaps).
+fn tile<R: Real, const N: usize, const K: usize>(
+    sim: &mut Sim<R, N, K>,
+    copies: u32,
+) -> Result<(), Error> {
+    let grains: Vec<GrainSpec> = (0..sim.len()).filter_map(|i| sim.grain(i)).collect();
+    let mut config = *sim.config();
+    let width = config.width;
+    config.width *= f64::from(copies);
+    sim.reset(&config)?;
+    for copy in 0..copies {
+        for g in &grains {
+            sim.add_grain(&GrainSpec {
+                x: g.x + f64::from(copy) * width,
+                ..*g
+            })?;
+        }
+    }
+    Ok(())
+}
+
+/// Runs `work` once: the timed region, never inlined, so that
+/// `benches/instructions.sh` can count its instructions with callgrind.
+#[inline(never)]
+pub fn timed<T>(work: impl FnOnce() -> T) -> T {
+    work()
+}
+
+/// Pseudo-velocities (m/s) of the contact-law case: small, of both signs,
+/// like those of a settled bed.
+fn contact_speeds(k: usize) -> (f64, f64) {
+    let a = (k * 7 % 11) as f64 - 5.0;
+    let b = (k * 5 % 13) as f64 - 6.0;
+    (2e-5 * a, 2e-5 * b)
+}
+
+/// The contact-law case: every contact of a bed with its history, overlap
+/// (from the normal spring) and pseudo-velocities.
+pub struct ContactLawCase<R: Real> {
+    law: ContactLaw<R>,
+    contacts: Vec<(Spring<R>, R, R, R)>,
+}
+
+impl<R: Real> ContactLawCase<R> {
+    /// The contacts of `sim`.
+    pub fn new<const N: usize, const K: usize>(sim: &Sim<R, N, K>) -> Self {
+        let law = sim.contact_law();
+        let contacts = sim
+            .contacts()
+            .enumerate()
+            .map(|(k, (_, _, spring))| {
+                let (v_n, v_s) = contact_speeds(k);
+                let overlap = spring.e_n / law.k_n;
+                (spring, overlap, R::from_f64(v_n), R::from_f64(v_s))
+            })
+            .collect();
+        ContactLawCase { law, contacts }
+    }
+
+    /// Applies the law once to every contact.
+    pub fn pass(&mut self) {
+        for (spring, overlap, v_n, v_s) in &mut self.contacts {
+            std::hint::black_box(self.law.apply(spring, *overlap, *v_n, *v_s));
+        }
+    }
 }
 
 /// What `mbs bench` measured.
@@ -42,38 +246,53 @@ pub fn settled_bed<R: Real, const N: usize, const K: usize>(
 pub struct BenchResult {
     /// Grains (fixed included).
     pub grains: usize,
-    /// Steps timed.
-    pub steps: u64,
-    /// Wall time per grain-step (ns).
+    /// Repetitions timed (steps, rebuilds or passes over the contacts).
+    pub repetitions: u64,
+    /// Wall time per grain and repetition (ns).
     pub ns_per_grain_step: f64,
-    /// Contacts per grain at the end.
+    /// Contacts per grain when timing started.
     pub contacts_per_grain: f64,
 }
 
-/// `mbs bench`: settle, then time `steps` steps of the step loop alone.
-pub struct Bench {
-    /// Lattice columns.
-    pub columns: u32,
-    /// Steps timed.
-    pub steps: u64,
-    /// Flow on.
-    pub flow: bool,
+/// `mbs bench`: prepare a bed, then time `repetitions` of `case`.
+pub struct Bench<'a> {
+    /// The bed.
+    pub bed: BenchBed,
+    /// What is timed.
+    pub case: Case,
+    /// Repetitions timed.
+    pub repetitions: u64,
+    /// Directory of prepared beds, if any.
+    pub beds: Option<&'a Path>,
 }
 
-impl SimJob for Bench {
-    type Output = Result<BenchResult, Error>;
+impl SimJob for Bench<'_> {
+    type Output = Result<BenchResult, HostError>;
 
     fn run<R: Real, const N: usize>(self, sim: &mut Sim<R, N, NEIGHBOURS>) -> Self::Output {
-        settled_bed(sim, self.columns, self.flow)?;
-        let start = Instant::now();
-        sim.run(self.steps)?;
-        let elapsed = start.elapsed().as_secs_f64();
+        prepare(sim, &self.bed, self.case == Case::Flow, self.beds)?;
+        // A restored bed rebuilds its lists on the first step: not timed.
+        sim.rebuild_neighbours().map_err(bed_error)?;
         let n = sim.len() as f64;
+        let contacts = sim.observe().contacts as f64;
+        let reps = self.repetitions;
+        let start = Instant::now();
+        match self.case {
+            Case::Still | Case::Flow => timed(|| sim.run(reps)),
+            Case::Rebuild => timed(|| (0..reps).try_for_each(|_| sim.rebuild_neighbours())),
+            Case::Contacts => {
+                let mut law = ContactLawCase::new(sim);
+                timed(|| (0..reps).for_each(|_| law.pass()));
+                Ok(())
+            }
+        }
+        .map_err(HostError::kernel("bench"))?;
+        let elapsed = start.elapsed().as_secs_f64();
         Ok(BenchResult {
             grains: sim.len(),
-            steps: self.steps,
-            ns_per_grain_step: elapsed * 1e9 / (n * self.steps.max(1) as f64),
-            contacts_per_grain: sim.observe().contacts as f64 / n,
+            repetitions: reps,
+            ns_per_grain_step: elapsed * 1e9 / (n * reps.max(1) as f64),
+            contacts_per_grain: contacts / n,
         })
     }
 }
@@ -81,19 +300,65 @@ impl SimJob for Bench {
 /// Runs [`Bench`] on the smallest compiled capacity that holds the bed.
 pub fn bench(
     precision: crate::config::Precision,
-    grains: usize,
-    steps: u64,
-    flow: bool,
-) -> Result<BenchResult, Error> {
-    let columns = columns_for(grains);
-    let needed = columns as usize * (ROWS as usize + 1);
-    with_sim(
-        precision,
-        needed,
-        Bench {
-            columns,
-            steps,
-            flow,
-        },
-    )
+    bench: Bench<'_>,
+) -> Result<BenchResult, HostError> {
+    with_sim(precision, bench.bed.len(), bench)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::boxed_sim;
+
+    #[test]
+    fn columns_are_whole_tiles_for_large_beds() {
+        let columns = |grains| BenchBed { grains, beta: 1.0 }.columns();
+        assert_eq!(columns(64), 6);
+        assert_eq!(columns(1_024), TILE_COLUMNS);
+        assert_eq!(columns(16_384), 16 * TILE_COLUMNS);
+        assert_eq!(columns(65_536), 64 * TILE_COLUMNS);
+        assert_eq!(columns(10), 3);
+    }
+
+    #[test]
+    fn tiles_repeat_the_bed_side_by_side() {
+        let mut sim = boxed_sim::<f64, 256, 8>();
+        let bed = BenchBed {
+            grains: 55,
+            beta: 15.8,
+        };
+        bed.scenario(5).build(&mut *sim).unwrap();
+        let one: Vec<GrainSpec> = (0..sim.len()).filter_map(|i| sim.grain(i)).collect();
+        let width = sim.config().width;
+        tile(&mut *sim, 3).unwrap();
+        assert_eq!(sim.len(), 3 * one.len());
+        assert_eq!(sim.config().width, 3.0 * width);
+        for copy in 0..3 {
+            for (k, g) in one.iter().enumerate() {
+                let t = sim.grain(copy * one.len() + k).unwrap();
+                let x = g.x + copy as f64 * width;
+                assert_eq!(t, GrainSpec { x, ..*g });
+            }
+        }
+    }
+
+    #[test]
+    fn prepared_beds_are_reused_bit_for_bit() {
+        let dir = tempfile::tempdir().unwrap();
+        let bed = BenchBed {
+            grains: 55,
+            beta: 15.8,
+        };
+        let mut fresh = boxed_sim::<f32, 256, 8>();
+        prepare(&mut *fresh, &bed, true, Some(dir.path())).unwrap();
+        let files = std::fs::read_dir(dir.path()).unwrap().count();
+        assert_eq!(files, 2, "the settled bed and the flowing bed");
+        let mut reused = boxed_sim::<f32, 256, 8>();
+        prepare(&mut *reused, &bed, true, Some(dir.path())).unwrap();
+        assert_eq!(fresh.digest(), reused.digest());
+        assert!(reused.flow().is_some());
+        fresh.run(100).unwrap();
+        reused.run(100).unwrap();
+        assert_eq!(fresh.digest(), reused.digest());
+    }
 }

@@ -393,12 +393,10 @@ pub fn digest(
     print(&format!("settled {settled:#018x}\nflow {flow:#018x}\n"))
 }
 
-/// `mbs bench`: ns per grain-step of the step loop alone.
+/// `mbs bench`: ns per grain-step of one case on a prepared bed.
 pub fn bench_command(
     precision: Precision,
-    grains: usize,
-    steps: u64,
-    flow: bool,
+    job: crate::bench::Bench<'_>,
     common: Common,
 ) -> Result<(), HostError> {
     let spinner = if common.quiet {
@@ -406,22 +404,20 @@ pub fn bench_command(
     } else {
         ProgressBar::new_spinner()
     };
-    spinner.set_message("settling, then timing the step loop");
+    spinner.set_message("preparing the bed, then timing");
     spinner.enable_steady_tick(std::time::Duration::from_millis(200));
-    let r = bench(precision, grains, steps, flow).map_err(HostError::kernel("bench"));
+    let (case, beta) = (job.case, job.bed.beta);
+    let r = bench(precision, job);
     spinner.finish_and_clear();
     let r = r?;
     print(&format!(
-        "{} grains, {:?}, {}: {:.1} ns per grain-step over {} steps, {:.2} contacts per grain\n",
+        "{} grains, {:?}, beta {}, {}: {:.1} ns per grain-step over {} repetitions, {:.2} contacts per grain\n",
         r.grains,
         precision,
-        if flow {
-            "flow at tau* = 0.2"
-        } else {
-            "settled, no flow"
-        },
+        beta,
+        case.name(),
         r.ns_per_grain_step,
-        r.steps,
+        r.repetitions,
         r.contacts_per_grain
     ))
 }

@@ -1,6 +1,7 @@
 //! `mbs`: the DEM numerical movable bed (Gotoh, Harada & Sakai).
 
 use clap::{Parser, Subcommand};
+use mbs::bench::{Bench, BenchBed, Case};
 use mbs::calibrate::cells::Shard;
 use mbs::calibrate::{calibrate, merge, Options, Progress};
 use mbs::commands::{self, Common};
@@ -119,15 +120,24 @@ enum Command {
         /// Grains (fixed included), 33 to 65536.
         #[arg(long, default_value_t = 1024, value_parser = clap::value_parser!(u32).range(33..=65536))]
         grains: u32,
-        /// Steps timed.
+        /// Repetitions timed: steps, rebuilds or passes over the contacts.
         #[arg(long, default_value_t = 2000)]
         steps: u64,
         /// Working precision.
         #[arg(long, value_enum, default_value_t = Precision::F64)]
         precision: Precision,
-        /// With the flow at τ* = 0.2 (drag, turbulence).
-        #[arg(long)]
+        /// What is timed.
+        #[arg(long, value_enum, default_value_t = Case::Still)]
+        case: Case,
+        /// Shorthand for `--case flow`.
+        #[arg(long, conflicts_with = "case")]
         flow: bool,
+        /// β of the paper's contact constants.
+        #[arg(long, default_value_t = 15.8)]
+        beta: f64,
+        /// Keep prepared beds in this directory and reuse them.
+        #[arg(long)]
+        beds: Option<PathBuf>,
     },
 }
 
@@ -306,8 +316,22 @@ fn execute(cli: Cli) -> Result<(), HostError> {
             grains,
             steps,
             precision,
+            case,
             flow,
-        } => commands::bench_command(precision, grains as usize, steps, flow, common),
+            beta,
+            beds,
+        } => {
+            let job = Bench {
+                bed: BenchBed {
+                    grains: grains as usize,
+                    beta,
+                },
+                case: if flow { Case::Flow } else { case },
+                repetitions: steps,
+                beds: beds.as_deref(),
+            };
+            commands::bench_command(precision, job, common)
+        }
     }
 }
 

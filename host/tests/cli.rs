@@ -176,15 +176,23 @@ fn digest_matches_the_golden_file() {
 }
 
 #[test]
-fn bench_reports_ns_per_grain_step() {
-    mbs()
-        .args(["bench", "--grains", "64", "--steps", "50"])
-        .assert()
-        .success()
-        .stdout(
-            predicate::str::contains("ns per grain-step")
-                .and(predicate::str::contains("55 grains")),
-        );
+fn bench_runs_every_case_and_keeps_prepared_beds() {
+    let beds = tempfile::tempdir().unwrap();
+    for case in ["still", "flow", "rebuild", "contacts"] {
+        mbs()
+            .args(["bench", "--grains", "64", "--steps", "50", "--case", case])
+            .arg("--beds")
+            .arg(beds.path())
+            .assert()
+            .success()
+            .stdout(
+                predicate::str::contains("ns per grain-step")
+                    .and(predicate::str::contains("66 grains"))
+                    .and(predicate::str::contains(format!(", {case}: "))),
+            );
+    }
+    let kept = std::fs::read_dir(beds.path()).unwrap().count();
+    assert_eq!(kept, 2, "one settled and one flowing bed, reused");
 }
 
 #[test]

@@ -38,9 +38,10 @@ pub struct BedSpec {
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct BedInfo {
-    /// Fixed grains (indices `0..fixed`).
+    /// Fixed grains.
     pub fixed: usize,
-    /// Mobile grains (indices `fixed..fixed + mobile`).
+    /// Mobile grains. Grains are stored column by column, each column's
+    /// fixed grains first, then its lattice sites bottom-up.
     pub mobile: usize,
     /// Periodic width L (m).
     pub width: f64,
@@ -221,21 +222,26 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
             "above the initial lattice (rows x pitch + 1 d)",
         )?;
         self.reset(&cfg)?;
-        let mut rng = Stream::new(config.seed, BED_STREAM, 0, 0);
-        for k in 0..fixed_count {
-            self.add_grain(&GrainSpec {
-                x: k as f64 * fixed_pitch,
-                y: fixed_height(&mut rng) * spread,
-                diameter: d_max,
-                fixed: true,
-                ..GrainSpec::default()
-            })?;
-        }
+        // Grains are added column by column (fixed grains, then the lattice
+        // sites bottom-up), so neighbours are near each other in memory: the
+        // step's cost per grain does not grow with the width of the bed.
+        let mut heights = Stream::new(config.seed, BED_STREAM, 0, 0);
+        let mut sites = Stream::new(config.seed, BED_STREAM, 1, 0);
+        let per_column = spec.fixed_per_column();
         let mut mobile = 0;
-        for row in 0..spec.rows as usize {
-            for col in 0..columns {
-                let empty = rng.uniform() < spec.vacancy;
-                let pick = rng.uniform();
+        for col in 0..columns {
+            for k in col * per_column..(col + 1) * per_column {
+                self.add_grain(&GrainSpec {
+                    x: k as f64 * fixed_pitch,
+                    y: fixed_height(&mut heights) * spread,
+                    diameter: d_max,
+                    fixed: true,
+                    ..GrainSpec::default()
+                })?;
+            }
+            for row in 0..spec.rows as usize {
+                let empty = sites.uniform() < spec.vacancy;
+                let pick = sites.uniform();
                 if empty {
                     continue;
                 }

@@ -9,7 +9,7 @@
 //!
 //! The list is rebuilt from a cell list (cell side ≥ largest cut-off, periodic
 //! in x) when grains may have moved half a skin since the last build. Cells are
-//! hashed into `N` buckets, so any bed height fits; a bucket shared by two
+//! hashed into one bucket per grain, so any bed height fits; a bucket shared by two
 //! cells only costs extra distance checks. History moves from the old slots to
 //! the new ones by merging the two sorted lists, so no contact is lost.
 
@@ -113,13 +113,15 @@ impl<R: Real, const N: usize, const K: usize> Neighbours<R, N, K> {
         let cell = width / R::from_f64(nx as f64);
         let inv_cell = R::ONE / cell;
 
-        self.head = [0; N];
+        // One bucket per grain: clearing costs O(n), not O(N).
+        let buckets = n.max(1).min(N);
+        self.head[..buckets].fill(0);
         for i in 0..n {
             let cx = ((g.x[i] * inv_cell).to_f64() as u32).min(nx - 1);
             let cy = (((g.y[i] - y_min) * inv_cell).to_f64() as u32).min(1 << 30);
             self.cell_x[i] = cx;
             self.cell_y[i] = cy;
-            let b = bucket::<N>(cx, cy, nx);
+            let b = bucket(cx, cy, nx, buckets);
             self.next[i] = self.head[b];
             self.head[b] = i as u32 + 1;
         }
@@ -134,7 +136,7 @@ impl<R: Real, const N: usize, const K: usize> Neighbours<R, N, K> {
                 };
                 for dx in 0..3u32 {
                     let nxc = (cx + dx + nx - 1) % nx;
-                    let mut link = self.head[bucket::<N>(nxc, ny, nx)];
+                    let mut link = self.head[bucket(nxc, ny, nx, buckets)];
                     while link != 0 {
                         let j = (link - 1) as usize;
                         link = self.next[j];
@@ -234,10 +236,10 @@ impl<R: Real, const N: usize, const K: usize> Default for Neighbours<R, N, K> {
     }
 }
 
-/// Bucket of cell (cx, cy) among `N` buckets.
+/// Bucket of cell (cx, cy) among `buckets` (≥ 1).
 #[inline]
-fn bucket<const N: usize>(cx: u32, cy: u32, nx: u32) -> usize {
-    ((cy as u64 * nx as u64 + cx as u64) % (N.max(1) as u64)) as usize
+fn bucket(cx: u32, cy: u32, nx: u32, buckets: usize) -> usize {
+    ((cy as u64 * nx as u64 + cx as u64) % (buckets as u64)) as usize
 }
 
 /// Minimum-image separation in the periodic x direction.

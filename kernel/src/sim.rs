@@ -266,6 +266,7 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
         g.drag_coef[i] = R::from_f64(0.5 * c.material.rho * c.material.c_d * A2 * d * d);
         g.z_u[i] = R::ZERO;
         g.z_v[i] = R::ZERO;
+        (g.fx[i], g.fy[i], g.torque[i]) = (R::ZERO, R::ZERO, R::ZERO);
         g.fixed[i] = spec.fixed;
         g.class[i] = spec.class;
         g.len = i + 1;
@@ -317,14 +318,19 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
                 self.draw_fluctuations(since / hold);
             }
         }
-        self.clear_forces();
         if self.flow_on {
             self.add_drag();
         }
-        self.add_contact_forces();
-        self.integrate()
+        let moved = self.forces_and_motion();
+        if moved.is_err() {
+            self.clear_forces();
+        }
+        moved
     }
 
+    /// Zeroes every force and torque. They are zero between steps: the
+    /// motion pass zeroes each grain's once it is integrated, and a failed
+    /// pass calls this.
     fn clear_forces(&mut self) {
         let n = self.grains.len;
         let g = &mut self.grains;
@@ -364,25 +370,55 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
         }
     }
 
-    /// Contact forces (6)–(9) of every overlapping listed pair, in the fixed
-    /// order (i ascending, j ascending); history of separated pairs is dropped.
-    fn add_contact_forces(&mut self) {
-        let g = &mut self.grains;
-        let nb = &mut self.nbrs;
+    /// Contact forces (6)–(9) of every overlapping listed pair, then symplectic
+    /// Euler (1)–(3), in one pass over the grains.
+    ///
+    /// Pairs are visited in the fixed order (i ascending, j ascending); the
+    /// history of separated pairs is dropped. Grain i appears only in pairs
+    /// (m ≤ i, ·), so its force is complete once its own pairs are added and
+    /// it is integrated at once, while its data is in cache: the same
+    /// operations in the same order as a contact pass followed by an
+    /// integration pass, so the bits do not depend on the fusion.
+    fn forces_and_motion(&mut self) -> Result<(), Error> {
+        let n = self.grains.len.min(N);
         let law = self.law;
         let width = self.width;
         let half_width = width * R::HALF;
-        for i in 0..g.len {
+        let mover = Mover {
+            dt: self.dt,
+            gravity: self.g_red,
+            width,
+            y_min: self.y_min,
+            y_max: self.y_max,
+            step: self.step,
+        };
+        let g = &mut self.grains;
+        let (x, y, u, v, w) = (
+            &mut g.x[..n],
+            &mut g.y[..n],
+            &mut g.u[..n],
+            &mut g.v[..n],
+            &mut g.w[..n],
+        );
+        let (fx, fy, torque) = (&mut g.fx[..n], &mut g.fy[..n], &mut g.torque[..n]);
+        let (r, fixed) = (&g.r[..n], &g.fixed[..n]);
+        let (inv_mass, inv_inertia) = (&g.inv_mass[..n], &g.inv_inertia[..n]);
+        let nb = &mut self.nbrs;
+        let mut max_v2 = R::ZERO;
+        for i in 0..n {
+            let (xi, yi, ui, vi, wi, ri) = (x[i], y[i], u[i], v[i], w[i], r[i]);
+            // Grain i's sums live in registers: no pair (i, j) has j = i.
+            let (mut fxi, mut fyi, mut ti) = (fx[i], fy[i], torque[i]);
             let count = usize::from(nb.count[i]).min(K);
-            for k in 0..count {
-                let j = nb.other[i][k] as usize;
-                if j >= g.len {
+            let pairs = nb.other[i][..count].iter().zip(&mut nb.spring[i][..count]);
+            for (&j, spring) in pairs {
+                let j = j as usize;
+                if j >= n {
                     continue;
                 }
-                let spring = &mut nb.spring[i][k];
-                let dx = periodic(g.x[j] - g.x[i], width, half_width);
-                let dy = g.y[j] - g.y[i];
-                let reach = g.r[i] + g.r[j];
+                let dx = periodic(x[j] - xi, width, half_width);
+                let dy = y[j] - yi;
+                let reach = ri + r[j];
                 let dist2 = dx * dx + dy * dy;
                 if dist2 >= reach * reach {
                     *spring = Spring::default();
@@ -397,89 +433,35 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
                 let (nx, ny) = (dx * inv, dy * inv);
                 // t = (sin α, −cos α) = (n_y, −n_x)
                 let (tx, ty) = (ny, -nx);
-                let du = g.u[i] - g.u[j];
-                let dv = g.v[i] - g.v[j];
+                let du = ui - u[j];
+                let dv = vi - v[j];
                 let v_n = du * nx + dv * ny;
-                let v_s = -(du * tx + dv * ty) + g.r[i] * g.w[i] + g.r[j] * g.w[j];
+                let v_s = -(du * tx + dv * ty) + ri * wi + r[j] * w[j];
                 let Some((f_n, f_s)) = law.apply(spring, reach - dist, v_n, v_s) else {
                     continue;
                 };
-                let fx = -f_n * nx + f_s * tx;
-                let fy = -f_n * ny + f_s * ty;
-                g.fx[i] += fx;
-                g.fy[i] += fy;
-                g.fx[j] -= fx;
-                g.fy[j] -= fy;
-                g.torque[i] -= g.r[i] * f_s;
-                g.torque[j] -= g.r[j] * f_s;
+                let fx_pair = -f_n * nx + f_s * tx;
+                let fy_pair = -f_n * ny + f_s * ty;
+                fxi += fx_pair;
+                fyi += fy_pair;
+                fx[j] -= fx_pair;
+                fy[j] -= fy_pair;
+                ti -= ri * f_s;
+                torque[j] -= r[j] * f_s;
             }
-        }
-    }
-
-    /// Symplectic Euler for mobile grains (SPEC (1)–(3)): velocities from the
-    /// forces, then positions from the new velocities; periodic wrap in x;
-    /// non-finite and out-of-domain checks.
-    fn integrate(&mut self) -> Result<(), Error> {
-        let dt = self.dt;
-        let [gx, gy] = self.g_red;
-        let width = self.width;
-        let step = self.step;
-        let g = &mut self.grains;
-        let mut max_v2 = R::ZERO;
-        for i in 0..g.len {
-            if g.fixed[i] {
+            (fx[i], fy[i], torque[i]) = (R::ZERO, R::ZERO, R::ZERO);
+            if fixed[i] {
                 continue;
             }
-            let u = g.u[i] + (g.fx[i] * g.inv_mass[i] + gx) * dt;
-            let v = g.v[i] + (g.fy[i] * g.inv_mass[i] + gy) * dt;
-            let w = g.w[i] + g.torque[i] * g.inv_inertia[i] * dt;
-            let grain = i as u32;
-            if !(R::is_finite(u) && R::is_finite(v)) {
-                return Err(Error::NonFinite {
-                    step,
-                    grain,
-                    quantity: Quantity::Velocity,
-                });
-            }
-            if !R::is_finite(w) {
-                return Err(Error::NonFinite {
-                    step,
-                    grain,
-                    quantity: Quantity::Spin,
-                });
-            }
-            let mut x = g.x[i] + u * dt;
-            let y = g.y[i] + v * dt;
-            if x >= width {
-                x -= width;
-            } else if x < R::ZERO {
-                x += width;
-                if x >= width {
-                    x = R::ZERO; // −tiny + L rounded up to L
-                }
-            }
-            if !(R::is_finite(x) && R::is_finite(y)) {
-                return Err(Error::NonFinite {
-                    step,
-                    grain,
-                    quantity: Quantity::Position,
-                });
-            }
-            if !(x >= R::ZERO && x < width && y >= self.y_min && y <= self.y_max) {
-                return Err(Error::LeftDomain {
-                    step,
-                    grain,
-                    y: y.to_f64(),
-                });
-            }
-            g.u[i] = u;
-            g.v[i] = v;
-            g.w[i] = w;
-            g.x[i] = x;
-            g.y[i] = y;
-            max_v2 = R::max(max_v2, u * u + v * v);
+            let moved = mover.advance(
+                i,
+                [xi, yi, ui, vi, wi],
+                [fxi * inv_mass[i], fyi * inv_mass[i], ti * inv_inertia[i]],
+            )?;
+            [x[i], y[i], u[i], v[i], w[i]] = moved;
+            max_v2 = R::max(max_v2, moved[2] * moved[2] + moved[3] * moved[3]);
         }
-        self.nbrs.add_travel(R::sqrt(max_v2) * dt);
+        self.nbrs.add_travel(R::sqrt(max_v2) * self.dt);
         self.step += 1;
         Ok(())
     }
@@ -532,6 +514,24 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
         })
     }
 
+    /// Rebuilds the neighbour lists now. Results never depend on when the
+    /// lists are rebuilt; this is for benchmarks of the rebuild alone.
+    pub fn rebuild_neighbours(&mut self) -> Result<(), Error> {
+        check(self.configured, "sim", 0.0, "configured by reset() first")?;
+        self.nbrs.rebuild(&self.grains, self.width, self.y_min)
+    }
+
+    /// The pairs (i, j), i < j, in contact with their spring history, in
+    /// (i, j) order.
+    pub fn contacts(&self) -> impl Iterator<Item = (usize, usize, Spring<R>)> + '_ {
+        self.nbrs.contacts(self.grains.len)
+    }
+
+    /// The contact law (6)–(9) in force, in the working precision.
+    pub fn contact_law(&self) -> ContactLaw<R> {
+        self.law
+    }
+
     /// Spring history (e_n, e_s) of the pair (i, j) if it is in contact.
     pub fn contact_history(&self, i: usize, j: usize) -> Option<(f64, f64)> {
         let h = self.nbrs.history(i, j)?;
@@ -558,5 +558,73 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
     /// Mean bed level y = 0 of the flow (SPEC §6), absolute (m).
     pub fn bed_level(&self) -> f64 {
         self.bed_level.to_f64()
+    }
+}
+
+/// Symplectic Euler for one mobile grain (SPEC (1)–(3)) with the periodic
+/// wrap in x and the non-finite and out-of-domain checks.
+struct Mover<R: Real> {
+    dt: R,
+    /// Reduced gravity, SPEC (2).
+    gravity: [R; 2],
+    width: R,
+    y_min: R,
+    y_max: R,
+    step: u64,
+}
+
+impl<R: Real> Mover<R> {
+    /// The new (x, y, u, v, ω) of grain `i` from its state and its
+    /// accelerations (F_x/m', F_y/m', T/I): velocities first, then positions
+    /// from the new velocities.
+    #[inline]
+    fn advance(&self, i: usize, state: [R; 5], accel: [R; 3]) -> Result<[R; 5], Error> {
+        let [x, y, u, v, w] = state;
+        let dt = self.dt;
+        let u = u + (accel[0] + self.gravity[0]) * dt;
+        let v = v + (accel[1] + self.gravity[1]) * dt;
+        let w = w + accel[2] * dt;
+        let mut x = x + u * dt;
+        let y = y + v * dt;
+        if x >= self.width {
+            x -= self.width;
+        } else if x < R::ZERO {
+            x += self.width;
+            if x >= self.width {
+                x = R::ZERO; // −tiny + L rounded up to L
+            }
+        }
+        // One test on the common path: every value finite and inside the domain.
+        let finite = R::is_finite(u) && R::is_finite(v) && R::is_finite(w) && R::is_finite(y);
+        if finite && x >= R::ZERO && x < self.width && y >= self.y_min && y <= self.y_max {
+            Ok([x, y, u, v, w])
+        } else {
+            Err(self.fault(i, [x, y, u, v, w]))
+        }
+    }
+
+    /// The error for a grain that failed [`Mover::advance`]'s test, in the
+    /// order velocity, spin, position, domain.
+    #[cold]
+    fn fault(&self, i: usize, [x, y, u, v, w]: [R; 5]) -> Error {
+        let (step, grain) = (self.step, i as u32);
+        let quantity = if !(R::is_finite(u) && R::is_finite(v)) {
+            Quantity::Velocity
+        } else if !R::is_finite(w) {
+            Quantity::Spin
+        } else if !(R::is_finite(x) && R::is_finite(y)) {
+            Quantity::Position
+        } else {
+            return Error::LeftDomain {
+                step,
+                grain,
+                y: y.to_f64(),
+            };
+        };
+        Error::NonFinite {
+            step,
+            grain,
+            quantity,
+        }
     }
 }
