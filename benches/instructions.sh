@@ -22,6 +22,8 @@ trap 'rm -rf "$out"' EXIT
 printf "%-8s %-9s %-5s %-6s %14s %10s\n" grains precision beta case instr/grain contacts
 for n in ${sizes[*]}; do
   for p in $precisions; do
+    # f32 positions across the 3.1 m of the largest bed are too coarse to settle it.
+    if [ "$p" = f32 ] && [ "$n" -gt 16384 ]; then continue; fi
     for beta in $betas; do
       for case in $cases; do
         args=(bench --quiet --grains "$n" --precision "$p" --beta "$beta" --case "$case" --beds "$beds")
