@@ -3,7 +3,7 @@
 use mbs_kernel::Sim;
 
 fn main() {
-    const N: usize = 1024;
+    const N: usize = 16_384;
     let f32_bytes = std::mem::size_of::<Sim<f32, N, 8>>();
     let f64_bytes = std::mem::size_of::<Sim<f64, N, 8>>();
     println!(
