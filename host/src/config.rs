@@ -750,10 +750,32 @@ fn stability(sc: &Scenario, c: &ContactConstants) -> Result<(), ConfigError> {
 /// single-contact number by about four (README, "The explicit damping limit").
 pub const DAMPING_NUMBER_CONVERGED: f64 = 0.5;
 
+/// Slowest speed (m/s) a grain must reach to count as moving: an f32 bed on
+/// which slower grains cannot move in x in one step gets a warning.
+pub const F32_RESOLVED_SPEED: f64 = 1e-3;
+
+/// The speed (m/s) below which an f32 grain near x = L does not move in x in
+/// one step dt: half the spacing of f32 numbers at L, over dt.
+pub fn f32_frozen_speed(width: f64, dt: f64) -> f64 {
+    let spacing = width.log2().floor().exp2() * f64::from(f32::EPSILON);
+    0.5 * spacing / dt
+}
+
 /// Warnings about a valid but questionable configuration.
 pub fn warnings(config: &Config) -> Vec<String> {
     let sc = &config.scenario;
     let mut out = Vec::new();
+    if config.precision == Precision::F32 {
+        let width = sc.bed.width();
+        let frozen = f32_frozen_speed(width, sc.dt());
+        if frozen > F32_RESOLVED_SPEED {
+            out.push(format!(
+                "precision f32 on a bed {width:.3} m wide: a grain slower than {frozen:.2e} m/s \
+                 does not move in x in one step, so the bed cannot settle or creep correctly; \
+                 use precision = \"f64\" or a narrower bed"
+            ));
+        }
+    }
     for class in &sc.bed.classes {
         let n = explicit_damping_number(&config.contact, &sc.material, class.diameter, sc.dt());
         if n > DAMPING_NUMBER_CONVERGED {
@@ -787,6 +809,24 @@ mod tests {
                 ..Scenario::paper()
             }
         );
+    }
+
+    #[test]
+    fn f32_on_a_wide_bed_is_warned_about() {
+        let warned = |columns: u32, precision: &str| {
+            let text = format!("[bed]\ncolumns = {columns}\n[run]\nprecision = \"{precision}\"\n");
+            let config = Config::from_toml(&text).unwrap();
+            warnings(&config)
+                .iter()
+                .any(|w| w.contains("precision f32"))
+        };
+        // 93 columns: 4.9 cm, f32 spacing 3.7e-9 m, frozen below 0.7 mm/s.
+        assert!(!warned(93, "f32"));
+        // 200 columns: 10.5 cm, frozen below 1.5 mm/s.
+        assert!(warned(200, "f32"));
+        assert!(!warned(200, "f64"));
+        let frozen = f32_frozen_speed(0.105, 2.5e-6);
+        assert!((frozen - 0.0625 * f64::from(f32::EPSILON) / 5e-6).abs() < 1e-12);
     }
 
     #[test]
