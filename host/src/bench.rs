@@ -14,7 +14,7 @@ use crate::error::HostError;
 use crate::output::{create_dir, write_atomic};
 use crate::sims::{with_sim, SimJob, NEIGHBOURS};
 use mbs_kernel::contact::{ContactLaw, Spring};
-use mbs_kernel::{BedSpec, Error, GrainSpec, Real, Scenario, Sim};
+use mbs_kernel::{BedSpec, Error, Fnv1a, GrainSpec, Real, Scenario, Sim};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -107,13 +107,17 @@ impl BenchBed {
         sc
     }
 
-    /// File of the prepared bed in `dir`.
+    /// File of the prepared bed in `dir`, named by precision, columns, β,
+    /// phase and a hash of the whole scenario, so a changed scenario never
+    /// reuses an old bed.
     fn file<R: Real>(&self, dir: &Path, columns: u32, flow: bool) -> PathBuf {
         let phase = if flow { "flow" } else { "still" };
+        let scenario = format!("{:?}", self.scenario(columns));
         dir.join(format!(
-            "{}_{columns}c_beta{}_{phase}_v{}.ckpt",
+            "{}_{columns}c_beta{}_{phase}_{:016x}_v{}.ckpt",
             R::NAME,
             self.beta,
+            Fnv1a::of(scenario.as_bytes()),
             mbs_kernel::CHECKPOINT_VERSION
         ))
     }

@@ -118,15 +118,9 @@ impl std::fmt::Display for CheckpointError {
     }
 }
 
-fn fnv(bytes: &[u8]) -> u64 {
-    let mut h = Fnv1a::default();
-    h.bytes(bytes);
-    h.finish()
-}
-
 /// The key of a cell: FNV-1a of its canonical specification text.
 pub fn cell_key(spec_json: &str) -> u64 {
-    fnv(spec_json.as_bytes())
+    Fnv1a::of(spec_json.as_bytes())
 }
 
 impl CellCheckpoint {
@@ -153,7 +147,7 @@ impl CellCheckpoint {
         }
         b.extend_from_slice(&(self.sim.len() as u64).to_le_bytes());
         b.extend_from_slice(&self.sim);
-        let sum = fnv(&b);
+        let sum = Fnv1a::of(&b);
         b.extend_from_slice(&sum.to_le_bytes());
         b
     }
@@ -182,7 +176,7 @@ impl CellCheckpoint {
             return Err(CheckpointError::Truncated);
         }
         let (body, sum) = bytes.split_at(bytes.len() - 8);
-        if fnv(body) != u64_of(sum) {
+        if Fnv1a::of(body) != u64_of(sum) {
             return Err(CheckpointError::Checksum);
         }
         if u64_of(take(8)?) != key {

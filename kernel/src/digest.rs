@@ -16,6 +16,13 @@ impl Default for Fnv1a {
 }
 
 impl Fnv1a {
+    /// The digest of `bytes` alone.
+    pub fn of(bytes: &[u8]) -> u64 {
+        let mut h = Fnv1a::default();
+        h.bytes(bytes);
+        h.finish()
+    }
+
     /// Hashes bytes.
     pub fn bytes(&mut self, bytes: &[u8]) {
         for &b in bytes {
