@@ -18,7 +18,7 @@ use criterion::measurement::WallTime;
 use criterion::{
     criterion_group, criterion_main, BenchmarkGroup, BenchmarkId, Criterion, Throughput,
 };
-use mbs::bench::{prepare, BenchBed, Case, ContactLawCase};
+use mbs::bench::{BenchBed, Case, Prepared};
 use mbs::sims::{with_sim, SimJob, NEIGHBOURS};
 use mbs::Precision;
 use mbs_kernel::{Real, Sim};
@@ -52,18 +52,12 @@ impl SimJob for Measure<'_, '_> {
     type Output = ();
 
     fn run<R: Real, const N: usize>(self, sim: &mut Sim<R, N, NEIGHBOURS>) {
-        let flow = self.case == Case::Flow;
-        prepare(sim, &self.bed, flow, Some(&beds())).expect("bench bed");
-        sim.rebuild_neighbours().expect("rebuild");
+        let mut bed = Prepared::new(sim, &self.bed, self.case, Some(&beds())).expect("bench bed");
+        let grains = bed.sim().len();
+        self.group.throughput(Throughput::Elements(grains as u64));
+        let id = BenchmarkId::new(format!("beta{}", self.bed.beta), grains);
         self.group
-            .throughput(Throughput::Elements(sim.len() as u64));
-        let id = BenchmarkId::new(format!("beta{}", self.bed.beta), sim.len());
-        let mut law = ContactLawCase::new(sim);
-        self.group.bench_function(id, |b| match self.case {
-            Case::Still | Case::Flow => b.iter(|| sim.step().expect("step")),
-            Case::Rebuild => b.iter(|| sim.rebuild_neighbours().expect("rebuild")),
-            Case::Contacts => b.iter(|| law.pass()),
-        });
+            .bench_function(id, |b| b.iter(|| bed.repeat(1).expect("repetition")));
     }
 }
 
@@ -78,7 +72,7 @@ fn bench(c: &mut Criterion, precision: Precision) {
                 }
                 let bed = BenchBed { grains, beta };
                 let group = &mut group;
-                with_sim(precision, bed.len(), Measure { group, bed, case });
+                with_sim(precision, bed.grain_count(), Measure { group, bed, case });
             }
         }
         group.finish();

@@ -88,14 +88,9 @@ impl BenchBed {
         columns.clamp(3, u32::MAX as usize) as u32
     }
 
-    /// Grains of the bed.
-    pub fn len(&self) -> usize {
+    /// Grains of the bed (whole columns).
+    pub fn grain_count(&self) -> usize {
         self.columns() as usize * (ROWS as usize + 1)
-    }
-
-    /// Never empty (at least 3 columns).
-    pub fn is_empty(&self) -> bool {
-        false
     }
 
     /// The paper's scenario with this β and `columns` columns.
@@ -245,6 +240,48 @@ impl<R: Real> ContactLawCase<R> {
     }
 }
 
+/// A prepared bed and one repetition of a case on it: the unit both
+/// `mbs bench` and the criterion benches time.
+pub struct Prepared<'s, R: Real, const N: usize, const K: usize> {
+    sim: &'s mut Sim<R, N, K>,
+    case: Case,
+    law: ContactLawCase<R>,
+}
+
+impl<'s, R: Real, const N: usize, const K: usize> Prepared<'s, R, N, K> {
+    /// Prepares `bed` in `sim` for `case` ([`prepare`]) and rebuilds the
+    /// neighbour lists, which a restored bed would otherwise do, untimed,
+    /// on its first step.
+    pub fn new(
+        sim: &'s mut Sim<R, N, K>,
+        bed: &BenchBed,
+        case: Case,
+        beds: Option<&Path>,
+    ) -> Result<Self, HostError> {
+        prepare(sim, bed, case == Case::Flow, beds)?;
+        sim.rebuild_neighbours().map_err(bed_error)?;
+        let law = ContactLawCase::new(sim);
+        Ok(Prepared { sim, case, law })
+    }
+
+    /// The simulation.
+    pub fn sim(&self) -> &Sim<R, N, K> {
+        self.sim
+    }
+
+    /// `times` repetitions: steps, rebuilds, or passes over the contacts.
+    pub fn repeat(&mut self, times: u64) -> Result<(), Error> {
+        match self.case {
+            Case::Still | Case::Flow => self.sim.run(times),
+            Case::Rebuild => (0..times).try_for_each(|_| self.sim.rebuild_neighbours()),
+            Case::Contacts => {
+                (0..times).for_each(|_| self.law.pass());
+                Ok(())
+            }
+        }
+    }
+}
+
 /// What `mbs bench` measured.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct BenchResult {
@@ -274,26 +311,15 @@ impl SimJob for Bench<'_> {
     type Output = Result<BenchResult, HostError>;
 
     fn run<R: Real, const N: usize>(self, sim: &mut Sim<R, N, NEIGHBOURS>) -> Self::Output {
-        prepare(sim, &self.bed, self.case == Case::Flow, self.beds)?;
-        // A restored bed rebuilds its lists on the first step: not timed.
-        sim.rebuild_neighbours().map_err(bed_error)?;
-        let n = sim.len() as f64;
-        let contacts = sim.observe().contacts as f64;
+        let mut bed = Prepared::new(sim, &self.bed, self.case, self.beds)?;
+        let n = bed.sim().len() as f64;
+        let contacts = bed.sim().observe().contacts as f64;
         let reps = self.repetitions;
         let start = Instant::now();
-        match self.case {
-            Case::Still | Case::Flow => timed(|| sim.run(reps)),
-            Case::Rebuild => timed(|| (0..reps).try_for_each(|_| sim.rebuild_neighbours())),
-            Case::Contacts => {
-                let mut law = ContactLawCase::new(sim);
-                timed(|| (0..reps).for_each(|_| law.pass()));
-                Ok(())
-            }
-        }
-        .map_err(HostError::kernel("bench"))?;
+        timed(|| bed.repeat(reps)).map_err(HostError::kernel("bench"))?;
         let elapsed = start.elapsed().as_secs_f64();
         Ok(BenchResult {
-            grains: sim.len(),
+            grains: bed.sim().len(),
             repetitions: reps,
             ns_per_grain_step: elapsed * 1e9 / (n * reps.max(1) as f64),
             contacts_per_grain: contacts / n,
@@ -306,7 +332,7 @@ pub fn bench(
     precision: crate::config::Precision,
     bench: Bench<'_>,
 ) -> Result<BenchResult, HostError> {
-    with_sim(precision, bench.bed.len(), bench)
+    with_sim(precision, bench.bed.grain_count(), bench)
 }
 
 #[cfg(test)]

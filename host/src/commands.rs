@@ -408,16 +408,10 @@ pub fn bench_command(
     spinner.enable_steady_tick(std::time::Duration::from_millis(200));
     let (case, beta) = (job.case, job.bed.beta);
     let sc = job.bed.scenario(job.bed.columns());
-    let frozen = crate::config::f32_frozen_speed(sc.bed.width(), sc.dt());
-    if precision == Precision::F32 && frozen > crate::bench::REST_SPEED && !common.quiet {
-        eprintln!(
-            "warning: f32 on a bed {:.3} m wide: grains slower than {frozen:.2e} m/s do not move \
-             in x, so the bed may never settle below {} m/s (the preparation then stops after \
-             {} steps)",
-            sc.bed.width(),
-            crate::bench::REST_SPEED,
-            crate::bench::SETTLE_MAX_STEPS
-        );
+    if precision == Precision::F32 && !common.quiet {
+        if let Some(w) = crate::config::f32_width_warning(sc.bed.width(), sc.dt()) {
+            eprintln!("warning: {w}");
+        }
     }
     let r = bench(precision, job);
     spinner.finish_and_clear();

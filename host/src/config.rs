@@ -761,20 +761,25 @@ pub fn f32_frozen_speed(width: f64, dt: f64) -> f64 {
     0.5 * spacing / dt
 }
 
+/// The warning for an f32 bed `width` wide integrated with step `dt`, if
+/// grains slower than [`F32_RESOLVED_SPEED`] cannot move in x.
+pub fn f32_width_warning(width: f64, dt: f64) -> Option<String> {
+    let frozen = f32_frozen_speed(width, dt);
+    (frozen > F32_RESOLVED_SPEED).then(|| {
+        format!(
+            "precision f32 on a bed {width:.3} m wide: a grain slower than {frozen:.2e} m/s \
+             does not move in x in one step, so the bed cannot settle or creep correctly; \
+             use precision = \"f64\" or a narrower bed"
+        )
+    })
+}
+
 /// Warnings about a valid but questionable configuration.
 pub fn warnings(config: &Config) -> Vec<String> {
     let sc = &config.scenario;
     let mut out = Vec::new();
     if config.precision == Precision::F32 {
-        let width = sc.bed.width();
-        let frozen = f32_frozen_speed(width, sc.dt());
-        if frozen > F32_RESOLVED_SPEED {
-            out.push(format!(
-                "precision f32 on a bed {width:.3} m wide: a grain slower than {frozen:.2e} m/s \
-                 does not move in x in one step, so the bed cannot settle or creep correctly; \
-                 use precision = \"f64\" or a narrower bed"
-            ));
-        }
+        out.extend(f32_width_warning(sc.bed.width(), sc.dt()));
     }
     for class in &sc.bed.classes {
         let n = explicit_damping_number(&config.contact, &sc.material, class.diameter, sc.dt());

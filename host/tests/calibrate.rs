@@ -191,24 +191,12 @@ fn a_calibration_killed_at_random_moments_finishes_with_the_same_results() {
     calibrate(&reference, &["--stage", "2"]);
     let out = root.path().join("killed");
     let bin = assert_cmd::cargo::cargo_bin("mbs");
-    let mut state = 99u64;
     let mut kills = 0;
-    for _ in 0..5 {
-        state = state
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        let delay = std::time::Duration::from_millis(30 + (state >> 33) % 300);
-        let mut child = std::process::Command::new(&bin)
-            .args(["--quiet", "calibrate", "--quick", "--stage", "2", "--out"])
-            .arg(&out)
-            .spawn()
-            .unwrap();
-        std::thread::sleep(delay);
-        if child.try_wait().unwrap().is_none() {
-            child.kill().unwrap();
-            kills += 1;
-        }
-        child.wait().unwrap();
+    for delay in random_delays(99, 30, 300).take(5) {
+        let mut c = std::process::Command::new(&bin);
+        c.args(["--quiet", "calibrate", "--quick", "--stage", "2", "--out"])
+            .arg(&out);
+        kills += usize::from(kill_after(&mut c, delay));
     }
     calibrate(&out, &["--stage", "2"]);
     for f in ["stage1.json", "stage2.json", "stage2.csv"] {

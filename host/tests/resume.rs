@@ -78,14 +78,8 @@ fn killed_at_random_moments_and_resumed_gives_the_same_table() {
     let reference = uninterrupted(&cfg, &dir.path().join("reference"));
     let out = dir.path().join("killed");
     let bin = assert_cmd::cargo::cargo_bin("mbs");
-    // Deterministic "random" delays (a fixed LCG), so a failure reproduces.
-    let mut state = 12345u64;
     let mut kills = 0;
-    for round in 0..6 {
-        state = state
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        let delay = Duration::from_millis(20 + (state >> 33) % 400);
+    for (round, delay) in random_delays(12345, 20, 400).take(6).enumerate() {
         let mut c = std::process::Command::new(&bin);
         c.arg("--quiet");
         if round == 0 {
@@ -93,13 +87,8 @@ fn killed_at_random_moments_and_resumed_gives_the_same_table() {
         } else {
             c.arg("run").arg("--resume").arg(&out);
         }
-        let mut child = c.args(["--checkpoint-every", "0.01"]).spawn().unwrap();
-        std::thread::sleep(delay);
-        if child.try_wait().unwrap().is_none() {
-            child.kill().unwrap(); // SIGKILL
-            kills += 1;
-        }
-        child.wait().unwrap();
+        c.args(["--checkpoint-every", "0.01"]);
+        kills += usize::from(kill_after(&mut c, delay));
         // Whatever is on disk is whole: every checkpoint decodes or is absent,
         // no temporary files are left next to outputs that matter.
         for entry in std::fs::read_dir(out.join("checkpoints")).unwrap() {

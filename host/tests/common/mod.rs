@@ -3,6 +3,7 @@
 
 use assert_cmd::Command;
 use std::path::{Path, PathBuf};
+use std::time::Duration;
 
 /// A bed small and short enough for a test: 5 × 4 grains; per cell 20 000
 /// settling + 8 000 spin-up + 20 000 window steps (0.05 s windows).
@@ -47,4 +48,30 @@ pub fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
     let p = dir.join(name);
     std::fs::write(&p, text).unwrap();
     p
+}
+
+/// Deterministic "random" delays from a fixed LCG (so a failure reproduces):
+/// `base_ms` plus up to `span_ms`.
+pub fn random_delays(seed: u64, base_ms: u64, span_ms: u64) -> impl Iterator<Item = Duration> {
+    std::iter::successors(Some(seed), |s| {
+        Some(
+            s.wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407),
+        )
+    })
+    .skip(1)
+    .map(move |s| Duration::from_millis(base_ms + (s >> 33) % span_ms))
+}
+
+/// Spawns `command`, SIGKILLs it after `delay` unless it has finished, and
+/// waits for it. Returns whether it was killed.
+pub fn kill_after(command: &mut std::process::Command, delay: Duration) -> bool {
+    let mut child = command.spawn().unwrap();
+    std::thread::sleep(delay);
+    let killed = child.try_wait().unwrap().is_none();
+    if killed {
+        child.kill().unwrap();
+    }
+    child.wait().unwrap();
+    killed
 }
