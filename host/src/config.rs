@@ -195,6 +195,8 @@ pub struct FlowSection {
     pub hold_steps: u32,
     /// Bed-level interval (steps of Δt).
     pub bed_level_interval: u32,
+    /// Width of the bed-level windows, in largest diameters.
+    pub bed_level_window: f64,
     /// ρ (kg/m³).
     pub fluid_density: f64,
     /// C_D.
@@ -306,6 +308,7 @@ impl Default for FlowSection {
             turbulence: f.turbulence,
             hold_steps: f.hold_steps,
             bed_level_interval: f.bed_level_interval,
+            bed_level_window: f.bed_level_window,
             fluid_density: p.material.rho,
             drag_coefficient: p.material.c_d,
             added_mass: p.material.c_m,
@@ -710,6 +713,12 @@ fn flow_config(f: &FlowSection, d: f64) -> Result<FlowConfig, ConfigError> {
         f.bed_level_interval,
         ">= 1",
     )?;
+    need(
+        f.bed_level_window.is_finite() && (1.0..=1e6).contains(&f.bed_level_window),
+        "flow.bed_level_window",
+        f.bed_level_window,
+        "in [1, 1e6] largest diameters",
+    )?;
     Ok(FlowConfig {
         kappa: f.kappa,
         depth: f.depth,
@@ -718,6 +727,7 @@ fn flow_config(f: &FlowSection, d: f64) -> Result<FlowConfig, ConfigError> {
         turbulence: f.turbulence,
         hold_steps: f.hold_steps,
         bed_level_interval: f.bed_level_interval,
+        bed_level_window: f.bed_level_window,
         ..FlowConfig::new(0.0, d)
     })
 }

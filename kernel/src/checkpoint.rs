@@ -8,7 +8,7 @@
 //! |---|---|
 //! | magic `MBSK`, version u16, precision bytes u8 (4/8), 0 u8 | 8 |
 //! | `SimConfig`: dt, ρ, s, C_M, C_D, μ, ν, k_n, k_s, η_n, η_s, g_x, g_y, L, y_min, y_max, skin (f64), seed (u64) | 144 |
-//! | flow on (u8); `FlowConfig`: u*, κ, h, ε0, k_s, d (f64), turbulence (u8), hold, bed-level interval (u32) | 58 |
+//! | flow on (u8); `FlowConfig`: u*, κ, h, ε0, k_s, d (f64), turbulence (u8), hold, bed-level interval (u32), bed-level window (f64) | 66 |
 //! | flow epoch, step (u64), bed level (R) | 16 + R |
 //! | grains n (u32); per grain x, y, u, v, ω, d/2, z_u, z_v, 1/m, 1/I, drag factor (R), fixed, class (u8) | 4 + n (11R + 2) |
 //! | contacts m (u32); per contact i, j (u32), e_n, e_s (R), in (i, j) order | 4 + m (8 + 2R) |
@@ -30,7 +30,7 @@ use crate::real::Real;
 use crate::sim::{check_grain, Sim, SimConfig};
 
 /// Format version written by [`Sim::checkpoint`].
-pub const CHECKPOINT_VERSION: u16 = 1;
+pub const CHECKPOINT_VERSION: u16 = 2;
 
 const MAGIC: [u8; 4] = *b"MBSK";
 
@@ -190,6 +190,7 @@ fn read_head<R: Real>(r: &mut Reader<'_>) -> Result<Head, Error> {
         turbulence: r.flag()?,
         hold_steps: r.u32()?,
         bed_level_interval: r.u32()?,
+        bed_level_window: r.f64()?,
     };
     let at = r.at;
     if flow_on {
@@ -254,6 +255,7 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
         w.uint(u64::from(f.turbulence), 1);
         w.uint(u64::from(f.hold_steps), 4);
         w.uint(u64::from(f.bed_level_interval), 4);
+        w.f64(f.bed_level_window);
         w.uint(self.flow_epoch, 8);
         w.uint(self.step, 8);
         w.real(self.bed_level);

@@ -30,6 +30,10 @@ pub struct FlowConfig {
     pub hold_steps: u32,
     /// Steps between recomputations of the mean bed level (SPEC §6, [choice] 100).
     pub bed_level_interval: u32,
+    /// Width of the windows in which the mean bed level is found, in largest
+    /// diameters (SPEC §6 applied per window, [choice] 5: the paper's bed,
+    /// nld = 5, is one window). See `Sim::bed_level`.
+    pub bed_level_window: f64,
 }
 
 impl FlowConfig {
@@ -45,6 +49,7 @@ impl FlowConfig {
             turbulence: true,
             hold_steps: 100,
             bed_level_interval: 100,
+            bed_level_window: 5.0,
         }
     }
 
@@ -72,6 +77,12 @@ impl FlowConfig {
             "flow.bed_level_interval",
             self.bed_level_interval as f64,
             ">= 1",
+        )?;
+        check(
+            self.bed_level_window.is_finite() && self.bed_level_window >= 1.0,
+            "flow.bed_level_window",
+            self.bed_level_window,
+            ">= 1 (largest diameters)",
         )
     }
 }

@@ -94,6 +94,9 @@ pub struct Grains<R: Real, const N: usize> {
     _pad16: Pad,
     /// Scratch of the bed-level search: connected to the fixed layer.
     pub(crate) in_bed: [bool; N],
+    _pad17: Pad,
+    /// Scratch of the bed-level search: highest bed-grain centre per window.
+    pub(crate) window_top: [R; N],
 }
 
 impl<R: Real, const N: usize> Grains<R, N> {
@@ -134,6 +137,8 @@ impl<R: Real, const N: usize> Grains<R, N> {
             class: [0; N],
             _pad16: PAD,
             in_bed: [false; N],
+            _pad17: PAD,
+            window_top: [R::ZERO; N],
         }
     }
 }

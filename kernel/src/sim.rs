@@ -144,6 +144,7 @@ const ZERO_FLOW: FlowConfig = FlowConfig {
     turbulence: false,
     hold_steps: 0,
     bed_level_interval: 0,
+    bed_level_window: 0.0,
 };
 
 impl<R: Real, const N: usize, const K: usize> Default for Sim<R, N, K> {

@@ -117,10 +117,10 @@ fn damaged_checkpoints_are_refused_and_change_nothing() {
     let mut bad = good.clone();
     bad.push(0);
     assert_eq!(fault(refused(&mut sim, &bad)), CheckpointFault::Trailing);
-    // A NaN where the first grain's x is: after the header (8 + 144 + 58 +
-    // 16 + 8 (bed level) + 4 (grain count)) bytes.
+    // A NaN where the first grain's x is: after the header (8 + 144 + 66
+    // (flow) + 16 + 8 (bed level) + 4 (grain count)) bytes.
     let mut bad = good.clone();
-    let x0 = 8 + 144 + 58 + 16 + 8 + 4;
+    let x0 = 8 + 144 + 66 + 16 + 8 + 4;
     bad[x0..x0 + 8].copy_from_slice(&f64::NAN.to_bits().to_le_bytes());
     assert_eq!(fault(refused(&mut sim, &bad)), CheckpointFault::Value);
     // Every single flipped byte is refused or restores to a valid state:
