@@ -58,9 +58,9 @@ pub fn progress(len: u64, what: &str, quiet: bool) -> ProgressBar {
     bar
 }
 
-fn report_warnings(config: &Config, quiet: bool) {
+fn report_warnings(config: &Config, quiet: bool, under_flow: bool) {
     if !quiet {
-        for w in warnings(config) {
+        for w in warnings(config, under_flow) {
             eprintln!("warning: {w}");
         }
     }
@@ -167,7 +167,7 @@ pub fn run(
     options: RunOptions,
     common: Common,
 ) -> Result<(), HostError> {
-    report_warnings(config, common.quiet);
+    report_warnings(config, common.quiet, true);
     let dir = out.map_or_else(|| config.file.run.output.clone(), Path::to_path_buf);
     create_dir(&dir)?;
     let text = toml::to_string(&config.file)
@@ -288,7 +288,7 @@ pub fn pack(
     duration: Option<f64>,
     common: Common,
 ) -> Result<(), HostError> {
-    report_warnings(config, common.quiet);
+    report_warnings(config, common.quiet, false);
     let dir = out.map_or_else(|| config.file.run.output.clone(), Path::to_path_buf);
     let duration = duration.unwrap_or(config.file.time.settle);
     let seed = config.seeds[0];
@@ -338,7 +338,7 @@ pub fn snapshot(
     every: f64,
     common: Common,
 ) -> Result<(), HostError> {
-    report_warnings(config, common.quiet);
+    report_warnings(config, common.quiet, true);
     let dir: PathBuf = out.map_or_else(|| config.file.run.output.clone(), Path::to_path_buf);
     create_dir(&dir)?;
     let steps = config.steps(config.file.time.settle) + frames * config.steps(every);

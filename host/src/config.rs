@@ -253,11 +253,23 @@ impl Default for GrainsSection {
     }
 }
 
+/// Lattice columns of the default bed: the narrowest measured whose q* does
+/// not depend on the width at any τ* in [0.06, 0.5] (README, "Bed width";
+/// the paper's 5 columns move collectively, 10 lock near the threshold).
+pub const DEFAULT_COLUMNS: u32 = 40;
+
+/// The default scenario: the paper's case (SPEC §9) on [`DEFAULT_COLUMNS`].
+pub fn default_scenario() -> Scenario {
+    let mut s = Scenario::paper();
+    s.bed.columns = DEFAULT_COLUMNS;
+    s
+}
+
 impl Default for BedSection {
     fn default() -> Self {
         let b = Scenario::paper().bed;
         BedSection {
-            columns: b.columns,
+            columns: DEFAULT_COLUMNS,
             rows: b.rows,
             spacing: b.spacing,
             vacancy: b.vacancy,
@@ -370,6 +382,15 @@ impl Config {
                 })
             }
         }
+    }
+
+    /// The golden-digest configuration: the embedded default on the kernel's
+    /// `Scenario::paper()` bed (5 columns), which the firmware runs.
+    pub fn golden() -> Result<Config, ConfigError> {
+        let mut file: ConfigFile =
+            toml::from_str(DEFAULT_TOML).map_err(|e| ConfigError::Parse(e.to_string()))?;
+        file.bed.columns = Scenario::paper().bed.columns;
+        Config::validate(file)
     }
 
     /// The scenario of one (τ*, seed) cell.
@@ -784,10 +805,39 @@ pub fn f32_width_warning(width: f64, dt: f64) -> Option<String> {
     })
 }
 
-/// Warnings about a valid but questionable configuration.
-pub fn warnings(config: &Config) -> Vec<String> {
+/// Width, in largest diameters, from which q* was measured not to depend on
+/// the width at any τ* in [0.06, 0.5] (README, "Bed width": 40 columns).
+pub const CONVERGED_WIDTH_D: f64 = 40.0;
+
+/// The warning for a bed too narrow for width-independent q*: narrower than
+/// two bed-level windows the whole periodic bed moves collectively, and
+/// narrower than [`CONVERGED_WIDTH_D`] its surface locks near the threshold.
+pub fn narrow_bed_warning(bed: &BedSpec, flow: &FlowConfig) -> Option<String> {
+    let d = bed.max_diameter();
+    let needed = (2.0 * flow.bed_level_window).max(CONVERGED_WIDTH_D) * d;
+    let width = bed.width();
+    (width < needed).then(|| {
+        let columns = (needed / bed.pitch()).ceil();
+        format!(
+            "bed {:.2} mm wide ({} columns) is narrower than {:.0} grain diameters: on narrower \
+             periodic beds q* depends on the width (below two bed-level windows the whole bed \
+             moves, near the threshold its surface locks); bed.columns = {columns} or more gives \
+             width-independent q*",
+            width * 1e3,
+            bed.columns,
+            needed / d,
+        )
+    })
+}
+
+/// Warnings about a valid but questionable configuration, for runs with
+/// flow (`under_flow`) or without.
+pub fn warnings(config: &Config, under_flow: bool) -> Vec<String> {
     let sc = &config.scenario;
     let mut out = Vec::new();
+    if under_flow {
+        out.extend(narrow_bed_warning(&sc.bed, &sc.flow));
+    }
     if config.precision == Precision::F32 {
         out.extend(f32_width_warning(sc.bed.width(), sc.dt()));
     }
@@ -821,7 +871,7 @@ mod tests {
             c.scenario,
             Scenario {
                 tau_star: 0.03,
-                ..Scenario::paper()
+                ..default_scenario()
             }
         );
     }
@@ -831,7 +881,7 @@ mod tests {
         let warned = |columns: u32, precision: &str| {
             let text = format!("[bed]\ncolumns = {columns}\n[run]\nprecision = \"{precision}\"\n");
             let config = Config::from_toml(&text).unwrap();
-            warnings(&config)
+            warnings(&config, true)
                 .iter()
                 .any(|w| w.contains("precision f32"))
         };
@@ -845,9 +895,30 @@ mod tests {
     }
 
     #[test]
-    fn empty_file_is_the_paper_case() {
+    fn a_bed_narrower_than_two_bed_level_windows_is_warned_about() {
+        let warned = |columns: u32, window: f64, under_flow: bool| {
+            let text = format!("[bed]\ncolumns = {columns}\n[flow]\nbed_level_window = {window}\n");
+            let config = Config::from_toml(&text).unwrap();
+            warnings(&config, under_flow)
+                .iter()
+                .any(|w| w.contains("q* depends on the width"))
+        };
+        // Pitch 1.05 d: 38 columns are 39.9 d, 39 are 40.95 d.
+        assert!(warned(5, 5.0, true));
+        assert!(!warned(5, 5.0, false), "packing has no flow");
+        assert!(warned(38, 5.0, true));
+        assert!(!warned(39, 5.0, true));
+        // Two windows of 25 d are 50 d: 48 columns (50.4 d) suffice.
+        assert!(warned(47, 25.0, true));
+        assert!(!warned(48, 25.0, true));
+    }
+
+    #[test]
+    fn empty_file_is_the_paper_case_on_a_converged_width() {
         let c = Config::from_toml("").unwrap();
-        assert_eq!(c.scenario_at(0.2, 1), Scenario::paper());
+        assert_eq!(c.scenario_at(0.2, 1), default_scenario());
+        assert_eq!(default_scenario().bed.columns, 40);
+        assert!(narrow_bed_warning(&default_scenario().bed, &default_scenario().flow).is_none());
     }
 
     #[test]

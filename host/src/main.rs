@@ -80,7 +80,8 @@ enum Command {
     },
     /// Prints the state digests after N settling and N flow steps (compare a board run).
     Digest {
-        /// Configuration file (TOML).
+        /// Configuration file (TOML); without one, the golden-digest run: the
+        /// paper's case on its 5 columns, as the firmware runs it.
         config: Option<PathBuf>,
         /// Steps of each phase.
         #[arg(long, default_value_t = 2000)]
@@ -264,7 +265,13 @@ fn execute(cli: Cli) -> Result<(), HostError> {
             steps,
             precision,
             tau,
-        } => commands::digest(&load(&config)?, steps, precision, tau_arg(tau)?),
+        } => {
+            let config = match config {
+                Some(_) => load(&config)?,
+                None => mbs::Config::golden()?,
+            };
+            commands::digest(&config, steps, precision, tau_arg(tau)?)
+        }
         Command::Calibrate {
             action: Some(CalibrateAction::Merge { shards, out }),
             ..

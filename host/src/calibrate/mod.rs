@@ -39,6 +39,13 @@ pub struct Plan {
     pub pack_duration: f64,
     /// Stages 1–2: seeds.
     pub pack_seeds: Vec<u64>,
+    /// Stages 1–2: lattice columns of the packing bed (SPEC §9.1: nld = 5);
+    /// the flow stages use the base bed's columns.
+    pub pack_columns: u32,
+    /// Stages 3–5: lattice columns instead of the base bed's (the quick plan
+    /// uses 10: q* above τ* = 0.1 is the same as on 40, near the threshold
+    /// it is not; README, "Bed width").
+    pub flow_columns: Option<u32>,
     /// Stages 1–2: settled when |y_gc − final y_gc| stays below this (diameters).
     pub settle_tolerance_d: f64,
     /// Stages 1–2: at rest when the largest speed at the end is below this (m/s).
@@ -82,6 +89,8 @@ impl Plan {
             alpha_cn: vec![0.5, 0.7, 1.0, 1.3, 1.6, 2.0, 2.5, 3.0],
             pack_duration: 0.5,
             pack_seeds: vec![1, 2, 3, 4],
+            pack_columns: 5,
+            flow_columns: None,
             settle_tolerance_d: 0.01,
             rest_speed: 5e-3,
             beta_grid: vec![1.0, 1.6, 2.5, 4.0, 6.3, 10.0, 15.8, 25.0],
@@ -109,6 +118,7 @@ impl Plan {
             alpha_cn: vec![0.7, 1.3, 2.5],
             pack_duration: 0.25,
             pack_seeds: vec![1],
+            flow_columns: Some(10),
             beta_grid: vec![1.5, 3.0, 6.0, 12.0],
             beta_tolerance: 1.25,
             tau_stars: vec![0.06, 0.1, 0.2, 0.4],
@@ -301,7 +311,7 @@ pub enum Progress {
 
 /// Runs the calibration into `dir` (resuming from its cell store).
 pub fn calibrate(
-    base: ConfigFile,
+    mut base: ConfigFile,
     dir: &std::path::Path,
     options: Options,
 ) -> Result<Progress, HostError> {
@@ -315,6 +325,9 @@ pub fn calibrate(
         Plan::full()
     };
     crate::output::write_json(&dir.join("plan.json"), &plan)?;
+    if let Some(columns) = plan.flow_columns {
+        base.bed.columns = columns;
+    }
     let bar = if options.quiet {
         indicatif::ProgressBar::hidden()
     } else {
@@ -326,7 +339,6 @@ pub fn calibrate(
         bar.set_style(style);
     }
     bar.enable_steady_tick(std::time::Duration::from_millis(250));
-    let substeps = base.time.substeps;
     let ctx = Context {
         base,
         plan,
@@ -376,7 +388,7 @@ pub fn calibrate(
         dir,
         &ctx.plan,
         options.reference,
-        substeps,
+        &ctx.base,
         &report::Stages {
             alpha_m: &s1,
             alpha_cn: &s2,

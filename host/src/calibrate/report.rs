@@ -6,6 +6,7 @@ use super::stages::{
     beta::BetaStage, mixed::MixedStage, settling::SettlingStage, timestep::TimestepStage,
 };
 use super::Plan;
+use crate::config::ConfigFile;
 use crate::error::HostError;
 use crate::output::write_text;
 use crate::references::Reference;
@@ -79,18 +80,24 @@ pub fn write_report(
     dir: &Path,
     plan: &Plan,
     reference: Reference,
-    substeps: u32,
+    base: &ConfigFile,
     s: &Stages<'_>,
 ) -> Result<(), HostError> {
     let mut o = String::new();
     let _ = writeln!(
         o,
         "# Calibration report\n\nWritten by `mbs calibrate` (mbs {}), {} plan, reference relation: {}. \
-         Integration: {substeps} substeps per Δt (README, \"The explicit damping limit\"). \
+         Integration: {} substeps per Δt (README, \"The explicit damping limit\"). \
+         Packing stages on {} lattice columns (SPEC §9.1), flow stages on {} columns, \
+         mean bed level per window of {} largest diameters (README, \"Bed width\"). \
          Plan: `plan.json`; every simulation: `cells.jsonl`.\n",
         env!("CARGO_PKG_VERSION"),
         if plan.quick { "quick" } else { "full" },
-        reference.label()
+        reference.label(),
+        base.time.substeps,
+        plan.pack_columns,
+        base.bed.columns,
+        base.flow.bed_level_window,
     );
     let dt01 = s
         .timestep
@@ -152,8 +159,8 @@ pub fn write_report(
     let _ = writeln!(o, "Factor per τ*: {}.\n", above.join(", "));
     let _ = writeln!(
         o,
-        "## Stage 1: α_m (paper Fig. 3)\n\nPacking of the base bed, α_cn = 1, β = 1, {} s, seeds {:?}. Settling time: the time after which |y_gc − final y_gc| stays below {:.2e} m ({} d); stable: settled within 80 % of the run and every grain slower than {} m/s at the end.\n\n![](stage1.png)\n",
-        s.alpha_m.duration, plan.pack_seeds, s.alpha_m.tolerance, plan.settle_tolerance_d, s.alpha_m.rest_speed
+        "## Stage 1: α_m (paper Fig. 3)\n\nPacking of the base bed on {} columns, α_cn = 1, β = 1, {} s, seeds {:?}. Settling time: the time after which |y_gc − final y_gc| stays below {:.2e} m ({} d); stable: settled within 80 % of the run and every grain slower than {} m/s at the end.\n\n![](stage1.png)\n",
+        plan.pack_columns, s.alpha_m.duration, plan.pack_seeds, s.alpha_m.tolerance, plan.settle_tolerance_d, s.alpha_m.rest_speed
     );
     settling_table(&mut o, s.alpha_m, "α_m");
     let _ = writeln!(

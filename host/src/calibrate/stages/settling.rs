@@ -65,7 +65,8 @@ pub fn settling_time(curve: &PackCurve, tolerance: f64) -> f64 {
 }
 
 /// Runs stage 1 (`parameter = "alpha_m"`, α_cn = 1) or stage 2
-/// (`"alpha_cn"`, α_m from stage 1), β = 1, on the base bed and Δt.
+/// (`"alpha_cn"`, α_m from stage 1), β = 1, on the base bed narrowed to
+/// the packing columns of the plan (SPEC §9.1: nld = 5), at the base Δt.
 pub fn run(
     ctx: &Context<'_>,
     stage: usize,
@@ -79,6 +80,7 @@ pub fn run(
     };
     let configure = |v: f64| -> ConfigFile {
         let mut c = ctx.base.clone();
+        c.bed.columns = plan.pack_columns;
         c.contact.beta = 1.0;
         c.contact.alpha_cn = 1.0;
         c.contact.alpha_m = alpha_m;
