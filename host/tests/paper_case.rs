@@ -9,7 +9,12 @@ use mbs::Config;
 use std::path::Path;
 use std::sync::atomic::AtomicBool;
 
+/// The main job of `config` on its first two seeds (half the CI time of
+/// four on the 40-column default bed).
 fn transport(config: &Config) -> Vec<TransportRow> {
+    let mut config = config.clone();
+    config.seeds.truncate(2);
+    let config = &config;
     let dir = tempfile::tempdir().unwrap();
     let never = AtomicBool::new(false);
     let control = RunControl {
