@@ -258,13 +258,6 @@ impl Default for GrainsSection {
 /// the paper's 5 columns move collectively, 10 lock near the threshold).
 pub const DEFAULT_COLUMNS: u32 = 40;
 
-/// The default scenario: the paper's case (SPEC §9) on [`DEFAULT_COLUMNS`].
-pub fn default_scenario() -> Scenario {
-    let mut s = Scenario::paper();
-    s.bed.columns = DEFAULT_COLUMNS;
-    s
-}
-
 impl Default for BedSection {
     fn default() -> Self {
         let b = Scenario::paper().bed;
@@ -859,6 +852,13 @@ pub fn warnings(config: &Config, under_flow: bool) -> Vec<String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The default scenario: the paper's case (SPEC §9) on [`DEFAULT_COLUMNS`].
+    fn default_scenario() -> Scenario {
+        let mut s = Scenario::paper();
+        s.bed.columns = DEFAULT_COLUMNS;
+        s
+    }
 
     #[test]
     fn embedded_file_is_the_default() {

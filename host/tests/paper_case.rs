@@ -11,10 +11,8 @@ use std::sync::atomic::AtomicBool;
 
 /// The main job of `config` on its first two seeds (half the CI time of
 /// four on the 40-column default bed).
-fn transport(config: &Config) -> Vec<TransportRow> {
-    let mut config = config.clone();
+fn transport(mut config: Config) -> Vec<TransportRow> {
     config.seeds.truncate(2);
-    let config = &config;
     let dir = tempfile::tempdir().unwrap();
     let never = AtomicBool::new(false);
     let control = RunControl {
@@ -23,8 +21,8 @@ fn transport(config: &Config) -> Vec<TransportRow> {
         stop: &never,
         stop_after: None,
     };
-    let outcome = run_all(config, &ProgressBar::hidden(), &control).expect("the case runs");
-    aggregate(config, &outcome.results)
+    let outcome = run_all(&config, &ProgressBar::hidden(), &control).expect("the case runs");
+    aggregate(&config, &outcome.results)
 }
 
 fn q_at(rows: &[TransportRow], tau: f64) -> f64 {
@@ -58,14 +56,14 @@ fn assert_threshold_behaviour(rows: &[TransportRow]) {
 
 #[test]
 fn paper_case_rises_above_the_threshold_and_vanishes_below() {
-    let rows = transport(&Config::load(None).unwrap());
+    let rows = transport(Config::load(None).unwrap());
     assert_threshold_behaviour(&rows);
 }
 
 #[test]
 fn refitted_beta_is_within_a_factor_3_of_meyer_peter_muller() {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../configs/beta3.toml");
-    let rows = transport(&Config::load(Some(&path)).unwrap());
+    let rows = transport(Config::load(Some(&path)).unwrap());
     assert_threshold_behaviour(&rows);
     for r in rows.iter().filter(|r| (0.1..=0.5).contains(&r.tau_star)) {
         let factor = (r.q_star / r.mpm).max(r.mpm / r.q_star);

@@ -32,7 +32,7 @@ pub struct FlowConfig {
     pub bed_level_interval: u32,
     /// Width of the windows in which the mean bed level is found, in largest
     /// diameters (SPEC §6 applied per window, [choice] 5: the paper's bed,
-    /// nld = 5, is one window). See `Sim::bed_level`.
+    /// nld = 5, is one window). See [`crate::Sim::bed_level`].
     pub bed_level_window: f64,
 }
 

@@ -556,7 +556,10 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
         Some((u.to_f64(), v.to_f64()))
     }
 
-    /// Mean bed level y = 0 of the flow (SPEC §6), absolute (m).
+    /// Mean bed level y = 0 of the flow (SPEC §6), absolute (m): the mean
+    /// centre height of the surface grains, found per window of
+    /// `FlowConfig::bed_level_window` largest diameters so that it does not
+    /// depend on the width of the periodic bed (README, "Bed width").
     pub fn bed_level(&self) -> f64 {
         self.bed_level.to_f64()
     }
