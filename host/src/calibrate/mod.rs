@@ -46,6 +46,10 @@ pub struct Plan {
     /// uses 10: q* above τ* = 0.1 is the same as on 40, near the threshold
     /// it is not; README, "Bed width").
     pub flow_columns: Option<u32>,
+    /// Stage 4: lattice columns instead of the flow stages' (its τ* ≥ 0.1
+    /// converge by 20 columns; README, "Bed width"), so the 50-layer beds
+    /// stay affordable.
+    pub timestep_columns: Option<u32>,
     /// Stages 1–2: settled when |y_gc − final y_gc| stays below this (diameters).
     pub settle_tolerance_d: f64,
     /// Stages 1–2: at rest when the largest speed at the end is below this (m/s).
@@ -91,6 +95,7 @@ impl Plan {
             pack_seeds: vec![1, 2, 3, 4],
             pack_columns: 5,
             flow_columns: None,
+            timestep_columns: Some(20),
             settle_tolerance_d: 0.01,
             rest_speed: 5e-3,
             beta_grid: vec![1.0, 1.6, 2.5, 4.0, 6.3, 10.0, 15.8, 25.0],
@@ -119,6 +124,7 @@ impl Plan {
             pack_duration: 0.25,
             pack_seeds: vec![1],
             flow_columns: Some(10),
+            timestep_columns: None,
             beta_grid: vec![1.5, 3.0, 6.0, 12.0],
             beta_tolerance: 1.25,
             tau_stars: vec![0.06, 0.1, 0.2, 0.4],

@@ -211,8 +211,8 @@ pub fn write_report(
     }
     let _ = writeln!(
         o,
-        "\n## Stage 4: Δt for other sizes and layers (paper Figs. 7–11)\n\nEvery d at nvd = {}, every nvd at d = {} mm. α_m, α_cn, β fixed; base Δt = {:.2e} s; τ* {:?}, seeds {:?}, {} s windows; Δt grid ×{:?}, then golden section to a bracket ratio {}.\n\n![](stage4_dt.png)\n\n![](stage4_dt_layers.png)\n\n![](stage4_sizes.png)\n\n![](stage4_layers.png)\n\n| d (mm) | nvd | Δt (s) | Δt / base | misfit | worst factor |\n|---|---|---|---|---|---|",
-        plan.layers.first().copied().unwrap_or(10), plan.study_mm, s.timestep.base_dt, plan.dt_tau_stars, plan.dt_seeds, plan.dt_window, plan.dt_grid, plan.dt_tolerance
+        "\n## Stage 4: Δt for other sizes and layers (paper Figs. 7–11)\n\nEvery d at nvd = {}, every nvd at d = {} mm, on {} columns. α_m, α_cn, β fixed; base Δt = {:.2e} s; τ* {:?}, seeds {:?}, {} s windows; Δt grid ×{:?}, then golden section to a bracket ratio {}.\n\n![](stage4_dt.png)\n\n![](stage4_dt_layers.png)\n\n![](stage4_sizes.png)\n\n![](stage4_layers.png)\n\n| d (mm) | nvd | Δt (s) | Δt / base | misfit | worst factor |\n|---|---|---|---|---|---|",
+        plan.layers.first().copied().unwrap_or(10), plan.study_mm, plan.timestep_columns.unwrap_or(base.bed.columns), s.timestep.base_dt, plan.dt_tau_stars, plan.dt_seeds, plan.dt_window, plan.dt_grid, plan.dt_tolerance
     );
     for r in &s.timestep.rows {
         let _ = writeln!(

@@ -69,6 +69,9 @@ pub fn run(
             c.grains.diameter_mm = Some(d);
             c.grains.classes = None;
             c.bed.rows = layers;
+            if let Some(columns) = plan.timestep_columns {
+                c.bed.columns = columns;
+            }
             c.time.dt = dt;
             ctx.curve(
                 &c,
