@@ -62,6 +62,12 @@ pub struct Plan {
     pub tau_stars: Vec<f64>,
     /// Stages 3, 5: seeds.
     pub seeds: Vec<u64>,
+    /// Stages 3, 5: seeds instead of `seeds` at τ* ≤ `threshold_tau_star`,
+    /// where q* comes from rare events and 4 seeds leave ±45 % (README,
+    /// "Calibration").
+    pub threshold_seeds: Vec<u64>,
+    /// Stages 3, 5: the largest τ* that uses `threshold_seeds`.
+    pub threshold_tau_star: f64,
     /// Transport window (s) of stages 3 and 5.
     pub window: f64,
     /// Transport window (s) of stage 4.
@@ -102,6 +108,8 @@ impl Plan {
             beta_tolerance: 1.05,
             tau_stars: vec![0.06, 0.08, 0.1, 0.15, 0.2, 0.3, 0.4, 0.5],
             seeds: vec![1, 2, 3, 4],
+            threshold_seeds: (1..=12).collect(),
+            threshold_tau_star: 0.06,
             window: 2.0,
             dt_window: 1.0,
             sizes_mm: vec![0.1, 0.2, 0.5, 1.0, 2.0],
@@ -129,6 +137,7 @@ impl Plan {
             beta_tolerance: 1.25,
             tau_stars: vec![0.06, 0.1, 0.2, 0.4],
             seeds: vec![1],
+            threshold_seeds: vec![1],
             window: 0.5,
             dt_window: 0.5,
             sizes_mm: vec![0.1, 0.5],
@@ -140,6 +149,23 @@ impl Plan {
             study_mm: 0.5,
             ..Plan::full()
         }
+    }
+}
+
+impl Plan {
+    /// The (τ*, seeds) of the transport curves of stages 3 and 5.
+    pub fn fit_points(&self) -> Vec<(f64, &[u64])> {
+        self.tau_stars
+            .iter()
+            .map(|&t| {
+                let seeds = if t <= self.threshold_tau_star {
+                    &self.threshold_seeds
+                } else {
+                    &self.seeds
+                };
+                (t, seeds.as_slice())
+            })
+            .collect()
     }
 }
 
@@ -219,38 +245,39 @@ impl Curve {
 }
 
 impl Context<'_> {
-    /// The transport curve of `config` over `tau_stars` × `seeds`; `None`
-    /// while cells owned by other shards are missing. `slot(k)` numbers the
-    /// cells for sharding.
+    /// The transport curve of `config` at `points` (τ* and the seeds averaged
+    /// there); `None` while cells owned by other shards are missing.
+    /// `slot(k)` numbers the cells for sharding.
     pub fn curve(
         &self,
         config: &ConfigFile,
-        tau_stars: &[f64],
-        seeds: &[u64],
+        points: &[(f64, &[u64])],
         window: f64,
         slot: &(dyn Fn(usize) -> usize + Sync),
     ) -> Result<Option<Curve>, HostError> {
         let mut config = config.clone();
         config.time.window = window;
-        let specs: Vec<TransportSpec> = tau_stars
+        let specs: Vec<TransportSpec> = points
             .iter()
-            .flat_map(|&t| seeds.iter().map(move |&s| (t, s)))
+            .flat_map(|&(t, seeds)| seeds.iter().map(move |&s| (t, s)))
             .map(|(t, s)| TransportSpec::new(&config, t, s))
             .collect();
         let results = self.cells.transport(&specs, slot)?;
         if results.iter().any(Option::is_none) {
             return Ok(None);
         }
-        let n_seeds = seeds.len();
         let n_classes = config.grains.classes.as_ref().map_or(1, Vec::len);
         let mut curve = Curve {
-            tau_stars: tau_stars.to_vec(),
+            tau_stars: points.iter().map(|p| p.0).collect(),
             q_star: Vec::new(),
             stderr: Vec::new(),
             classes: vec![Vec::new(); n_classes],
             failures: Vec::new(),
         };
-        for chunk in results.chunks(n_seeds) {
+        let mut rest = results.as_slice();
+        for &(_, seeds) in points {
+            let (chunk, tail) = rest.split_at(seeds.len().min(rest.len()));
+            rest = tail;
             let mut q = Vec::new();
             let mut per_class = vec![Vec::new(); n_classes];
             for r in chunk.iter().flatten() {
@@ -264,7 +291,7 @@ impl Context<'_> {
                     Err(message) => curve.failures.push(message.clone()),
                 }
             }
-            let (mean, err) = if q.len() == n_seeds {
+            let (mean, err) = if q.len() == seeds.len() {
                 crate::experiment::mean_stderr(&q)
             } else {
                 (f64::NAN, f64::NAN)
@@ -423,4 +450,30 @@ pub fn merge(shards: &[std::path::PathBuf], dir: &std::path::Path) -> Result<usi
         added += store.merge_from(&path)?;
     }
     Ok(added)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Plan;
+
+    #[test]
+    fn threshold_points_get_their_own_seeds() {
+        let plan = Plan::full();
+        let points = plan.fit_points();
+        assert_eq!(points.len(), plan.tau_stars.len());
+        for (t, seeds) in points {
+            let expected = if t <= plan.threshold_tau_star {
+                &plan.threshold_seeds
+            } else {
+                &plan.seeds
+            };
+            assert_eq!(seeds, expected.as_slice(), "tau* = {t}");
+        }
+        assert_eq!(
+            plan.fit_points()[0].1.len(),
+            12,
+            "tau* = 0.06 averages 12 seeds"
+        );
+        assert_eq!(plan.fit_points()[1].1.len(), 4);
+    }
 }

@@ -177,8 +177,8 @@ pub fn write_report(
     let _ = writeln!(o, "\nChosen: **α_cn = {}**.\n", s.alpha_cn.chosen);
     let _ = writeln!(
         o,
-        "## Stage 3: β (paper Figs. 5–6)\n\nMisfit = mean over τ* of ln²(q*/q*_ref), q* the mean of seeds {:?} over a {} s window; a grid of β, then golden-section search on ln β (to a bracket ratio {}).\n\n![](stage3.png)\n\n![](stage3_misfit.png)\n\n| β | misfit |\n|---|---|",
-        plan.seeds, plan.window, plan.beta_tolerance
+        "## Stage 3: β (paper Figs. 5–6)\n\nMisfit = mean over τ* of ln²(q*/q*_ref), q* the mean of seeds {:?} ({:?} at τ* ≤ {}) over a {} s window; a grid of β, then golden-section search on ln β (to a bracket ratio {}).\n\n![](stage3.png)\n\n![](stage3_misfit.png)\n\n| β | misfit |\n|---|---|",
+        plan.seeds, plan.threshold_seeds, plan.threshold_tau_star, plan.window, plan.beta_tolerance
     );
     let mut evaluations = s.beta.search.grid.clone();
     evaluations.extend(s.beta.search.refinement.iter().copied());

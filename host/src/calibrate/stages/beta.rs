@@ -44,17 +44,12 @@ pub fn configure(base: &ConfigFile, alpha_m: f64, alpha_cn: f64, beta: f64) -> C
 /// Runs stage 3.
 pub fn run(ctx: &Context<'_>, alpha_m: f64, alpha_cn: f64) -> Result<Option<BetaStage>, HostError> {
     let plan = &ctx.plan;
-    let cells = plan.tau_stars.len() * plan.seeds.len();
+    let points = plan.fit_points();
+    let cells = points.iter().map(|p| p.1.len()).sum();
     let window = plan.window;
     let curve_at = |beta: f64, evaluation: usize| {
         let c = configure(&ctx.base, alpha_m, alpha_cn, beta);
-        ctx.curve(
-            &c,
-            &plan.tau_stars,
-            &plan.seeds,
-            window,
-            &slot_of(evaluation, cells),
-        )
+        ctx.curve(&c, &points, window, &slot_of(evaluation, cells))
     };
     // The grid's cells can go to other shards; the refinement follows it.
     let mut evaluation = 0;

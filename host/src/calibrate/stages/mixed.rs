@@ -65,14 +65,7 @@ pub fn run(
     let d_min = plan.mixed.iter().map(|c| c.0).fold(f64::INFINITY, f64::min);
     let ratio = (d_max / d_min).powi(3);
     c.time.substeps = (f64::from(c.time.substeps) * ratio).ceil() as u32;
-    let Some(curve) = ctx.curve(
-        &c,
-        &plan.tau_stars,
-        &plan.seeds,
-        plan.window,
-        &slot_of(0, 0),
-    )?
-    else {
+    let Some(curve) = ctx.curve(&c, &plan.fit_points(), plan.window, &slot_of(0, 0))? else {
         return Ok(None);
     };
     let mut points = Vec::new();

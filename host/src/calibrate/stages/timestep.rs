@@ -62,6 +62,11 @@ pub fn run(
     let mut rows = Vec::new();
     let mut complete = true;
     let units = units(plan);
+    let points: Vec<(f64, &[u64])> = plan
+        .dt_tau_stars
+        .iter()
+        .map(|&t| (t, plan.dt_seeds.as_slice()))
+        .collect();
     for (unit, &(d, layers)) in units.iter().enumerate() {
         let slot = move |_k: usize| unit;
         let curve_at = |dt: f64| {
@@ -73,13 +78,7 @@ pub fn run(
                 c.bed.columns = columns;
             }
             c.time.dt = dt;
-            ctx.curve(
-                &c,
-                &plan.dt_tau_stars,
-                &plan.dt_seeds,
-                plan.dt_window,
-                &slot,
-            )
+            ctx.curve(&c, &points, plan.dt_window, &slot)
         };
         let grid: Vec<f64> = plan.dt_grid.iter().map(|m| base_dt * m).collect();
         let search = grid_then_golden(&grid, plan.dt_tolerance, |dt| {
