@@ -380,8 +380,7 @@ impl Config {
     /// The golden-digest configuration: the embedded default on the kernel's
     /// `Scenario::paper()` bed (5 columns), which the firmware runs.
     pub fn golden() -> Result<Config, ConfigError> {
-        let mut file: ConfigFile =
-            toml::from_str(DEFAULT_TOML).map_err(|e| ConfigError::Parse(e.to_string()))?;
+        let mut file = Config::load(None)?.file;
         file.bed.columns = Scenario::paper().bed.columns;
         Config::validate(file)
     }
