@@ -113,6 +113,7 @@ pub fn write_packing(dir: &Path, samples: &[PackSample], title: &str) -> Result<
         x_label: "time t (s)".into(),
         y_label: "centre of gravity y_gc (mm)".into(),
         log_axes: false,
+        markers: false,
     };
     save(&figure, dir, "packing")
 }

@@ -238,6 +238,8 @@ pub struct LinesFigure {
     pub y_label: String,
     /// Logarithmic x and y axes (all values must then be > 0).
     pub log_axes: bool,
+    /// A dot at every point (computed values rather than dense curves).
+    pub markers: bool,
 }
 
 impl LinesFigure {
@@ -272,6 +274,11 @@ impl LinesFigure {
                 drawn
                     .label(label.as_str())
                     .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], colour));
+            }
+            if self.markers {
+                chart
+                    .draw_series(points.iter().map(|&p| Circle::new(p, 4, colour.filled())))
+                    .map_err(err)?;
             }
         }
         if labelled {

@@ -142,6 +142,7 @@ fn write_outputs(ctx: &Context<'_>, r: &BetaStage) -> Result<(), HostError> {
         x_label: "β".into(),
         y_label: "mean squared ln(q*/q*_ref)".into(),
         log_axes: true,
+        markers: true,
     };
     save(&misfit, &ctx.dir, "stage3_misfit")?;
     save_stage(&ctx.dir, "stage3", r)

@@ -206,6 +206,7 @@ fn write_outputs(ctx: &Context<'_>, stage: usize, r: &SettlingStage) -> Result<(
         x_label: "time t (s)".into(),
         y_label: "centre of gravity y_gc (mm)".into(),
         log_axes: false,
+        markers: false,
     };
     save(&figure, &ctx.dir, &name)?;
     save_stage(&ctx.dir, &name, r)

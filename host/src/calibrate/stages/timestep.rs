@@ -164,6 +164,7 @@ fn write_outputs(ctx: &Context<'_>, r: &TimestepStage) -> Result<(), HostError> 
         x_label: x_label.into(),
         y_label: "time step Δt (s)".into(),
         log_axes: true,
+        markers: true,
     };
     save(
         &chart(
