@@ -41,6 +41,33 @@ pub struct TimestepStage {
     pub rows: Vec<TimestepRow>,
 }
 
+impl TimestepStage {
+    /// Δt of the (d, nvd) search, if it ran.
+    pub fn dt_at(&self, diameter_mm: f64, layers: u32) -> Option<f64> {
+        self.rows
+            .iter()
+            .find(|r| r.diameter_mm == diameter_mm && r.layers == layers)
+            .map(|r| r.dt)
+    }
+
+    /// The exponent p of Δt ∝ d^p: least-squares slope of ln Δt against
+    /// ln d over the sizes searched at `layers` (None with fewer than two).
+    pub fn size_exponent(&self, layers: u32) -> Option<f64> {
+        let points: Vec<(f64, f64)> = self
+            .rows
+            .iter()
+            .filter(|r| r.layers == layers && r.diameter_mm > 0.0 && r.dt > 0.0)
+            .map(|r| (r.diameter_mm.ln(), r.dt.ln()))
+            .collect();
+        let n = points.len() as f64;
+        let mean_x = points.iter().map(|p| p.0).sum::<f64>() / n;
+        let mean_y = points.iter().map(|p| p.1).sum::<f64>() / n;
+        let sxx: f64 = points.iter().map(|p| (p.0 - mean_x).powi(2)).sum();
+        let sxy: f64 = points.iter().map(|p| (p.0 - mean_x) * (p.1 - mean_y)).sum();
+        (points.len() >= 2 && sxx > 0.0).then(|| sxy / sxx)
+    }
+}
+
 /// The (d, nvd) searches: every size at the first layer thickness (the d
 /// study), then every other thickness at the study diameter (the nvd study).
 pub fn units(plan: &crate::calibrate::Plan) -> Vec<(f64, u32)> {
@@ -223,4 +250,47 @@ fn write_outputs(ctx: &Context<'_>, r: &TimestepStage) -> Result<(), HostError> 
         save(&figure, &ctx.dir, name)?;
     }
     save_stage(&ctx.dir, "stage4", r)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn row(diameter_mm: f64, layers: u32, dt: f64) -> TimestepRow {
+        let curve = Curve {
+            tau_stars: vec![],
+            q_star: vec![],
+            stderr: vec![],
+            classes: vec![],
+            failures: vec![],
+        };
+        TimestepRow {
+            diameter_mm,
+            layers,
+            dt,
+            misfit: 0.0,
+            worst_factor: 1.0,
+            before: curve.clone(),
+            after: curve,
+            evaluations: vec![],
+        }
+    }
+
+    #[test]
+    fn size_exponent_recovers_a_power_law_and_ignores_other_layers() {
+        let mut rows: Vec<TimestepRow> = [0.1, 0.2, 0.5, 1.0, 2.0]
+            .iter()
+            .map(|&d| row(d, 10, 2.0e-5 * (d / 0.5f64).powf(0.5)))
+            .collect();
+        rows.push(row(0.5, 30, 1.0));
+        let stage = TimestepStage {
+            base_dt: 2.0e-5,
+            rows,
+        };
+        let p = stage.size_exponent(10).unwrap();
+        assert!((p - 0.5).abs() < 1e-12, "p = {p}");
+        assert_eq!(stage.dt_at(0.5, 30), Some(1.0));
+        assert_eq!(stage.size_exponent(30), None, "one size is no fit");
+        assert_eq!(stage.size_exponent(20), None);
+    }
 }
