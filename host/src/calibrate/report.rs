@@ -70,10 +70,15 @@ fn settling_reason(stage: &SettlingStage, paper: f64) -> String {
     }
 }
 
+/// The paper's Δt at d = 0.1 mm (s), found by its stage 4.
+const PAPER_DT_FINE: f64 = 9.0e-6;
+/// The paper's Δt at d = 0.5 mm (s), where it fitted α_m, α_cn and β.
+const PAPER_DT_BASE: f64 = 2.0e-5;
+
 /// Why Δt(0.1 mm) differs: the size scaling of this run against the
-/// paper's two values (9.0e-6 s at 0.1 mm, 2.0e-5 s at 0.5 mm).
+/// paper's two values.
 fn dt_reason(stage: &TimestepStage, row: &TimestepRow, study_mm: f64) -> String {
-    let paper_exponent = (9.0e-6f64 / 2.0e-5).ln() / (0.1f64 / 0.5).ln();
+    let paper_exponent = (PAPER_DT_FINE / PAPER_DT_BASE).ln() / (0.1f64 / 0.5).ln();
     let scaling = match stage.size_exponent(row.layers) {
         Some(p) => format!(
             "this run's Δt grows as d^{p:.2} over the sizes searched (least squares, nvd = {}), \
@@ -87,7 +92,7 @@ fn dt_reason(stage: &TimestepStage, row: &TimestepRow, study_mm: f64) -> String 
             "relative to Δt at d = {study_mm} mm ({dt:.2e} s) d = 0.1 mm takes {:.2} of it, \
              the paper {:.2}; ",
             row.dt / dt,
-            9.0e-6 / 2.0e-5
+            PAPER_DT_FINE / PAPER_DT_BASE
         ),
         None => String::new(),
     };
@@ -183,17 +188,20 @@ pub fn write_report(
         Some(r) => {
             let _ = writeln!(
                 o,
-                "| Δt at d = 0.1 mm (nvd = {}) | {:.2e} s | 9.0e-6 s | {} |",
+                "| Δt at d = 0.1 mm (nvd = {}) | {:.2e} s | {PAPER_DT_FINE:.1e} s | {} |",
                 r.layers,
                 r.dt,
                 reason(
-                    (r.dt / 9.0e-6 - 1.0).abs() < 0.15,
+                    (r.dt / PAPER_DT_FINE - 1.0).abs() < 0.15,
                     &dt_reason(s.timestep, r, plan.study_mm),
                 )
             );
         }
         None => {
-            let _ = writeln!(o, "| Δt at d = 0.1 mm | not in this plan | 9.0e-6 s | |");
+            let _ = writeln!(
+                o,
+                "| Δt at d = 0.1 mm | not in this plan | {PAPER_DT_FINE:.1e} s | |"
+            );
         }
     }
     let _ = writeln!(
