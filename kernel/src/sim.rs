@@ -599,8 +599,9 @@ impl<R: Real> Mover<R> {
             }
         }
         // One test on the common path: every value finite and inside the domain.
-        let finite = R::is_finite(u) && R::is_finite(v) && R::is_finite(w) && R::is_finite(y);
-        if finite && x >= R::ZERO && x < self.width && y >= self.y_min && y <= self.y_max {
+        // The domain test also rejects a non-finite u or v (x, y then become
+        // ±∞ or NaN, Δt > 0) and a non-finite y; ω needs its own test.
+        if R::is_finite(w) && x >= R::ZERO && x < self.width && y >= self.y_min && y <= self.y_max {
             Ok([x, y, u, v, w])
         } else {
             Err(self.fault(i, [x, y, u, v, w]))
