@@ -26,6 +26,22 @@ fn config_prints_the_embedded_default() {
 }
 
 #[test]
+fn every_shipped_configuration_loads_and_validates() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../configs");
+    let mut checked = 0;
+    for entry in std::fs::read_dir(&dir).unwrap() {
+        let path = entry.unwrap().path();
+        if path.extension().is_some_and(|e| e == "toml") {
+            if let Err(e) = mbs::Config::load(Some(&path)) {
+                panic!("{}: {e}", path.display());
+            }
+            checked += 1;
+        }
+    }
+    assert!(checked >= 2, "configs/ holds the example configurations");
+}
+
+#[test]
 fn run_writes_table_plots_and_summary() {
     let dir = tempfile::tempdir().unwrap();
     let cfg = write(dir.path(), "small.toml", SMALL);
