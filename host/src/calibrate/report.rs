@@ -70,15 +70,18 @@ fn settling_reason(stage: &SettlingStage, paper: f64) -> String {
     }
 }
 
-/// The paper's Δt at d = 0.1 mm (s), found by its stage 4.
+/// The fine grain of the paper's stage 4 (mm) and the Δt it found there (s).
+const PAPER_D_FINE_MM: f64 = 0.1;
 const PAPER_DT_FINE: f64 = 9.0e-6;
-/// The paper's Δt at d = 0.5 mm (s), where it fitted α_m, α_cn and β.
+/// The grain where the paper fitted α_m, α_cn and β (mm), and its Δt (s).
+const PAPER_D_BASE_MM: f64 = 0.5;
 const PAPER_DT_BASE: f64 = 2.0e-5;
 
-/// Why Δt(0.1 mm) differs: the size scaling of this run against the
-/// paper's two values.
-fn dt_reason(stage: &TimestepStage, row: &TimestepRow, study_mm: f64) -> String {
-    let paper_exponent = (PAPER_DT_FINE / PAPER_DT_BASE).ln() / (0.1f64 / 0.5).ln();
+/// Why Δt at the paper's fine grain differs: the size scaling of this run
+/// against the paper's two values.
+fn dt_reason(stage: &TimestepStage, row: &TimestepRow) -> String {
+    let paper_ratio = PAPER_DT_FINE / PAPER_DT_BASE;
+    let paper_exponent = paper_ratio.ln() / (PAPER_D_FINE_MM / PAPER_D_BASE_MM).ln();
     let scaling = match stage.size_exponent(row.layers) {
         Some(p) => format!(
             "this run's Δt grows as d^{p:.2} over the sizes searched (least squares, nvd = {}), \
@@ -87,12 +90,11 @@ fn dt_reason(stage: &TimestepStage, row: &TimestepRow, study_mm: f64) -> String 
         ),
         None => String::new(),
     };
-    let relative = match stage.dt_at(study_mm, row.layers) {
+    let relative = match stage.dt_at(PAPER_D_BASE_MM, row.layers) {
         Some(dt) => format!(
-            "relative to Δt at d = {study_mm} mm ({dt:.2e} s) d = 0.1 mm takes {:.2} of it, \
-             the paper {:.2}; ",
-            row.dt / dt,
-            PAPER_DT_FINE / PAPER_DT_BASE
+            "relative to Δt at d = {PAPER_D_BASE_MM} mm ({dt:.2e} s) d = {PAPER_D_FINE_MM} mm \
+             takes {:.2} of it, the paper {paper_ratio:.2}; ",
+            row.dt / dt
         ),
         None => String::new(),
     };
@@ -107,7 +109,7 @@ fn dt_reason(stage: &TimestepStage, row: &TimestepRow, study_mm: f64) -> String 
 fn class_ratios(stage: &MixedStage) -> String {
     let mut classes: Vec<(f64, f64, f64)> = Vec::new();
     for p in &stage.points {
-        let ratio = p.q_star_fraction / p.reference;
+        let ratio = p.ratio();
         if !ratio.is_finite() {
             continue;
         }
@@ -168,8 +170,13 @@ pub fn write_report(
         .timestep
         .rows
         .iter()
-        .find(|r| r.diameter_mm == 0.1 && r.layers == 10)
-        .or_else(|| s.timestep.rows.iter().find(|r| r.diameter_mm == 0.1));
+        .find(|r| r.diameter_mm == PAPER_D_FINE_MM && r.layers == 10)
+        .or_else(|| {
+            s.timestep
+                .rows
+                .iter()
+                .find(|r| r.diameter_mm == PAPER_D_FINE_MM)
+        });
     let _ = writeln!(o, "## Calibrated values and the paper's\n\n| parameter | mbs | paper | why they differ |\n|---|---|---|---|");
     for (stage, symbol, paper) in [(s.alpha_m, "α_m", 20.0), (s.alpha_cn, "α_cn", 1.3)] {
         let why = settling_reason(stage, paper);
@@ -193,7 +200,7 @@ pub fn write_report(
                 r.dt,
                 reason(
                     (r.dt / PAPER_DT_FINE - 1.0).abs() < 0.15,
-                    &dt_reason(s.timestep, r, plan.study_mm),
+                    &dt_reason(s.timestep, r),
                 )
             );
         }
@@ -308,7 +315,7 @@ pub fn write_report(
             p.tau_star_class,
             p.q_star_fraction,
             p.reference,
-            p.q_star_fraction / p.reference
+            p.ratio()
         );
     }
     let _ = writeln!(o, "\nWorst factor per class: {:.2}.", s.mixed.worst_factor);

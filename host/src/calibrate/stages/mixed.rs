@@ -29,6 +29,14 @@ pub struct ClassPoint {
     pub reference: f64,
 }
 
+impl ClassPoint {
+    /// q*_k/f_k over the reference (both floored at the smallest q* the
+    /// fit resolves); NaN for a failed cell.
+    pub fn ratio(&self) -> f64 {
+        self.q_star_fraction.max(Q_FLOOR) / self.reference.max(Q_FLOOR)
+    }
+}
+
 /// The outcome of stage 5.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct MixedStage {
@@ -92,7 +100,7 @@ pub fn run(
     let worst_factor = points
         .iter()
         .map(|p| {
-            let r = p.q_star_fraction.max(Q_FLOOR) / p.reference.max(Q_FLOOR);
+            let r = p.ratio();
             if r.is_finite() {
                 r.max(1.0 / r)
             } else {
