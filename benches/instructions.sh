@@ -32,7 +32,7 @@ for n in ${sizes[*]}; do
           --toggle-collect='mbs::bench::timed*' "$mbs" "${args[@]}" --steps "$steps" 2>/dev/null)
         total=$(callgrind_annotate "$out/cg" 2>/dev/null | awk '/PROGRAM TOTALS/ {gsub(",", "", $1); print $1}')
         grains=$(sed -E 's/^([0-9]+) grains.*/\1/' <<<"$line")
-        contacts=$(sed -E 's/.*, ([0-9.]+) contacts per grain/\1/' <<<"$line")
+        contacts=$(sed -E 's/.*, ([0-9.]+) contacts per grain.*/\1/' <<<"$line")
         printf "%-8s %-9s %-5s %-6s %14.1f %10s\n" "$grains" "$p" "$beta" "$case" \
           "$(awk -v t="$total" -v g="$grains" -v s="$steps" "BEGIN { print t / (g * s) }")" "$contacts"
       done

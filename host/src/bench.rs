@@ -293,6 +293,9 @@ pub struct BenchResult {
     pub ns_per_grain_step: f64,
     /// Contacts per grain when timing started.
     pub contacts_per_grain: f64,
+    /// Neighbour-list rebuilds during the timed steps (0 for the rebuild
+    /// and contact-law cases, which do not step).
+    pub rebuilds: u64,
 }
 
 /// `mbs bench`: prepare a bed, then time `repetitions` of `case`.
@@ -315,6 +318,7 @@ impl SimJob for Bench<'_> {
         let n = bed.sim().len() as f64;
         let contacts = bed.sim().observe().contacts as f64;
         let reps = self.repetitions;
+        let rebuilds_before = bed.sim().neighbour_rebuilds();
         let start = Instant::now();
         timed(|| bed.repeat(reps)).map_err(HostError::kernel("bench"))?;
         let elapsed = start.elapsed().as_secs_f64();
@@ -323,6 +327,10 @@ impl SimJob for Bench<'_> {
             repetitions: reps,
             ns_per_grain_step: elapsed * 1e9 / (n * reps.max(1) as f64),
             contacts_per_grain: contacts / n,
+            rebuilds: match self.case {
+                Case::Still | Case::Flow => bed.sim().neighbour_rebuilds() - rebuilds_before,
+                Case::Rebuild | Case::Contacts => 0,
+            },
         })
     }
 }

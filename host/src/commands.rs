@@ -417,13 +417,14 @@ pub fn bench_command(
     spinner.finish_and_clear();
     let r = r?;
     print(&format!(
-        "{} grains, {:?}, beta {}, {}: {:.1} ns per grain-step over {} repetitions, {:.2} contacts per grain\n",
+        "{} grains, {:?}, beta {}, {}: {:.1} ns per grain-step over {} repetitions, {:.2} contacts per grain, {} neighbour rebuilds\n",
         r.grains,
         precision,
         beta,
         case.name(),
         r.ns_per_grain_step,
         r.repetitions,
-        r.contacts_per_grain
+        r.contacts_per_grain,
+        r.rebuilds
     ))
 }

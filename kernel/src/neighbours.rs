@@ -39,6 +39,8 @@ pub struct Neighbours<R: Real, const N: usize, const K: usize> {
     /// Skin (m) and whether the list must be rebuilt before the next use.
     pub(crate) skin: R,
     pub(crate) stale: bool,
+    /// Rebuilds since the simulation was reset (a diagnostic).
+    pub(crate) rebuilds: u64,
 }
 
 impl<R: Real, const N: usize, const K: usize> Neighbours<R, N, K> {
@@ -58,6 +60,7 @@ impl<R: Real, const N: usize, const K: usize> Neighbours<R, N, K> {
             travel: R::ZERO,
             skin: R::ZERO,
             stale: false,
+            rebuilds: 0,
         }
     }
 
@@ -66,6 +69,7 @@ impl<R: Real, const N: usize, const K: usize> Neighbours<R, N, K> {
         self.count = [0; N];
         self.travel = R::ZERO;
         self.stale = true;
+        self.rebuilds = 0;
     }
 
     /// Records one step's largest grain displacement; marks the list stale
@@ -165,6 +169,7 @@ impl<R: Real, const N: usize, const K: usize> Neighbours<R, N, K> {
         }
         self.travel = R::ZERO;
         self.stale = false;
+        self.rebuilds = self.rebuilds.wrapping_add(1);
         Ok(())
     }
 

@@ -522,6 +522,12 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
         self.nbrs.rebuild(&self.grains, self.width, self.y_min)
     }
 
+    /// Neighbour-list rebuilds since [`Sim::reset`] (a diagnostic of speed:
+    /// results never depend on it).
+    pub fn neighbour_rebuilds(&self) -> u64 {
+        self.nbrs.rebuilds
+    }
+
     /// The pairs (i, j), i < j, in contact with their spring history, in
     /// (i, j) order.
     pub fn contacts(&self) -> impl Iterator<Item = (usize, usize, Spring<R>)> + '_ {

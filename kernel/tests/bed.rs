@@ -259,6 +259,17 @@ fn bits_do_not_depend_on_skin_or_capacity() {
     let reference = run_digest::<f64>(&sc);
     assert_eq!(reference, run_digest::<f64>(&thin));
     assert_eq!(reference, run_digest::<f64>(&thick));
+    // The skins do change how often the lists are rebuilt.
+    let rebuilds = |sc: &Scenario| {
+        let mut sim = boxed::<f64>();
+        sc.digests(&mut *sim, 3000, 3000).unwrap();
+        sim.neighbour_rebuilds()
+    };
+    let (few, many) = (rebuilds(&thick), rebuilds(&thin));
+    assert!(
+        few >= 1 && many > 2 * few,
+        "rebuilds: skin 0.4 {few}, 0.02 {many}"
+    );
     let mut bigger = Box::new(Sim::<f64, 2048, 12>::new());
     assert_eq!(reference, sc.digests(&mut *bigger, 3000, 3000).unwrap());
 }
