@@ -9,7 +9,10 @@
 //! Throughput is in grain-steps with every grain counted (fixed ones
 //! included): criterion's "elem/s" inverted is ns per grain-step. Prepared
 //! beds are kept in target/tmp/bench-beds (shared with
-//! `benches/instructions.sh`), so only the first run settles them.
+//! `benches/instructions.sh`), so only the first run settles them. Step
+//! cases are timed within their first `WINDOW_STEPS` (400) steps from the
+//! prepared bed, rewound between stretches (`Prepared::time`), like
+//! `mbs bench`.
 //!
 //! Run: `cargo bench --bench step` (all), or e.g.
 //! `cargo bench --bench step -- 'f64/still/beta15.8/16368'`.
@@ -57,7 +60,7 @@ impl SimJob for Measure<'_, '_> {
         self.group.throughput(Throughput::Elements(grains as u64));
         let id = BenchmarkId::new(format!("beta{}", self.bed.beta), grains);
         self.group
-            .bench_function(id, |b| b.iter(|| bed.repeat(1).expect("repetition")));
+            .bench_function(id, |b| b.iter_custom(|n| bed.time(n).expect("repetitions")));
     }
 }
 

@@ -16,7 +16,7 @@ use crate::sims::{with_sim, SimJob, NEIGHBOURS};
 use mbs_kernel::contact::{ContactLaw, Spring};
 use mbs_kernel::{BedSpec, Error, Fnv1a, GrainSpec, Real, Scenario, Sim};
 use std::path::{Path, PathBuf};
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 /// Rows of mobile grains of the benchmark bed.
 pub const ROWS: u32 = 10;
@@ -36,6 +36,14 @@ pub const FLOW_WARM_UP: u64 = 8_000;
 
 /// Shields number of the flow case.
 pub const TAU_STAR: f64 = 0.2;
+
+/// Steps a step case runs from its prepared state before it is rewound to
+/// it (untimed). Under flow the bed keeps evolving (more grains saltate), so
+/// without the rewind a timing would measure a later bed the more
+/// repetitions it takes: criterion's 2.5 s are ~50 000 steps of a small bed
+/// but ~700 of the largest. With it every timing, criterion's and
+/// `mbs bench`'s, measures the same first 400 steps whatever the bed's size.
+pub const WINDOW_STEPS: u64 = 400;
 
 /// What one benchmark times.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -240,12 +248,18 @@ impl<R: Real> ContactLawCase<R> {
     }
 }
 
-/// A prepared bed and one repetition of a case on it: the unit both
-/// `mbs bench` and the criterion benches time.
+/// A prepared bed and repetitions of a case on it: what both `mbs bench`
+/// and the criterion benches time ([`Prepared::time`]).
 pub struct Prepared<'s, R: Real, const N: usize, const K: usize> {
     sim: &'s mut Sim<R, N, K>,
     case: Case,
     law: ContactLawCase<R>,
+    /// Checkpoint of the state the step cases start from.
+    start: Vec<u8>,
+    /// Steps since that state.
+    taken: u64,
+    /// Neighbour-list rebuilds during the timed steps.
+    rebuilds: u64,
 }
 
 impl<'s, R: Real, const N: usize, const K: usize> Prepared<'s, R, N, K> {
@@ -264,11 +278,19 @@ impl<'s, R: Real, const N: usize, const K: usize> Prepared<'s, R, N, K> {
         prepare(sim, bed, case == Case::Flow, beds)?;
         if case == Case::Flow {
             sim.step().map_err(bed_error)?;
-        } else {
-            sim.rebuild_neighbours().map_err(bed_error)?;
         }
+        let mut start = Vec::new();
+        sim.checkpoint(|b| start.extend_from_slice(b));
+        sim.rebuild_neighbours().map_err(bed_error)?;
         let law = ContactLawCase::new(sim);
-        Ok(Prepared { sim, case, law })
+        Ok(Prepared {
+            sim,
+            case,
+            law,
+            start,
+            taken: 0,
+            rebuilds: 0,
+        })
     }
 
     /// The simulation.
@@ -276,8 +298,50 @@ impl<'s, R: Real, const N: usize, const K: usize> Prepared<'s, R, N, K> {
         self.sim
     }
 
-    /// `times` repetitions: steps, rebuilds, or passes over the contacts.
-    pub fn repeat(&mut self, times: u64) -> Result<(), Error> {
+    /// Neighbour-list rebuilds during the timed steps so far.
+    pub fn rebuilds(&self) -> u64 {
+        self.rebuilds
+    }
+
+    /// Times `times` repetitions (steps, rebuilds or passes over the
+    /// contacts). Step cases run in stretches of at most [`WINDOW_STEPS`]
+    /// from the prepared state, rewound to it between stretches, untimed.
+    pub fn time(&mut self, times: u64) -> Result<Duration, Error> {
+        let steps = matches!(self.case, Case::Still | Case::Flow);
+        let mut total = Duration::ZERO;
+        let mut left = times;
+        while left > 0 {
+            let chunk = if steps {
+                if self.taken >= WINDOW_STEPS {
+                    self.rewind()?;
+                }
+                left.min(WINDOW_STEPS - self.taken)
+            } else {
+                left
+            };
+            let rebuilds = self.sim.neighbour_rebuilds();
+            let clock = Instant::now();
+            timed(|| self.repeat(chunk))?;
+            total += clock.elapsed();
+            if steps {
+                self.rebuilds += self.sim.neighbour_rebuilds() - rebuilds;
+                self.taken += chunk;
+            }
+            left -= chunk;
+        }
+        Ok(total)
+    }
+
+    /// Back to the prepared state, neighbour lists built.
+    fn rewind(&mut self) -> Result<(), Error> {
+        self.sim.restore(&self.start)?;
+        self.sim.rebuild_neighbours()?;
+        self.taken = 0;
+        Ok(())
+    }
+
+    /// `times` repetitions.
+    fn repeat(&mut self, times: u64) -> Result<(), Error> {
         match self.case {
             Case::Still | Case::Flow => self.sim.run(times),
             Case::Rebuild => (0..times).try_for_each(|_| self.sim.rebuild_neighbours()),
@@ -325,19 +389,13 @@ impl SimJob for Bench<'_> {
         let n = bed.sim().len() as f64;
         let contacts = bed.sim().observe().contacts as f64;
         let reps = self.repetitions;
-        let rebuilds_before = bed.sim().neighbour_rebuilds();
-        let start = Instant::now();
-        timed(|| bed.repeat(reps)).map_err(HostError::kernel("bench"))?;
-        let elapsed = start.elapsed().as_secs_f64();
+        let elapsed = bed.time(reps).map_err(HostError::kernel("bench"))?;
         Ok(BenchResult {
             grains: bed.sim().len(),
             repetitions: reps,
-            ns_per_grain_step: elapsed * 1e9 / (n * reps.max(1) as f64),
+            ns_per_grain_step: elapsed.as_secs_f64() * 1e9 / (n * reps.max(1) as f64),
             contacts_per_grain: contacts / n,
-            rebuilds: match self.case {
-                Case::Still | Case::Flow => bed.sim().neighbour_rebuilds() - rebuilds_before,
-                Case::Rebuild | Case::Contacts => 0,
-            },
+            rebuilds: bed.rebuilds(),
         })
     }
 }
@@ -405,5 +463,28 @@ mod tests {
         fresh.run(100).unwrap();
         reused.run(100).unwrap();
         assert_eq!(fresh.digest(), reused.digest());
+    }
+
+    /// Step cases are timed over the same first WINDOW_STEPS steps from the
+    /// prepared bed, however many repetitions are asked for.
+    #[test]
+    fn step_cases_rewind_to_the_prepared_bed_every_window() {
+        let dir = tempfile::tempdir().unwrap();
+        let bed = BenchBed {
+            grains: 55,
+            beta: 1.0,
+        };
+        let mut sim = boxed_sim::<f64, 256, 8>();
+        let mut prepared = Prepared::new(&mut *sim, &bed, Case::Flow, Some(dir.path())).unwrap();
+        let first = prepared.sim().step_count();
+        prepared.time(WINDOW_STEPS).unwrap();
+        let (end, rebuilds) = (prepared.sim().digest(), prepared.rebuilds());
+        assert_eq!(prepared.sim().step_count(), first + WINDOW_STEPS);
+        assert!(rebuilds > 0, "the flowing bed rebuilds its lists");
+        prepared.time(WINDOW_STEPS / 2).unwrap();
+        assert_eq!(prepared.sim().step_count(), first + WINDOW_STEPS / 2);
+        prepared.time(WINDOW_STEPS / 2).unwrap();
+        assert_eq!(prepared.sim().digest(), end, "the same stretch again");
+        assert_eq!(prepared.rebuilds(), 2 * rebuilds);
     }
 }
