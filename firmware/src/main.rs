@@ -20,8 +20,12 @@ type Real = f64;
 
 #[entry]
 fn main() -> ! {
-    let sim: &'static mut Sim<Real, 64, 8> =
-        cortex_m::singleton!(: Sim<Real, 64, 8> = Sim::new()).expect("first and only call");
+    // A `static mut` of the entry function: cortex-m-rt hands it out once
+    // as `&'static mut`, and its const initialiser (all zero bits) puts it
+    // in .bss. (`cortex_m::singleton!` built the value on the stack first,
+    // which overlaps .bss when the simulation is larger than the stack.)
+    static mut SIM: Sim<Real, 64, 8> = Sim::new();
+    let sim: &'static mut Sim<Real, 64, 8> = SIM;
     let peripherals = cortex_m::Peripherals::take().expect("first and only call");
     firmware::run(sim, &Scenario::paper(), STEPS, peripherals.SYST)
 }

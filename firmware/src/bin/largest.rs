@@ -19,8 +19,12 @@ const STEPS: u64 = 1000;
 
 #[entry]
 fn main() -> ! {
-    let sim: &'static mut Sim<f32, GRAINS, SLOTS> =
-        cortex_m::singleton!(: Sim<f32, GRAINS, SLOTS> = Sim::new()).expect("first and only call");
+    // A `static mut` of the entry function: cortex-m-rt hands it out once
+    // as `&'static mut`, and its const initialiser (all zero bits) puts it
+    // in .bss. (`cortex_m::singleton!` built the value on the stack first,
+    // which overlaps .bss when the simulation is larger than the stack.)
+    static mut SIM: Sim<f32, GRAINS, SLOTS> = Sim::new();
+    let sim: &'static mut Sim<f32, GRAINS, SLOTS> = SIM;
     let peripherals = cortex_m::Peripherals::take().expect("first and only call");
     let scenario = Scenario {
         bed: BedSpec::uniform(0.5e-3, 64, 12),
