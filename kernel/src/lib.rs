@@ -41,6 +41,7 @@ pub mod flow;
 mod grains;
 mod neighbours;
 mod observe;
+mod pairs;
 pub mod random;
 mod real;
 mod scenario;
