@@ -27,13 +27,13 @@ pub(crate) struct State<'a, R: Real> {
 
 /// Grain i's part of its pairs' geometry.
 pub(crate) struct Own<R: Real> {
-    pub(crate) x: R,
-    pub(crate) y: R,
-    pub(crate) u: R,
-    pub(crate) v: R,
+    x: R,
+    y: R,
+    u: R,
+    v: R,
     /// r ω.
-    pub(crate) spin: R,
-    pub(crate) r: R,
+    spin: R,
+    r: R,
 }
 
 impl<R: Real> State<'_, R> {

@@ -7,7 +7,7 @@ use crate::error::{check, finite, positive, Capacity, Error, Quantity};
 use crate::flow::{fluctuation_draw, FlowConfig, Profile};
 use crate::grains::{GrainSpec, Grains, MAX_CLASSES};
 use crate::neighbours::Neighbours;
-use crate::pairs::{Forces, Own, State, Sums, Touching};
+use crate::pairs::{Forces, State, Sums, Touching};
 use crate::real::Real;
 
 /// Whether the step finds each grain's contact geometry while the previous
@@ -493,17 +493,11 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
             } else {
                 let count = usize::from(nb.count[i]).min(K);
                 let pairs = nb.other[i][..count].iter().zip(&mut nb.spring[i][..count]);
-                let own = Own {
-                    x: xi,
-                    y: yi,
-                    u: ui,
-                    v: vi,
-                    spin: ri * wi,
-                    r: ri,
-                };
-                for (&j, spring) in pairs {
-                    if let Some(c) = state.contact(&own, j, spring) {
-                        forces.add(&law, spring, &c, ri, &mut sums);
+                if let Some(own) = state.own(i) {
+                    for (&j, spring) in pairs {
+                        if let Some(c) = state.contact(&own, j, spring) {
+                            forces.add(&law, spring, &c, ri, &mut sums);
+                        }
                     }
                 }
             }
