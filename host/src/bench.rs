@@ -62,6 +62,11 @@ impl Case {
     /// Every case, in table order.
     pub const ALL: [Case; 4] = [Case::Still, Case::Flow, Case::Rebuild, Case::Contacts];
 
+    /// The case steps the bed (and is rewound every [`WINDOW_STEPS`]).
+    pub fn steps(self) -> bool {
+        matches!(self, Case::Still | Case::Flow)
+    }
+
     /// Lower-case name.
     pub fn name(self) -> &'static str {
         match self {
@@ -254,7 +259,7 @@ pub struct Prepared<'s, R: Real, const N: usize, const K: usize> {
     sim: &'s mut Sim<R, N, K>,
     case: Case,
     law: ContactLawCase<R>,
-    /// Checkpoint of the state the step cases start from.
+    /// Checkpoint of the state the step cases start from (empty otherwise).
     start: Vec<u8>,
     /// Steps since that state.
     taken: u64,
@@ -280,7 +285,9 @@ impl<'s, R: Real, const N: usize, const K: usize> Prepared<'s, R, N, K> {
             sim.step().map_err(bed_error)?;
         }
         let mut start = Vec::new();
-        sim.checkpoint(|b| start.extend_from_slice(b));
+        if case.steps() {
+            sim.checkpoint(|b| start.extend_from_slice(b));
+        }
         sim.rebuild_neighbours().map_err(bed_error)?;
         let law = ContactLawCase::new(sim);
         Ok(Prepared {
@@ -307,7 +314,7 @@ impl<'s, R: Real, const N: usize, const K: usize> Prepared<'s, R, N, K> {
     /// contacts). Step cases run in stretches of at most [`WINDOW_STEPS`]
     /// from the prepared state, rewound to it between stretches, untimed.
     pub fn time(&mut self, times: u64) -> Result<Duration, Error> {
-        let steps = matches!(self.case, Case::Still | Case::Flow);
+        let steps = self.case.steps();
         let mut total = Duration::ZERO;
         let mut left = times;
         while left > 0 {

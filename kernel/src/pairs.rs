@@ -14,15 +14,15 @@ use crate::real::Real;
 /// The start-of-step state the geometry reads: positions, velocities,
 /// spins and radii of the grains, and the periodic width.
 pub(crate) struct State<'a, R: Real> {
-    pub(crate) x: &'a [R],
-    pub(crate) y: &'a [R],
-    pub(crate) u: &'a [R],
-    pub(crate) v: &'a [R],
-    pub(crate) w: &'a [R],
-    pub(crate) r: &'a [R],
-    pub(crate) width: R,
+    x: &'a [R],
+    y: &'a [R],
+    u: &'a [R],
+    v: &'a [R],
+    w: &'a [R],
+    r: &'a [R],
+    width: R,
     /// width / 2.
-    pub(crate) half_width: R,
+    half_width: R,
 }
 
 /// Grain i's part of its pairs' geometry.
@@ -36,7 +36,23 @@ pub(crate) struct Own<R: Real> {
     r: R,
 }
 
-impl<R: Real> State<'_, R> {
+impl<'a, R: Real> State<'a, R> {
+    /// The state of arrays x, y, u, v, ω, r (m, m/s, rad/s) in a periodic
+    /// width (m).
+    #[inline(always)]
+    pub(crate) fn new([x, y, u, v, w, r]: [&'a [R]; 6], width: R) -> Self {
+        State {
+            x,
+            y,
+            u,
+            v,
+            w,
+            r,
+            width,
+            half_width: width * R::HALF,
+        }
+    }
+
     /// Grain i's state, if it exists.
     #[inline(always)]
     pub(crate) fn own(&self, i: usize) -> Option<Own<R>> {

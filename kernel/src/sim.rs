@@ -413,7 +413,6 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
         let n = self.grains.len.min(N);
         let law = self.law;
         let width = self.width;
-        let half_width = width * R::HALF;
         let mover = Mover {
             dt: self.dt,
             gravity: self.g_red,
@@ -446,16 +445,7 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
         let (mut a, mut b) = (Touching::<R, BUFFER>::new(), Touching::<R, BUFFER>::new());
         let (mut current, mut next) = (&mut a, &mut b);
         if ahead && n > 0 {
-            let state = State {
-                x,
-                y,
-                u,
-                v,
-                w,
-                r,
-                width,
-                half_width,
-            };
+            let state = State::new([x, y, u, v, w, r], width);
             let count = usize::from(nb.count[0]).min(K);
             next.find(&state, 0, &nb.other[0][..count], &mut nb.spring[0][..count]);
         }
@@ -467,16 +457,7 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
                 fy: forces.fy[i],
                 torque: forces.torque[i],
             };
-            let state = State {
-                x,
-                y,
-                u,
-                v,
-                w,
-                r,
-                width,
-                half_width,
-            };
+            let state = State::new([x, y, u, v, w, r], width);
             if ahead {
                 core::mem::swap(&mut current, &mut next);
                 if i + 1 < n {
