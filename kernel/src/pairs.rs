@@ -225,13 +225,14 @@ impl<R: Real, const K: usize> Touching<R, K> {
         let Some(own) = s.own(i) else {
             return;
         };
+        let mut len = 0;
         for (k, (&j, spring)) in slots.iter().zip(springs).enumerate() {
-            let t = self.len;
-            if let (Some(c), true) = (s.contact(&own, j, spring), t < K) {
-                (self.slot[t], self.contact[t]) = (k as u8, c);
-                self.len = t + 1;
+            if let (Some(c), true) = (s.contact(&own, j, spring), len < K) {
+                (self.slot[len], self.contact[len]) = (k as u8, c);
+                len += 1;
             }
         }
+        self.len = len;
     }
 
     /// The contacts found: (slot, geometry), in slot order.

@@ -450,7 +450,7 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
             next.find(&state, 0, &nb.other[0][..count], &mut nb.spring[0][..count]);
         }
         for i in 0..n {
-            let (xi, yi, ui, vi, wi, ri) = (x[i], y[i], u[i], v[i], w[i], r[i]);
+            let ri = r[i];
             // Grain i's sums live in registers: no pair (i, j) has j = i.
             let mut sums = Sums {
                 fx: forces.fx[i],
@@ -486,9 +486,11 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
             if fixed[i] {
                 continue;
             }
+            // Read here, not kept from the top: fewer live registers in the
+            // pair loops.
             let moved = mover.advance(
                 i,
-                [xi, yi, ui, vi, wi],
+                [x[i], y[i], u[i], v[i], w[i]],
                 [
                     sums.fx * inv_mass[i],
                     sums.fy * inv_mass[i],
