@@ -265,6 +265,11 @@ pub struct Prepared<'s, R: Real, const N: usize, const K: usize> {
     taken: u64,
     /// Neighbour-list rebuilds during the timed steps.
     rebuilds: u64,
+    /// Time each step on its own to find [`Prepared::rebuild_time`].
+    split: bool,
+    /// Time of the timed steps that rebuilt the neighbour lists (with
+    /// `split`).
+    rebuild_time: Duration,
 }
 
 impl<'s, R: Real, const N: usize, const K: usize> Prepared<'s, R, N, K> {
@@ -297,6 +302,8 @@ impl<'s, R: Real, const N: usize, const K: usize> Prepared<'s, R, N, K> {
             start,
             taken: 0,
             rebuilds: 0,
+            split: false,
+            rebuild_time: Duration::ZERO,
         })
     }
 
@@ -308,6 +315,19 @@ impl<'s, R: Real, const N: usize, const K: usize> Prepared<'s, R, N, K> {
     /// Neighbour-list rebuilds during the timed steps so far.
     pub fn rebuilds(&self) -> u64 {
         self.rebuilds
+    }
+
+    /// From now on, times every step on its own and keeps the time of the
+    /// steps that rebuilt the neighbour lists ([`Prepared::rebuild_time`]);
+    /// costs two clock reads per step (~0.04 µs).
+    pub fn split_rebuilds(&mut self) {
+        self.split = true;
+    }
+
+    /// Time of the timed steps that rebuilt the neighbour lists (with
+    /// [`Prepared::split_rebuilds`]; zero otherwise).
+    pub fn rebuild_time(&self) -> Duration {
+        self.rebuild_time
     }
 
     /// Times `times` repetitions (steps, rebuilds or passes over the
@@ -328,7 +348,11 @@ impl<'s, R: Real, const N: usize, const K: usize> Prepared<'s, R, N, K> {
             };
             let rebuilds = self.sim.neighbour_rebuilds();
             let clock = Instant::now();
-            timed(|| self.repeat(chunk))?;
+            if self.split && steps {
+                timed(|| self.steps_split(chunk))?;
+            } else {
+                timed(|| self.repeat(chunk))?;
+            }
             total += clock.elapsed();
             if steps {
                 self.rebuilds += self.sim.neighbour_rebuilds() - rebuilds;
@@ -348,6 +372,19 @@ impl<'s, R: Real, const N: usize, const K: usize> Prepared<'s, R, N, K> {
     }
 
     /// `times` repetitions.
+    /// `times` steps, each timed on its own ([`Prepared::split_rebuilds`]).
+    fn steps_split(&mut self, times: u64) -> Result<(), Error> {
+        for _ in 0..times {
+            let rebuilds = self.sim.neighbour_rebuilds();
+            let clock = Instant::now();
+            self.sim.step()?;
+            if self.sim.neighbour_rebuilds() != rebuilds {
+                self.rebuild_time += clock.elapsed();
+            }
+        }
+        Ok(())
+    }
+
     fn repeat(&mut self, times: u64) -> Result<(), Error> {
         match self.case {
             Case::Still | Case::Flow => self.sim.run(times),
@@ -374,6 +411,8 @@ pub struct BenchResult {
     /// Neighbour-list rebuilds during the timed steps (0 for the rebuild
     /// and contact-law cases, which do not step).
     pub rebuilds: u64,
+    /// Share of the time spent in the steps that rebuilt them.
+    pub rebuild_share: f64,
 }
 
 /// `mbs bench`: prepare a bed, then time `repetitions` of `case`.
@@ -393,6 +432,7 @@ impl SimJob for Bench<'_> {
 
     fn run<R: Real, const N: usize>(self, sim: &mut Sim<R, N, NEIGHBOURS>) -> Self::Output {
         let mut bed = Prepared::new(sim, &self.bed, self.case, self.beds)?;
+        bed.split_rebuilds();
         let n = bed.sim().len() as f64;
         let contacts = bed.sim().observe().contacts as f64;
         let reps = self.repetitions;
@@ -403,6 +443,7 @@ impl SimJob for Bench<'_> {
             ns_per_grain_step: elapsed.as_secs_f64() * 1e9 / (n * reps.max(1) as f64),
             contacts_per_grain: contacts / n,
             rebuilds: bed.rebuilds(),
+            rebuild_share: bed.rebuild_time().as_secs_f64() / elapsed.as_secs_f64().max(1e-300),
         })
     }
 }
@@ -475,7 +516,7 @@ mod tests {
     /// Step cases are timed over the same first WINDOW_STEPS steps from the
     /// prepared bed, however many repetitions are asked for.
     #[test]
-    fn step_cases_rewind_to_the_prepared_bed_every_window() {
+    fn step_cases_rewind_to_the_prepared_bed_every_window_split_or_not() {
         let dir = tempfile::tempdir().unwrap();
         let bed = BenchBed {
             grains: 55,
@@ -493,5 +534,14 @@ mod tests {
         prepared.time(WINDOW_STEPS / 2).unwrap();
         assert_eq!(prepared.sim().digest(), end, "the same stretch again");
         assert_eq!(prepared.rebuilds(), 2 * rebuilds);
+        // Steps timed one by one (`mbs bench`): the same stretch, and the
+        // steps that rebuilt took part of its time.
+        assert_eq!(prepared.rebuild_time(), Duration::ZERO);
+        prepared.split_rebuilds();
+        let total = prepared.time(WINDOW_STEPS).unwrap();
+        assert_eq!(prepared.sim().digest(), end);
+        assert_eq!(prepared.rebuilds(), 3 * rebuilds);
+        let in_rebuilds = prepared.rebuild_time();
+        assert!(in_rebuilds > Duration::ZERO && in_rebuilds < total);
     }
 }

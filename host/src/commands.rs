@@ -417,7 +417,7 @@ pub fn bench_command(
     spinner.finish_and_clear();
     let r = r?;
     print(&format!(
-        "{} grains, {:?}, beta {}, {}: {:.1} ns per grain-step over {} repetitions, {:.2} contacts per grain, {} neighbour rebuilds\n",
+        "{} grains, {:?}, beta {}, {}: {:.1} ns per grain-step over {} repetitions, {:.2} contacts per grain, {} neighbour rebuilds ({:.0} % of the time in the steps that rebuilt)\n",
         r.grains,
         precision,
         beta,
@@ -425,6 +425,7 @@ pub fn bench_command(
         r.ns_per_grain_step,
         r.repetitions,
         r.contacts_per_grain,
-        r.rebuilds
+        r.rebuilds,
+        100.0 * r.rebuild_share
     ))
 }
