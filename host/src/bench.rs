@@ -371,7 +371,6 @@ impl<'s, R: Real, const N: usize, const K: usize> Prepared<'s, R, N, K> {
         Ok(())
     }
 
-    /// `times` repetitions.
     /// `times` steps, each timed on its own ([`Prepared::split_rebuilds`]).
     fn steps_split(&mut self, times: u64) -> Result<(), Error> {
         for _ in 0..times {
@@ -385,6 +384,7 @@ impl<'s, R: Real, const N: usize, const K: usize> Prepared<'s, R, N, K> {
         Ok(())
     }
 
+    /// `times` repetitions.
     fn repeat(&mut self, times: u64) -> Result<(), Error> {
         match self.case {
             Case::Still | Case::Flow => self.sim.run(times),
