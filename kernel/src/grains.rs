@@ -43,9 +43,9 @@ const PAD_BYTES: usize = if cfg!(target_pointer_width = "64") {
 
 /// Padding between the arrays of [`Grains`] (none on 32-bit boards, which
 /// have no data cache).
-type Pad = [u8; PAD_BYTES];
+pub(crate) type Pad = [u8; PAD_BYTES];
 
-const PAD: Pad = [0; PAD_BYTES];
+pub(crate) const PAD: Pad = [0; PAD_BYTES];
 
 /// Structure-of-arrays storage of up to `N` grains, in declaration order
 /// (`repr(C)`) with a [`Pad`] after each array.

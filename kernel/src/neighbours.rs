@@ -13,6 +13,8 @@
 //! cells only costs extra distance checks. History moves from the old slots to
 //! the new ones by merging the two sorted lists, so no contact is lost.
 
+#[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+use crate::batch::Batch;
 use crate::contact::Spring;
 use crate::error::{Capacity, Error};
 use crate::grains::Grains;
@@ -41,6 +43,10 @@ pub struct Neighbours<R: Real, const N: usize, const K: usize> {
     pub(crate) stale: bool,
     /// Rebuilds since the simulation was reset (a diagnostic).
     pub(crate) rebuilds: u64,
+    /// The batched step's per-slot forces and reverse index, rebuilt with
+    /// the slots.
+    #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+    pub(crate) batch: Batch<R, N, K>,
 }
 
 impl<R: Real, const N: usize, const K: usize> Neighbours<R, N, K> {
@@ -61,12 +67,18 @@ impl<R: Real, const N: usize, const K: usize> Neighbours<R, N, K> {
             skin: R::ZERO,
             stale: false,
             rebuilds: 0,
+            #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+            batch: Batch::new(),
         }
     }
 
     /// Forgets every pair and its history.
     pub(crate) fn clear(&mut self) {
         self.count = [0; N];
+        #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+        {
+            self.batch.ready = false;
+        }
         self.travel = R::ZERO;
         self.stale = true;
         self.rebuilds = 0;
@@ -167,6 +179,8 @@ impl<R: Real, const N: usize, const K: usize> Neighbours<R, N, K> {
             }
             self.merge_into_slots(i, &found);
         }
+        #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+        self.batch.index(n, &self.count, &self.other, &g.fixed);
         self.travel = R::ZERO;
         self.stale = false;
         self.rebuilds = self.rebuilds.wrapping_add(1);
@@ -218,6 +232,10 @@ impl<R: Real, const N: usize, const K: usize> Neighbours<R, N, K> {
             return;
         };
         let k = usize::from(*count);
+        #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+        {
+            self.batch.ready = false;
+        }
         if k < K {
             self.other[i][k] = j as u32;
             self.spring[i][k] = spring;

@@ -70,6 +70,18 @@ pub trait Real:
     fn to_raw(self) -> u64;
     /// The value of raw IEEE bits (the low `BYTES` bytes).
     fn from_raw(bits: u64) -> Self;
+    /// The batched step in vector lanes ([`crate::batch`]): the largest
+    /// squared speed or the error; `None` (nothing done) where this
+    /// precision has no lanes on this target.
+    #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+    #[doc(hidden)]
+    #[inline]
+    fn batched_step<const N: usize, const K: usize>(
+        step: &mut crate::batch::BatchStep<'_, Self, N, K>,
+    ) -> Option<Result<Self, crate::Error>> {
+        let _ = step;
+        None
+    }
     /// The larger of two values (the first if they compare equal or unordered).
     #[inline]
     fn max(a: Self, b: Self) -> Self {
@@ -91,6 +103,13 @@ pub trait Real:
 }
 
 impl Real for f64 {
+    #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+    #[inline]
+    fn batched_step<const N: usize, const K: usize>(
+        step: &mut crate::batch::BatchStep<'_, Self, N, K>,
+    ) -> Option<Result<Self, crate::Error>> {
+        Some(crate::batch::batched_step_f64(step))
+    }
     const ZERO: Self = 0.0;
     const ONE: Self = 1.0;
     const HALF: Self = 0.5;

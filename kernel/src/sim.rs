@@ -1,6 +1,8 @@
 //! The simulation: configuration, grains, the step (SPEC §2 equations of
 //! motion (1)–(3) with symplectic Euler), and its error checks.
 
+#[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+use crate::batch::{batched_step, BatchStep};
 use crate::constants::{ContactConstants, Material, A2};
 use crate::contact::{ContactLaw, Spring};
 use crate::error::{check, finite, positive, Capacity, Error, Quantity};
@@ -318,15 +320,17 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
     pub fn step(&mut self) -> Result<(), Error> {
         // No buffers at all in the straight loop (microcontroller stacks are small).
         if GEOMETRY_AHEAD {
-            self.step_with::<K>()
+            self.step_with::<K, true>()
         } else {
-            self.step_with::<0>()
+            self.step_with::<0, true>()
         }
     }
 
-    /// [`Sim::step`] with buffers of `BUFFER` contacts to find the pair
-    /// geometry one grain ahead, or none ([`Sim::forces_and_motion`]).
-    fn step_with<const BUFFER: usize>(&mut self) -> Result<(), Error> {
+    /// [`Sim::step`] with the batched pass where it has lanes (`BATCHED`,
+    /// [`Sim::batched_forces_and_motion`]), else the fused pass with buffers
+    /// of `BUFFER` contacts to find the pair geometry one grain ahead, or
+    /// none ([`Sim::forces_and_motion`]). All give the same bits.
+    fn step_with<const BUFFER: usize, const BATCHED: bool>(&mut self) -> Result<(), Error> {
         check(self.configured, "sim", 0.0, "configured by reset() first")?;
         self.nbrs.refresh(&self.grains, self.width, self.y_min)?;
         if self.flow_on {
@@ -342,7 +346,18 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
         if self.flow_on {
             self.add_drag();
         }
-        let moved = self.forces_and_motion::<BUFFER>();
+        #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+        let batched = if BATCHED {
+            self.batched_forces_and_motion()
+        } else {
+            None
+        };
+        #[cfg(not(all(target_arch = "x86_64", target_feature = "avx2")))]
+        let batched = None;
+        let moved = match batched {
+            Some(moved) => moved,
+            None => self.forces_and_motion::<BUFFER>(),
+        };
         if moved.is_err() {
             self.clear_forces();
         }
@@ -391,6 +406,24 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
         }
     }
 
+    /// The parameters of [`Mover::advance`] for this step.
+    fn mover(&self) -> Mover<R> {
+        Mover {
+            dt: self.dt,
+            gravity: self.g_red,
+            width: self.width,
+            y_min: self.y_min,
+            y_max: self.y_max,
+            step: self.step,
+        }
+    }
+
+    /// Ends a step whose grains moved at most `max_v2`^½ Δt.
+    fn finish_step(&mut self, max_v2: R) {
+        self.nbrs.add_travel(R::sqrt(max_v2) * self.dt);
+        self.step += 1;
+    }
+
     /// Contact forces (6)–(9) of every overlapping listed pair, then symplectic
     /// Euler (1)–(3), in one pass over the grains.
     ///
@@ -413,39 +446,17 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
         let n = self.grains.len.min(N);
         let law = self.law;
         let width = self.width;
-        let mover = Mover {
-            dt: self.dt,
-            gravity: self.g_red,
-            width,
-            y_min: self.y_min,
-            y_max: self.y_max,
-            step: self.step,
-        };
-        let g = &mut self.grains;
-        let (x, y, u, v, w) = (
-            &mut g.x[..n],
-            &mut g.y[..n],
-            &mut g.u[..n],
-            &mut g.v[..n],
-            &mut g.w[..n],
-        );
-        let mut forces = Forces {
-            fx: &mut g.fx[..n],
-            fy: &mut g.fy[..n],
-            torque: &mut g.torque[..n],
-            r: &g.r[..n],
-        };
-        let (r, fixed) = (&g.r[..n], &g.fixed[..n]);
-        let (inv_mass, inv_inertia) = (&g.inv_mass[..n], &g.inv_inertia[..n]);
+        let mover = self.mover();
+        let (mut motion, mut forces, fixed) = split(&mut self.grains, n, mover);
+        let r = forces.r;
         let nb = &mut self.nbrs;
-        let mut max_v2 = R::ZERO;
         // Grain i + 1's contacts can be found before grain i's laws and
         // motion: they read only start-of-step state (grain i + 1 and grains
         // j > i + 1; grain i moves after). Two buffers, used in turn.
         let (mut a, mut b) = (Touching::<R, BUFFER>::new(), Touching::<R, BUFFER>::new());
         let (mut current, mut next) = (&mut a, &mut b);
         if ahead && n > 0 {
-            let state = State::new([x, y, u, v, w, r], width);
+            let state = motion.state(r, width);
             let count = usize::from(nb.count[0]).min(K);
             next.find(&state, 0, &nb.other[0][..count], &mut nb.spring[0][..count]);
         }
@@ -457,7 +468,7 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
                 fy: forces.fy[i],
                 torque: forces.torque[i],
             };
-            let state = State::new([x, y, u, v, w, r], width);
+            let state = motion.state(r, width);
             if ahead {
                 core::mem::swap(&mut current, &mut next);
                 if i + 1 < n {
@@ -483,26 +494,51 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
                 }
             }
             (forces.fx[i], forces.fy[i], forces.torque[i]) = (R::ZERO, R::ZERO, R::ZERO);
-            if fixed[i] {
-                continue;
+            if !fixed[i] {
+                motion.advance(i, &sums)?;
             }
-            // Read here, not kept from the top: fewer live registers in the
-            // pair loops.
-            let moved = mover.advance(
-                i,
-                [x[i], y[i], u[i], v[i], w[i]],
-                [
-                    sums.fx * inv_mass[i],
-                    sums.fy * inv_mass[i],
-                    sums.torque * inv_inertia[i],
-                ],
-            )?;
-            [x[i], y[i], u[i], v[i], w[i]] = moved;
-            max_v2 = R::max(max_v2, moved[2] * moved[2] + moved[3] * moved[3]);
         }
-        self.nbrs.add_travel(R::sqrt(max_v2) * self.dt);
-        self.step += 1;
+        let max_v2 = motion.max_v2;
+        self.finish_step(max_v2);
         Ok(())
+    }
+
+    /// The batched step ([`crate::batch`]): every listed pair's force, then
+    /// every grain's sums (in the order of [`Sim::forces_and_motion`]) and
+    /// motion, in vector lanes. Same bits as the fused pass. `None` where
+    /// this precision has no lanes on this target or the pairs do not fit
+    /// its storage: the caller then runs the fused pass.
+    #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+    fn batched_forces_and_motion(&mut self) -> Option<Result<(), Error>> {
+        let mover = self.mover();
+        let g = &mut self.grains;
+        let nb = &mut self.nbrs;
+        let mut step = BatchStep {
+            n: g.len.min(N),
+            x: &mut g.x,
+            y: &mut g.y,
+            u: &mut g.u,
+            v: &mut g.v,
+            w: &mut g.w,
+            fx: &mut g.fx,
+            fy: &mut g.fy,
+            torque: &mut g.torque,
+            r: &g.r,
+            inv_mass: &g.inv_mass,
+            inv_inertia: &g.inv_inertia,
+            width: self.width,
+            law: self.law,
+            mover,
+            spring: &mut nb.spring,
+            batch: &mut nb.batch,
+        };
+        match batched_step(&mut step)? {
+            Ok(max_v2) => {
+                self.finish_step(max_v2);
+                Some(Ok(()))
+            }
+            Err(e) => Some(Err(e)),
+        }
     }
 
     /// Number of grains.
@@ -609,15 +645,83 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
     }
 }
 
+/// Splits the first `n` grains into what a force-and-motion pass moves
+/// ([`Motion`]), what its pair sums use ([`Forces`]), and which are fixed.
+fn split<R: Real, const N: usize>(
+    g: &mut Grains<R, N>,
+    n: usize,
+    mover: Mover<R>,
+) -> (Motion<'_, R>, Forces<'_, R>, &[bool]) {
+    let motion = Motion {
+        x: &mut g.x[..n],
+        y: &mut g.y[..n],
+        u: &mut g.u[..n],
+        v: &mut g.v[..n],
+        w: &mut g.w[..n],
+        inv_mass: &g.inv_mass[..n],
+        inv_inertia: &g.inv_inertia[..n],
+        mover,
+        max_v2: R::ZERO,
+    };
+    let forces = Forces {
+        fx: &mut g.fx[..n],
+        fy: &mut g.fy[..n],
+        torque: &mut g.torque[..n],
+        r: &g.r[..n],
+    };
+    (motion, forces, &g.fixed[..n])
+}
+
+/// The grains' state during a force-and-motion pass, and the largest
+/// squared speed reached.
+struct Motion<'a, R: Real> {
+    x: &'a mut [R],
+    y: &'a mut [R],
+    u: &'a mut [R],
+    v: &'a mut [R],
+    w: &'a mut [R],
+    inv_mass: &'a [R],
+    inv_inertia: &'a [R],
+    mover: Mover<R>,
+    max_v2: R,
+}
+
+impl<R: Real> Motion<'_, R> {
+    /// The state as the pair geometry reads it (radii `r`, periodic `width`).
+    #[inline(always)]
+    fn state<'s>(&'s self, r: &'s [R], width: R) -> State<'s, R> {
+        State::new([&*self.x, &*self.y, &*self.u, &*self.v, &*self.w, r], width)
+    }
+
+    /// Moves mobile grain i under its force and torque `sums` ([`Mover::advance`]).
+    #[inline(always)]
+    fn advance(&mut self, i: usize, sums: &Sums<R>) -> Result<(), Error> {
+        // Read here, not kept from the top: fewer live registers in the
+        // pair loops.
+        let moved = self.mover.advance(
+            i,
+            [self.x[i], self.y[i], self.u[i], self.v[i], self.w[i]],
+            [
+                sums.fx * self.inv_mass[i],
+                sums.fy * self.inv_mass[i],
+                sums.torque * self.inv_inertia[i],
+            ],
+        )?;
+        [self.x[i], self.y[i], self.u[i], self.v[i], self.w[i]] = moved;
+        self.max_v2 = R::max(self.max_v2, moved[2] * moved[2] + moved[3] * moved[3]);
+        Ok(())
+    }
+}
+
 /// Symplectic Euler for one mobile grain (SPEC (1)–(3)) with the periodic
 /// wrap in x and the non-finite and out-of-domain checks.
-struct Mover<R: Real> {
-    dt: R,
+pub(crate) struct Mover<R: Real> {
+    pub(crate) dt: R,
     /// Reduced gravity, SPEC (2).
-    gravity: [R; 2],
-    width: R,
-    y_min: R,
-    y_max: R,
+    pub(crate) gravity: [R; 2],
+    pub(crate) width: R,
+    pub(crate) y_min: R,
+    pub(crate) y_max: R,
     step: u64,
 }
 
@@ -626,7 +730,7 @@ impl<R: Real> Mover<R> {
     /// accelerations (F_x/m', F_y/m', T/I): velocities first, then positions
     /// from the new velocities.
     #[inline]
-    fn advance(&self, i: usize, state: [R; 5], accel: [R; 3]) -> Result<[R; 5], Error> {
+    pub(crate) fn advance(&self, i: usize, state: [R; 5], accel: [R; 3]) -> Result<[R; 5], Error> {
         let [x, y, u, v, w] = state;
         let dt = self.dt;
         let u = u + (accel[0] + self.gravity[0]) * dt;
@@ -683,28 +787,64 @@ mod tests {
     use super::*;
     use crate::Scenario;
 
-    /// The paper's scenario, settling then flow, stepped with the pair
+    /// The paper's scenario, settling then flow, stepped with the batched
+    /// pass where it has lanes (`BATCHED`) or the fused pass with the pair
     /// geometry found ahead (`BUFFER` > 0) or not: (settled, flow) digests.
-    fn digests<R: Real, const BUFFER: usize>() -> (u64, u64) {
+    fn digests<R: Real, const BUFFER: usize, const BATCHED: bool>() -> (u64, u64) {
         let mut sim = Sim::<R, 64, 8>::new();
         let sc = Scenario::paper();
         sc.build(&mut sim).unwrap();
         for _ in 0..1500 {
-            sim.step_with::<BUFFER>().unwrap();
+            sim.step_with::<BUFFER, BATCHED>().unwrap();
         }
         let settled = sim.digest();
         sim.set_flow(Some(&sc.flow())).unwrap();
         for _ in 0..1500 {
-            sim.step_with::<BUFFER>().unwrap();
+            sim.step_with::<BUFFER, BATCHED>().unwrap();
         }
-        (settled, sim.digest())
+        let flow = sim.digest();
+        // The batched pass runs for f64 (it has lanes), not for f32.
+        #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+        assert_eq!(sim.batched_forces_and_motion().is_some(), R::NAME == "f64");
+        (settled, flow)
     }
 
-    /// The host's loop shape (geometry one grain ahead) and the
-    /// microcontroller's give the same bits.
+    /// The host's loop shapes (batched pair pass in lanes; fused with the
+    /// geometry one grain ahead) and the microcontroller's (fused, in
+    /// order) give the same bits.
     #[test]
-    fn geometry_found_ahead_or_not_gives_the_same_bits() {
-        assert_eq!(digests::<f64, 8>(), digests::<f64, 0>());
-        assert_eq!(digests::<f32, 8>(), digests::<f32, 0>());
+    fn batched_fused_ahead_or_not_give_the_same_bits() {
+        let fused = digests::<f64, 0, false>();
+        assert_eq!(digests::<f64, 8, false>(), fused);
+        assert_eq!(digests::<f64, 8, true>(), fused);
+        let fused = digests::<f32, 0, false>();
+        assert_eq!(digests::<f32, 8, false>(), fused);
+        assert_eq!(digests::<f32, 8, true>(), fused);
+    }
+
+    /// A grain thrown out of the domain fails the batched and the fused
+    /// passes alike: the same error, the same state left behind.
+    #[test]
+    fn batched_and_fused_fail_alike() {
+        let fail = |batched: bool| {
+            let mut sim = Sim::<f64, 64, 8>::new();
+            Scenario::paper().build(&mut sim).unwrap();
+            sim.run(100).unwrap();
+            let i = (0..sim.len())
+                .rev()
+                .find(|&i| !sim.grains.fixed[i])
+                .unwrap()
+                - 2;
+            sim.grains.v[i] = 1e9;
+            let error = if batched {
+                sim.step_with::<8, true>()
+            } else {
+                sim.step_with::<0, false>()
+            };
+            (error, sim.digest())
+        };
+        let (error, digest) = fail(false);
+        assert!(matches!(error, Err(Error::LeftDomain { .. })), "{error:?}");
+        assert_eq!(fail(true), (error, digest));
     }
 }

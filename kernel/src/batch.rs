@@ -1,0 +1,577 @@
+//! The batched step: every listed pair's contact force (SPEC §2 geometry,
+//! law (6)–(9)) in vector lanes, then every grain's force sum and motion
+//! (SPEC (1)–(3)) in lanes, with the bits of the fused pass
+//! ([`crate::Sim::step`] on every other target).
+//!
+//! Pairs are independent until their forces are summed, and the sums fix
+//! the bits. So the pair pass finds every pair's force and keeps it per
+//! side (the force on its first grain, and its negation on the second),
+//! and the grain pass adds each grain's in exactly the fused pass's order:
+//! the pairs (m, i), m ascending, whose second grain it is, then its own
+//! pairs (i, j), j ascending. Every lane does the operations of
+//! [`crate::pairs::State::contact`], [`crate::contact::ContactLaw::apply`]
+//! and the integrator in their order; branches become selects. A pair that
+//! exerts no force stores +0 (and −0 for its second grain), and a grain
+//! with fewer pairs than its lane neighbours adds a +0 entry: neither
+//! changes a sum's bits (a force sum starts at +0, or at a drag force
+//! added to +0, so it is never −0, and s + 0 = s for every other s).
+//!
+//! Lanes exist on x86-64 with AVX2 (`target-cpu=x86-64-v3` or newer, the
+//! host default), for f64 (four per vector), with capacities that are
+//! powers of two (every host capacity), so that masked indices need no
+//! bounds checks. Elsewhere the fused pass runs.
+
+use crate::contact::{ContactLaw, Spring};
+use crate::error::Error;
+use crate::grains::{Pad, PAD};
+use crate::real::Real;
+use crate::sim::Mover;
+
+/// Grains per group, pairs per batch: the widest lane count of any precision.
+const GROUP: usize = 4;
+
+/// Listed pairs the storage holds per grain on average (a settled bed has
+/// about 2.3; more: the fused pass runs).
+const PAIRS: usize = 4;
+
+/// Pairs one grain may take part in (a settled bed has about 4.5; more:
+/// the fused pass runs).
+const REFS: usize = 8;
+
+/// The batched step's storage, rebuilt with the neighbour slots; a
+/// [`Pad`] after each array, as in [`crate::grains::Grains`] (arrays of a
+/// power-of-two size would otherwise share cache sets).
+#[derive(Debug, Clone)]
+#[repr(C)]
+pub(crate) struct Batch<R: Real, const N: usize, const K: usize> {
+    /// Listed pairs (padded to a whole batch with pairs (0, 0), then one
+    /// more whose forces stay zero): first and second grain, and slot k.
+    pair_i: [[u32; PAIRS]; N],
+    _pad1: Pad,
+    pair_j: [[u32; PAIRS]; N],
+    _pad2: Pad,
+    pair_k: [[u8; PAIRS]; N],
+    _pad3: Pad,
+    /// Listed pairs, and pairs in whole batches (a multiple of [`GROUP`]).
+    listed: usize,
+    pairs: usize,
+    /// Per pair q (flattened): the force on its first grain (x, y) and
+    /// r f_s of the first grain at 2q; minus the force and r f_s of the
+    /// second grain at 2q + 1.
+    fx: [[[R; 2]; PAIRS]; N],
+    _pad4: Pad,
+    fy: [[[R; 2]; PAIRS]; N],
+    _pad5: Pad,
+    torque: [[[R; 2]; PAIRS]; N],
+    _pad6: Pad,
+    /// Per grain, its pairs in summing order as indices into `fx`, `fy`,
+    /// `torque`; unused entries point at the zero pair.
+    refs: [[u32; REFS]; N],
+    _pad7: Pad,
+    /// Per grain, all-ones bits if it moves (is not fixed), else zero: the
+    /// lane mask of the grain pass.
+    mobile: [R; N],
+    _pad8: Pad,
+    /// Entries of `refs` used, per grain; and the largest per group of
+    /// [`GROUP`] grains (at index group × GROUP).
+    refs_count: [u8; N],
+    group_count: [u8; N],
+    /// The storage matches the current slots (false when they do not fit:
+    /// then the fused pass runs).
+    pub(crate) ready: bool,
+}
+
+impl<R: Real, const N: usize, const K: usize> Batch<R, N, K> {
+    /// Empty (all-zero bits).
+    pub(crate) const fn new() -> Self {
+        Batch {
+            pair_i: [[0; PAIRS]; N],
+            _pad1: PAD,
+            pair_j: [[0; PAIRS]; N],
+            _pad2: PAD,
+            pair_k: [[0; PAIRS]; N],
+            _pad3: PAD,
+            listed: 0,
+            pairs: 0,
+            fx: [[[R::ZERO; 2]; PAIRS]; N],
+            _pad4: PAD,
+            fy: [[[R::ZERO; 2]; PAIRS]; N],
+            _pad5: PAD,
+            torque: [[[R::ZERO; 2]; PAIRS]; N],
+            _pad6: PAD,
+            refs: [[0; REFS]; N],
+            _pad7: PAD,
+            mobile: [R::ZERO; N],
+            _pad8: PAD,
+            refs_count: [0; N],
+            group_count: [0; N],
+            ready: false,
+        }
+    }
+
+    /// Indexes the listed pairs of the first `n` grains (`count`, `other`:
+    /// the neighbour slots; `fixed`): pair list, each grain's pairs in
+    /// summing order, lane masks. Not ready (the fused pass runs) if the
+    /// capacities do not suit the lanes ([`lanes_fit`]), or the pairs with
+    /// padding (`PAIRS` per grain) or a grain's pairs (`REFS`) do not fit.
+    pub(crate) fn index(
+        &mut self,
+        n: usize,
+        count: &[u8; N],
+        other: &[[u32; K]; N],
+        fixed: &[bool; N],
+    ) {
+        let n = n.min(N);
+        self.ready = false;
+        if !lanes_fit(N, K) {
+            return;
+        }
+        for (mask, &fixed) in self.mobile.iter_mut().zip(fixed).take(n) {
+            *mask = R::from_raw(if fixed { 0 } else { u64::MAX });
+        }
+        self.mobile[n..].fill(R::ZERO);
+        let cap = N * PAIRS;
+        let (pair_i, pair_j) = (
+            self.pair_i.as_flattened_mut(),
+            self.pair_j.as_flattened_mut(),
+        );
+        let pair_k = self.pair_k.as_flattened_mut();
+        let refs = &mut self.refs;
+        self.refs_count[..n].fill(0);
+        let mut q = 0;
+        // Second-grain entries first: pair (m, i) reaches grain i while m
+        // ascends, before grain i's own pairs are listed.
+        for (m, (&c, js)) in count.iter().zip(other).take(n).enumerate() {
+            let own = usize::from(c).min(K);
+            for (k, &j) in js.iter().take(own).enumerate() {
+                let j = j as usize;
+                if j >= n || j <= m || q >= cap {
+                    return;
+                }
+                (pair_i[q], pair_j[q], pair_k[q]) = (m as u32, j as u32, k as u8);
+                let used = usize::from(self.refs_count[j]);
+                let Some(entry) = refs[j].get_mut(used) else {
+                    return;
+                };
+                *entry = (2 * q + 1) as u32;
+                self.refs_count[j] += 1;
+                q += 1;
+            }
+        }
+        // Then each grain's own pairs, in slot order (q ascends with (m, k)).
+        let mut q_own = 0;
+        for (m, &c) in count.iter().enumerate().take(n) {
+            for _ in 0..usize::from(c).min(K) {
+                let used = usize::from(self.refs_count[m]);
+                let Some(entry) = refs[m].get_mut(used) else {
+                    return;
+                };
+                *entry = (2 * q_own) as u32;
+                self.refs_count[m] += 1;
+                q_own += 1;
+            }
+        }
+        // Whole batches of (0, 0) pairs, then the zero pair.
+        let pairs = q.div_ceil(GROUP) * GROUP;
+        if pairs >= cap {
+            return;
+        }
+        for p in q..pairs {
+            (pair_i[p], pair_j[p], pair_k[p]) = (0, 0, 0);
+        }
+        let zero = pairs;
+        for a in [&mut self.fx, &mut self.fy, &mut self.torque] {
+            a.as_flattened_mut()[zero] = [R::ZERO; 2];
+        }
+        for (grain_refs, &used) in refs.iter_mut().zip(&self.refs_count).take(n) {
+            for entry in grain_refs.iter_mut().skip(usize::from(used)) {
+                *entry = (2 * zero) as u32;
+            }
+        }
+        for group in (0..n).step_by(GROUP) {
+            let end = (group + GROUP).min(n);
+            self.group_count[group] = self.refs_count[group..end]
+                .iter()
+                .copied()
+                .max()
+                .unwrap_or(0);
+        }
+        (self.listed, self.pairs) = (q, pairs);
+        self.ready = true;
+    }
+}
+
+/// Whether capacities suit the lanes: N and K powers of two, so that masked
+/// indices need no bounds checks (every host capacity is), N a whole
+/// number of groups.
+pub(crate) const fn lanes_fit(n: usize, k: usize) -> bool {
+    n.is_power_of_two() && k.is_power_of_two() && n >= GROUP
+}
+
+/// What the batched step reads and writes: the grains (first `n`), the
+/// pair slots and the batch storage.
+pub struct BatchStep<'a, R: Real, const N: usize, const K: usize> {
+    pub(crate) n: usize,
+    /// x, y, u, v, ω (moved).
+    pub(crate) x: &'a mut [R; N],
+    pub(crate) y: &'a mut [R; N],
+    pub(crate) u: &'a mut [R; N],
+    pub(crate) v: &'a mut [R; N],
+    pub(crate) w: &'a mut [R; N],
+    /// Forces and torques so far (drag or zero); zeroed.
+    pub(crate) fx: &'a mut [R; N],
+    pub(crate) fy: &'a mut [R; N],
+    pub(crate) torque: &'a mut [R; N],
+    pub(crate) r: &'a [R; N],
+    pub(crate) inv_mass: &'a [R; N],
+    pub(crate) inv_inertia: &'a [R; N],
+    pub(crate) width: R,
+    pub(crate) law: ContactLaw<R>,
+    pub(crate) mover: Mover<R>,
+    pub(crate) spring: &'a mut [[Spring<R>; K]; N],
+    pub(crate) batch: &'a mut Batch<R, N, K>,
+}
+
+/// Runs the batched step if this precision has lanes on this target and
+/// the storage is ready: the largest squared speed, or the first grain's
+/// error in grain order (as the fused pass). `None`: run the fused pass.
+#[inline]
+pub(crate) fn batched_step<R: Real, const N: usize, const K: usize>(
+    step: &mut BatchStep<'_, R, N, K>,
+) -> Option<Result<R, Error>> {
+    if !step.batch.ready || !lanes_fit(N, K) {
+        return None;
+    }
+    R::batched_step(step)
+}
+
+#[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+pub(crate) use avx2::batched_step_f64;
+
+/// The f64 batched step in AVX2 lanes. `unsafe` appears three times: the
+/// call of a `#[target_feature]` function, sound because the build enables
+/// AVX2 (`cfg(target_feature = "avx2")`), and the load and store of a
+/// vector from and to a `[f64; 4]`, sound because the array is exactly 32
+/// bytes and the unaligned load and store need no alignment.
+#[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+#[allow(unsafe_code)]
+mod avx2 {
+    use super::{BatchStep, GROUP, PAIRS, REFS};
+    use crate::contact::Spring;
+    use crate::error::Error;
+    use crate::real::Real;
+    use core::arch::x86_64::*;
+
+    /// Lanes per vector.
+    const L: usize = 4;
+    const _: () = assert!(L == GROUP);
+
+    /// The batched step for f64 ([`super::batched_step`]).
+    pub(crate) fn batched_step_f64<const N: usize, const K: usize>(
+        step: &mut BatchStep<'_, f64, N, K>,
+    ) -> Result<f64, Error> {
+        // SAFETY: this module is compiled only with AVX2 enabled for the
+        // whole build, so the CPU running it has AVX2.
+        unsafe {
+            pair_pass(step);
+            grain_pass(step)
+        }
+    }
+
+    /// A vector from four f64.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn load(four: &[f64; L]) -> __m256d {
+        // SAFETY: `four` is four f64 (32 bytes); loadu needs no alignment.
+        unsafe { _mm256_loadu_pd(four.as_ptr()) }
+    }
+
+    /// Group `group` of L grains of an array (N is a whole number of groups).
+    #[inline]
+    fn group<const N: usize>(a: &[f64; N], group: usize) -> &[f64; L] {
+        let (groups, _) = a.as_chunks::<L>();
+        groups.get(group).unwrap_or(&[0.0; L])
+    }
+
+    /// Group `group` of L grains of an array, to write.
+    #[inline]
+    fn group_mut<const N: usize>(a: &mut [f64; N], group: usize) -> Option<&mut [f64; L]> {
+        let (groups, _) = a.as_chunks_mut::<L>();
+        groups.get_mut(group)
+    }
+
+    /// Stores a vector to `a[at..at + 4]`, if in bounds.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn store(a: &mut [f64], at: usize, v: __m256d) {
+        if let Some(four) = a.get_mut(at..).and_then(|s| s.first_chunk_mut::<L>()) {
+            put(four, v);
+        }
+    }
+
+    /// Stores a vector to four f64.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn put(four: &mut [f64; L], v: __m256d) {
+        // SAFETY: `four` is four f64 (32 bytes); storeu needs no alignment.
+        unsafe { _mm256_storeu_pd(four.as_mut_ptr(), v) }
+    }
+
+    /// Stores pairs q..q + 4 of two sides interleaved: `a[2q + 2l]` =
+    /// first[l], `a[2q + 2l + 1]` = second[l].
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn store_sides(a: &mut [f64], q: usize, first: __m256d, second: __m256d) {
+        let (low, high) = (
+            _mm256_unpacklo_pd(first, second),
+            _mm256_unpackhi_pd(first, second),
+        );
+        store(a, 2 * q, _mm256_permute2f128_pd::<0x20>(low, high));
+        store(a, 2 * q + L, _mm256_permute2f128_pd::<0x31>(low, high));
+    }
+
+    /// The lanes of a vector.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn lanes(v: __m256d) -> [f64; L] {
+        let mut a = [0.0; L];
+        put(&mut a, v);
+        a
+    }
+
+    /// Every listed pair's geometry and law, four pairs at a time, lane by
+    /// lane as `State::contact` and `ContactLaw::apply`; forces per side.
+    #[target_feature(enable = "avx2")]
+    fn pair_pass<const N: usize, const K: usize>(s: &mut BatchStep<'_, f64, N, K>) {
+        let splat = _mm256_set1_pd;
+        let zero = _mm256_setzero_pd();
+        let sign = splat(-0.0);
+        let all = splat(f64::from_bits(u64::MAX));
+        let neg = |a: __m256d| _mm256_xor_pd(a, sign);
+        let (add, sub, mul) = (_mm256_add_pd, _mm256_sub_pd, _mm256_mul_pd);
+        let select = |no: __m256d, yes: __m256d, mask: __m256d| _mm256_blendv_pd(no, yes, mask);
+        let (width, half_width) = (splat(s.width), splat(s.width * 0.5));
+        let law = &s.law;
+        let (dt, k_n, k_s) = (splat(law.dt), splat(law.k_n), splat(law.k_s));
+        let (eta_n, eta_s, mu) = (splat(law.eta_n), splat(law.eta_s), splat(law.mu));
+        let b = &mut *s.batch;
+        let (x, y, u, v, w, r) = (&*s.x, &*s.y, &*s.u, &*s.v, &*s.w, s.r);
+        let cap = N * PAIRS;
+        for q in (0..b.pairs.min(cap)).step_by(L) {
+            // Indices < N, K by construction; masked so that the compiler
+            // sees them in bounds.
+            let at = |a: &[[u32; PAIRS]; N]| {
+                let a = a.as_flattened();
+                [0, 1, 2, 3].map(|l| a[(q + l) & (cap - 1)] as usize & (N - 1))
+            };
+            let (i, j) = (at(&b.pair_i), at(&b.pair_j));
+            let pk = b.pair_k.as_flattened();
+            let k = [0, 1, 2, 3].map(|l| usize::from(pk[(q + l) & (cap - 1)]) & (K - 1));
+            let own = |a: &[f64; N]| _mm256_setr_pd(a[i[0]], a[i[1]], a[i[2]], a[i[3]]);
+            let other = |a: &[f64; N]| _mm256_setr_pd(a[j[0]], a[j[1]], a[j[2]], a[j[3]]);
+            let springs = [0, 1, 2, 3].map(|l| s.spring[i[l]][k[l]]);
+            let e_n0 = _mm256_setr_pd(
+                springs[0].e_n,
+                springs[1].e_n,
+                springs[2].e_n,
+                springs[3].e_n,
+            );
+            let e_s0 = _mm256_setr_pd(
+                springs[0].e_s,
+                springs[1].e_s,
+                springs[2].e_s,
+                springs[3].e_s,
+            );
+
+            // Geometry (State::contact).
+            let d = sub(other(x), own(x));
+            let dx = select(
+                select(
+                    d,
+                    add(d, width),
+                    _mm256_cmp_pd(d, neg(half_width), _CMP_LT_OQ),
+                ),
+                sub(d, width),
+                _mm256_cmp_pd(d, half_width, _CMP_GT_OQ),
+            );
+            let dy = sub(other(y), own(y));
+            let (ri, rj) = (own(r), other(r));
+            let reach = add(ri, rj);
+            let dist2 = add(mul(dx, dx), mul(dy, dy));
+            let apart = _mm256_cmp_pd(dist2, mul(reach, reach), _CMP_GE_OQ);
+            let dist = _mm256_sqrt_pd(dist2);
+            let coincident = _mm256_cmp_pd(dist, zero, _CMP_EQ_OQ);
+            let inv = _mm256_div_pd(splat(1.0), dist);
+            let (nx, ny) = (mul(dx, inv), mul(dy, inv));
+            let (tx, ty) = (ny, neg(nx));
+            let du = sub(own(u), other(u));
+            let dv = sub(own(v), other(v));
+            let v_n = add(mul(du, nx), mul(dv, ny));
+            let spin = mul(ri, own(w));
+            let v_s = add(
+                add(neg(add(mul(du, tx), mul(dv, ty))), spin),
+                mul(rj, other(w)),
+            );
+            let overlap = sub(reach, dist);
+
+            // Law (ContactLaw::apply).
+            let first = _mm256_cmp_pd(e_n0, zero, _CMP_EQ_OQ);
+            let e_n = add(e_n0, mul(k_n, select(mul(v_n, dt), overlap, first)));
+            let broken = _mm256_cmp_pd(e_n, zero, _CMP_LT_OQ);
+            let f_n = add(e_n, mul(eta_n, v_n));
+            let e_s = add(e_s0, mul(mul(k_s, v_s), dt));
+            let limit = mul(mu, e_n);
+            let slides = _mm256_cmp_pd(_mm256_andnot_pd(sign, e_s), limit, _CMP_GT_OQ);
+            let e_s_slid = select(neg(limit), limit, _mm256_cmp_pd(e_s, zero, _CMP_GT_OQ));
+            let e_s_new = select(e_s, e_s_slid, slides);
+            let f_s = select(add(e_s, mul(eta_s, v_s)), e_s_new, slides);
+
+            // Outcomes: apart or broken drop the history; coincident keeps
+            // it; otherwise the new history and a force.
+            let touching = _mm256_andnot_pd(apart, _mm256_andnot_pd(coincident, all));
+            let acts = _mm256_andnot_pd(broken, touching);
+            let keeps = _mm256_andnot_pd(apart, coincident);
+            let e_n_out = lanes(select(_mm256_and_pd(e_n, acts), e_n0, keeps));
+            let e_s_out = lanes(select(_mm256_and_pd(e_s_new, acts), e_s0, keeps));
+            // Padding pairs (0, 0) are not stored: a real pair may share their slot.
+            let store_spring = |spring: &mut [[Spring<f64>; K]; N], l: usize| {
+                spring[i[l]][k[l]] = Spring {
+                    e_n: e_n_out[l],
+                    e_s: e_s_out[l],
+                }
+            };
+            if q + L <= b.listed {
+                for l in 0..L {
+                    store_spring(s.spring, l);
+                }
+            } else {
+                for l in 0..b.listed.saturating_sub(q) {
+                    store_spring(s.spring, l & (L - 1));
+                }
+            }
+            let fx = _mm256_and_pd(add(mul(neg(f_n), nx), mul(f_s, tx)), acts);
+            let fy = _mm256_and_pd(add(mul(neg(f_n), ny), mul(f_s, ty)), acts);
+            let f_s = _mm256_and_pd(f_s, acts);
+            store_sides(b.fx.as_flattened_mut().as_flattened_mut(), q, fx, neg(fx));
+            store_sides(b.fy.as_flattened_mut().as_flattened_mut(), q, fy, neg(fy));
+            store_sides(
+                b.torque.as_flattened_mut().as_flattened_mut(),
+                q,
+                mul(ri, f_s),
+                mul(rj, f_s),
+            );
+        }
+    }
+
+    /// Every grain's sums in the fused pass's order and its motion
+    /// (`Mover::advance`), four grains at a time: the largest squared
+    /// speed, or the first failing grain's error.
+    #[target_feature(enable = "avx2")]
+    fn grain_pass<const N: usize, const K: usize>(
+        s: &mut BatchStep<'_, f64, N, K>,
+    ) -> Result<f64, Error> {
+        let splat = _mm256_set1_pd;
+        let zero = _mm256_setzero_pd();
+        let (add, sub, mul) = (_mm256_add_pd, _mm256_sub_pd, _mm256_mul_pd);
+        let select = |no: __m256d, yes: __m256d, mask: __m256d| _mm256_blendv_pd(no, yes, mask);
+        let m = &s.mover;
+        let (dt, width) = (splat(m.dt), splat(m.width));
+        let (gx, gy) = (splat(m.gravity[0]), splat(m.gravity[1]));
+        let (y_min, y_max) = (splat(m.y_min), splat(m.y_max));
+        let largest = splat(f64::MAX);
+        let abs = splat(f64::from_bits(!(1 << 63)));
+        let b = &*s.batch;
+        let both = 2 * N * PAIRS;
+        let [fx_of, fy_of, torque_of] =
+            [&b.fx, &b.fy, &b.torque].map(|a| a.as_flattened().as_flattened());
+        let mut max_v2 = zero;
+        let groups = s.n.min(N).div_ceil(L).min(N / L);
+        for grp in 0..groups {
+            let g = grp * L;
+            let mobile = load(group(&b.mobile, grp));
+            let at = |a: &[f64; N]| load(group(a, grp));
+            let (mut fx, mut fy, mut torque) = (at(s.fx), at(s.fy), at(s.torque));
+            for a in [&mut *s.fx, &mut *s.fy, &mut *s.torque] {
+                if let Some(four) = group_mut(a, grp) {
+                    put(four, zero);
+                }
+            }
+            if _mm256_movemask_pd(mobile) == 0 {
+                continue;
+            }
+            for k in 0..usize::from(b.group_count[g]).min(REFS) {
+                let e = [0, 1, 2, 3]
+                    .map(|l| b.refs[(g + l) & (N - 1)][k & (REFS - 1)] as usize & (both - 1));
+                let gather = |a: &[f64]| _mm256_setr_pd(a[e[0]], a[e[1]], a[e[2]], a[e[3]]);
+                fx = add(fx, gather(fx_of));
+                fy = add(fy, gather(fy_of));
+                torque = sub(torque, gather(torque_of));
+            }
+            // Mover::advance.
+            let im = at(s.inv_mass);
+            let (x0, y0, u0, v0, w0) = (at(s.x), at(s.y), at(s.u), at(s.v), at(s.w));
+            let u = add(u0, mul(add(mul(fx, im), gx), dt));
+            let v = add(v0, mul(add(mul(fy, im), gy), dt));
+            let w = add(w0, mul(mul(torque, at(s.inv_inertia)), dt));
+            let x = add(x0, mul(u, dt));
+            let y = add(y0, mul(v, dt));
+            let over = _mm256_cmp_pd(x, width, _CMP_GE_OQ);
+            let under = _mm256_cmp_pd(x, zero, _CMP_LT_OQ);
+            let wrapped = add(x, width);
+            let wrapped = _mm256_andnot_pd(_mm256_cmp_pd(wrapped, width, _CMP_GE_OQ), wrapped);
+            let x = select(select(x, wrapped, under), sub(x, width), over);
+            let ok = _mm256_and_pd(
+                _mm256_and_pd(
+                    _mm256_cmp_pd(_mm256_and_pd(w, abs), largest, _CMP_LE_OQ),
+                    _mm256_and_pd(
+                        _mm256_cmp_pd(x, zero, _CMP_GE_OQ),
+                        _mm256_cmp_pd(x, width, _CMP_LT_OQ),
+                    ),
+                ),
+                _mm256_and_pd(
+                    _mm256_cmp_pd(y, y_min, _CMP_GE_OQ),
+                    _mm256_cmp_pd(y, y_max, _CMP_LE_OQ),
+                ),
+            );
+            if _mm256_movemask_pd(_mm256_andnot_pd(ok, mobile)) != 0 {
+                // A grain fails: redo the group grain by grain, as the
+                // fused pass, up to the first failure.
+                let sums = [lanes(fx), lanes(fy), lanes(torque)];
+                let mobile = lanes(mobile);
+                for l in 0..L {
+                    let i = (g + l) & (N - 1);
+                    if mobile[l].to_bits() == 0 {
+                        continue;
+                    }
+                    let moved = m.advance(
+                        i,
+                        [s.x[i], s.y[i], s.u[i], s.v[i], s.w[i]],
+                        [
+                            sums[0][l] * s.inv_mass[i],
+                            sums[1][l] * s.inv_mass[i],
+                            sums[2][l] * s.inv_inertia[i],
+                        ],
+                    )?;
+                    [s.x[i], s.y[i], s.u[i], s.v[i], s.w[i]] = moved;
+                    let v2 = moved[2] * moved[2] + moved[3] * moved[3];
+                    max_v2 = _mm256_max_pd(splat(v2), max_v2);
+                }
+                continue;
+            }
+            for (a, old, new) in [
+                (&mut *s.x, x0, x),
+                (&mut *s.y, y0, y),
+                (&mut *s.u, u0, u),
+                (&mut *s.v, v0, v),
+                (&mut *s.w, w0, w),
+            ] {
+                if let Some(four) = group_mut(a, grp) {
+                    put(four, select(old, new, mobile));
+                }
+            }
+            let v2 = _mm256_and_pd(add(mul(u, u), mul(v, v)), mobile);
+            max_v2 = _mm256_max_pd(v2, max_v2);
+        }
+        Ok(lanes(max_v2).into_iter().fold(0.0, <f64 as Real>::max))
+    }
+}
