@@ -112,7 +112,8 @@ impl<R: Real, const N: usize, const K: usize> Batch<R, N, K> {
     /// Indexes the listed pairs of the first `n` grains (`count`, `other`:
     /// the neighbour slots; `fixed`): pair list, each grain's pairs in
     /// summing order, lane masks. Not ready (the fused pass runs) if the
-    /// capacities do not suit the lanes ([`lanes_fit`]), or the pairs with
+    /// precision has no lanes or the capacities do not suit them
+    /// ([`lanes_fit`]), or the pairs with
     /// padding (`PAIRS` per grain) or a grain's pairs (`REFS`) do not fit.
     pub(crate) fn index(
         &mut self,
@@ -123,7 +124,7 @@ impl<R: Real, const N: usize, const K: usize> Batch<R, N, K> {
     ) {
         let n = n.min(N);
         self.ready = false;
-        if !lanes_fit(N, K) {
+        if !R::LANES || !lanes_fit(N, K) {
             return;
         }
         for (mask, &fixed) in self.mobile.iter_mut().zip(fixed).take(n) {

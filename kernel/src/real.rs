@@ -73,6 +73,11 @@ pub trait Real:
     /// The batched step in vector lanes ([`crate::batch`]): the largest
     /// squared speed or the error; `None` (nothing done) where this
     /// precision has no lanes on this target.
+    /// Whether this precision has the batched step's vector lanes on this
+    /// target ([`crate::batch`]).
+    #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+    #[doc(hidden)]
+    const LANES: bool = false;
     #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
     #[doc(hidden)]
     #[inline]
@@ -103,6 +108,8 @@ pub trait Real:
 }
 
 impl Real for f64 {
+    #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+    const LANES: bool = true;
     #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
     #[inline]
     fn batched_step<const N: usize, const K: usize>(
