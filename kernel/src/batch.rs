@@ -77,7 +77,8 @@ pub(crate) struct Batch<R: Real, const N: usize, const K: usize> {
     refs_count: [u8; N],
     group_count: [u8; N],
     /// The storage matches the current slots (false when they do not fit:
-    /// then the fused pass runs).
+    /// then the fused pass runs). Every change of the slots marks them
+    /// stale, so a step rebuilds and re-indexes before it reads this.
     pub(crate) ready: bool,
 }
 
@@ -240,13 +241,12 @@ pub struct BatchStep<'a, R: Real, const N: usize, const K: usize> {
 pub(crate) fn batched_step<R: Real, const N: usize, const K: usize>(
     step: &mut BatchStep<'_, R, N, K>,
 ) -> Option<Result<R, Error>> {
-    if !step.batch.ready || !lanes_fit(N, K) {
+    if !step.batch.ready {
         return None;
     }
     R::batched_step(step)
 }
 
-#[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
 pub(crate) use avx2::batched_step_f64;
 
 /// The f64 batched step in AVX2 lanes. `unsafe` appears three times: the
@@ -254,7 +254,6 @@ pub(crate) use avx2::batched_step_f64;
 /// AVX2 (`cfg(target_feature = "avx2")`), and the load and store of a
 /// vector from and to a `[f64; 4]`, sound because the array is exactly 32
 /// bytes and the unaligned load and store need no alignment.
-#[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
 #[allow(unsafe_code)]
 mod avx2 {
     use super::{BatchStep, GROUP, PAIRS, REFS};

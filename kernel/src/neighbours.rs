@@ -75,10 +75,6 @@ impl<R: Real, const N: usize, const K: usize> Neighbours<R, N, K> {
     /// Forgets every pair and its history.
     pub(crate) fn clear(&mut self) {
         self.count = [0; N];
-        #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
-        {
-            self.batch.ready = false;
-        }
         self.travel = R::ZERO;
         self.stale = true;
         self.rebuilds = 0;
@@ -232,10 +228,6 @@ impl<R: Real, const N: usize, const K: usize> Neighbours<R, N, K> {
             return;
         };
         let k = usize::from(*count);
-        #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
-        {
-            self.batch.ready = false;
-        }
         if k < K {
             self.other[i][k] = j as u32;
             self.spring[i][k] = spring;

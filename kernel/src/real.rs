@@ -70,14 +70,14 @@ pub trait Real:
     fn to_raw(self) -> u64;
     /// The value of raw IEEE bits (the low `BYTES` bytes).
     fn from_raw(bits: u64) -> Self;
-    /// The batched step in vector lanes ([`crate::batch`]): the largest
-    /// squared speed or the error; `None` (nothing done) where this
-    /// precision has no lanes on this target.
     /// Whether this precision has the batched step's vector lanes on this
     /// target ([`crate::batch`]).
     #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
     #[doc(hidden)]
     const LANES: bool = false;
+    /// The batched step in vector lanes ([`crate::batch`]): the largest
+    /// squared speed or the error; `None` (nothing done) where this
+    /// precision has no lanes on this target.
     #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
     #[doc(hidden)]
     #[inline]
