@@ -75,6 +75,10 @@ impl<R: Real, const N: usize, const K: usize> Neighbours<R, N, K> {
     /// Forgets every pair and its history.
     pub(crate) fn clear(&mut self) {
         self.count = [0; N];
+        #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+        {
+            self.batch.ready = false;
+        }
         self.travel = R::ZERO;
         self.stale = true;
         self.rebuilds = 0;
@@ -102,6 +106,7 @@ impl<R: Real, const N: usize, const K: usize> Neighbours<R, N, K> {
     /// the history of pairs present in both lists. Fixed–fixed pairs are
     /// never listed (they exert no force).
     pub(crate) fn rebuild(&mut self, g: &Grains<R, N>, width: R, y_min: R) -> Result<(), Error> {
+        self.history_to_slots();
         let n = g.len.min(N);
         let mut r_max = R::ZERO;
         for &r in &g.r[..n] {
@@ -176,7 +181,8 @@ impl<R: Real, const N: usize, const K: usize> Neighbours<R, N, K> {
             self.merge_into_slots(i, &found);
         }
         #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
-        self.batch.index(n, &self.count, &self.other, &g.fixed);
+        self.batch
+            .index(n, &self.count, &self.other, &self.spring, &g.fixed);
         self.travel = R::ZERO;
         self.stale = false;
         self.rebuilds = self.rebuilds.wrapping_add(1);
@@ -204,6 +210,26 @@ impl<R: Real, const N: usize, const K: usize> Neighbours<R, N, K> {
         self.count[i] = found.len().min(K) as u8;
     }
 
+    /// Moves the spring history from the batched step's storage, where it
+    /// lives while that is ready, back into the slots (the fused pass and
+    /// the rebuild work on the slots).
+    pub(crate) fn history_to_slots(&mut self) {
+        #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+        self.batch.history_to_slots(&mut self.spring);
+    }
+
+    /// The history of grain i's slot k (`count`: its used slots), wherever
+    /// it lives.
+    #[inline]
+    fn spring_at(&self, i: usize, k: usize, count: usize) -> Spring<R> {
+        #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+        if let Some(h) = self.batch.spring_at(i, k, count) {
+            return h;
+        }
+        let _ = count;
+        self.spring[i][k]
+    }
+
     /// The pairs (i, j, history) with non-zero spring history among the first
     /// `n` grains, in (i, j) order: the contacts.
     pub(crate) fn contacts(
@@ -213,7 +239,7 @@ impl<R: Real, const N: usize, const K: usize> Neighbours<R, N, K> {
         (0..n.min(N)).flat_map(move |i| {
             let count = usize::from(self.count[i]).min(K);
             (0..count).filter_map(move |k| {
-                let (j, h) = (self.other[i][k] as usize, self.spring[i][k]);
+                let (j, h) = (self.other[i][k] as usize, self.spring_at(i, k, count));
                 let active = h.e_n != R::ZERO || h.e_s != R::ZERO;
                 (active && j < n).then_some((i, j, h))
             })
@@ -241,7 +267,7 @@ impl<R: Real, const N: usize, const K: usize> Neighbours<R, N, K> {
         let count = usize::from(*self.count.get(a)?).min(K);
         let slots = self.other.get(a)?;
         let k = slots[..count].iter().position(|&o| o as usize == b)?;
-        Some(self.spring[a][k])
+        Some(self.spring_at(a, k, count))
     }
 }
 
