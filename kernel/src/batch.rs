@@ -4,18 +4,17 @@
 //! ([`crate::Sim::step`] on every other target).
 //!
 //! Pairs are independent until their forces are summed, and the sums fix
-//! the bits. So the pair pass finds every pair's force and posts it to
-//! both grains' inboxes (the force on its first grain, and its negation on
-//! the second), each at the pair's rank in that grain's sum: the pairs
-//! (m, i), m ascending, whose second grain it is, then its own pairs
-//! (i, j), j ascending, exactly the fused pass's order. The grain pass then
-//! adds each group of grains' inboxes rank by rank, with vector loads.
-//! Every lane does the operations of [`crate::pairs::State::contact`],
-//! [`crate::contact::ContactLaw::apply`] and the integrator in their order;
-//! branches become selects. A pair that exerts no force posts +0 (and −0
-//! to its second grain), and inbox entries after a grain's last pair hold
-//! +0: neither changes a sum's bits (a force sum starts at +0, or at a drag
-//! force added to +0, so it is never −0, and s + 0 = s for every other s).
+//! the bits. So the pair pass finds every pair's force and keeps it per
+//! side (the force on its first grain, and its negation on the second),
+//! and the grain pass adds each grain's in exactly the fused pass's order:
+//! the pairs (m, i), m ascending, whose second grain it is, then its own
+//! pairs (i, j), j ascending. Every lane does the operations of
+//! [`crate::pairs::State::contact`], [`crate::contact::ContactLaw::apply`]
+//! and the integrator in their order; branches become selects. A pair that
+//! exerts no force stores +0 (and −0 for its second grain), and a grain
+//! with fewer pairs than its lane neighbours adds a +0 entry: neither
+//! changes a sum's bits (a force sum starts at +0, or at a drag force
+//! added to +0, so it is never −0, and s + 0 = s for every other s).
 //!
 //! While the storage is ready it holds the spring history, in pair order
 //! (vector loads and stores); the slots get it back before the fused pass
@@ -39,21 +38,9 @@ const GROUP: usize = 4;
 /// about 2.3; more: the fused pass runs).
 const PAIRS: usize = 4;
 
-/// Entries of a grain's inbox: it may take part in `REFS` − 1 pairs (a
-/// settled bed has about 4.5; more: the fused pass runs). The last entry of
-/// the first grain is the [`TRASH`] entry.
+/// Pairs one grain may take part in (a settled bed has about 4.5; more:
+/// the fused pass runs).
 const REFS: usize = 8;
-
-/// The inbox entry padding pairs write to: never read (no grain has
-/// `REFS` pairs).
-const TRASH: usize = inbox(0, REFS - 1);
-
-/// Where grain g's force of rank k (its k-th pair in summing order) goes in
-/// an inbox: groups of [`GROUP`] grains, each rank's lanes side by side, so
-/// that the grain pass reads a group's rank with one vector load.
-const fn inbox(g: usize, k: usize) -> usize {
-    (g / GROUP) * (REFS * GROUP) + k * GROUP + g % GROUP
-}
 
 /// The batched step's storage, rebuilt with the neighbour slots; a
 /// [`Pad`] after each array, as in [`crate::grains::Grains`] (arrays of a
@@ -61,8 +48,8 @@ const fn inbox(g: usize, k: usize) -> usize {
 #[derive(Debug, Clone)]
 #[repr(C)]
 pub(crate) struct Batch<R: Real, const N: usize, const K: usize> {
-    /// Listed pairs (padded to a whole batch with pairs (0, 0)): first and
-    /// second grain, and slot k.
+    /// Listed pairs (padded to a whole batch with pairs (0, 0), then one
+    /// more whose forces stay zero): first and second grain, and slot k.
     pair_i: [[u32; PAIRS]; N],
     _pad1: Pad,
     pair_j: [[u32; PAIRS]; N],
@@ -81,27 +68,27 @@ pub(crate) struct Batch<R: Real, const N: usize, const K: usize> {
     /// Per grain, its first pair: pairs (i, slot k) are listed at
     /// `start[i] + k`.
     start: [u32; N],
-    /// Per pair, the inbox entries of its force on its first grain and on
-    /// its second ([`inbox`]; padding pairs: [`TRASH`]).
-    to_i: [[u32; PAIRS]; N],
+    /// Per pair q (flattened): the force on its first grain (x, y) and
+    /// r f_s of the first grain at 2q; minus the force and r f_s of the
+    /// second grain at 2q + 1.
+    fx: [[[R; 2]; PAIRS]; N],
     _pad6: Pad,
-    to_j: [[u32; PAIRS]; N],
+    fy: [[[R; 2]; PAIRS]; N],
     _pad7: Pad,
-    /// Per grain (flattened by [`inbox`]), its pairs' forces (x, y) and
-    /// r f_s in summing order; zero after its last pair.
-    in_fx: [[R; REFS]; N],
+    torque: [[[R; 2]; PAIRS]; N],
     _pad8: Pad,
-    in_fy: [[R; REFS]; N],
+    /// Per grain, its pairs in summing order as indices into `fx`, `fy`,
+    /// `torque`; unused entries point at the zero pair.
+    refs: [[u32; REFS]; N],
     _pad9: Pad,
-    in_torque: [[R; REFS]; N],
     /// Per grain, all-ones bits if it moves (is not fixed), else zero: the
     /// lane mask of the grain pass.
     mobile: [R; N],
     _pad10: Pad,
-    /// Pairs per grain (scratch of the index), and the most of any grain:
-    /// the ranks the grain pass adds.
-    ranks: [u8; N],
-    depth: usize,
+    /// Entries of `refs` used, per grain; and the largest per group of
+    /// [`GROUP`] grains (at index group × GROUP).
+    refs_count: [u8; N],
+    group_count: [u8; N],
     /// The storage matches the current slots (false when they do not fit:
     /// then the fused pass runs). Every change of the slots marks them
     /// stale, so a step rebuilds and re-indexes before it reads this.
@@ -125,19 +112,18 @@ impl<R: Real, const N: usize, const K: usize> Batch<R, N, K> {
             e_s: [[R::ZERO; PAIRS]; N],
             _pad5: PAD,
             start: [0; N],
-            to_i: [[0; PAIRS]; N],
+            fx: [[[R::ZERO; 2]; PAIRS]; N],
             _pad6: PAD,
-            to_j: [[0; PAIRS]; N],
+            fy: [[[R::ZERO; 2]; PAIRS]; N],
             _pad7: PAD,
-            in_fx: [[R::ZERO; REFS]; N],
+            torque: [[[R::ZERO; 2]; PAIRS]; N],
             _pad8: PAD,
-            in_fy: [[R::ZERO; REFS]; N],
+            refs: [[0; REFS]; N],
             _pad9: PAD,
-            in_torque: [[R::ZERO; REFS]; N],
             mobile: [R::ZERO; N],
             _pad10: PAD,
-            ranks: [0; N],
-            depth: 0,
+            refs_count: [0; N],
+            group_count: [0; N],
             ready: false,
         }
     }
@@ -172,15 +158,8 @@ impl<R: Real, const N: usize, const K: usize> Batch<R, N, K> {
         );
         let pair_k = self.pair_k.as_flattened_mut();
         let (e_n, e_s) = (self.e_n.as_flattened_mut(), self.e_s.as_flattened_mut());
-        let (to_i, to_j) = (self.to_i.as_flattened_mut(), self.to_j.as_flattened_mut());
-        let ranks = &mut self.ranks;
-        ranks[..n].fill(0);
-        // Grain g's next inbox entry, if it has one left.
-        let mut rank = |g: usize| {
-            let k = usize::from(ranks[g]);
-            ranks[g] += 1;
-            (k < REFS - 1).then(|| inbox(g, k) as u32)
-        };
+        let refs = &mut self.refs;
+        self.refs_count[..n].fill(0);
         let mut q = 0;
         // Second-grain entries first: pair (m, i) reaches grain i while m
         // ascends, before grain i's own pairs are listed.
@@ -194,10 +173,12 @@ impl<R: Real, const N: usize, const K: usize> Batch<R, N, K> {
                 }
                 (pair_i[q], pair_j[q], pair_k[q]) = (m as u32, j as u32, k as u8);
                 (e_n[q], e_s[q]) = (h.e_n, h.e_s);
-                let Some(entry) = rank(j) else {
+                let used = usize::from(self.refs_count[j]);
+                let Some(entry) = refs[j].get_mut(used) else {
                     return;
                 };
-                to_j[q] = entry;
+                *entry = (2 * q + 1) as u32;
+                self.refs_count[j] += 1;
                 q += 1;
             }
         }
@@ -205,28 +186,41 @@ impl<R: Real, const N: usize, const K: usize> Batch<R, N, K> {
         let mut q_own = 0;
         for (m, &c) in count.iter().enumerate().take(n) {
             for _ in 0..usize::from(c).min(K) {
-                let Some(entry) = rank(m) else {
+                let used = usize::from(self.refs_count[m]);
+                let Some(entry) = refs[m].get_mut(used) else {
                     return;
                 };
-                to_i[q_own] = entry;
+                *entry = (2 * q_own) as u32;
+                self.refs_count[m] += 1;
                 q_own += 1;
             }
         }
-        // Whole batches of (0, 0) pairs.
+        // Whole batches of (0, 0) pairs, then the zero pair.
         let pairs = q.div_ceil(GROUP) * GROUP;
-        if pairs > cap {
+        if pairs >= cap {
             return;
         }
         for p in q..pairs {
             (pair_i[p], pair_j[p], pair_k[p]) = (0, 0, 0);
             (e_n[p], e_s[p]) = (R::ZERO, R::ZERO);
-            (to_i[p], to_j[p]) = (TRASH as u32, TRASH as u32);
         }
-        let used = inbox(n.div_ceil(GROUP) * GROUP, 0).min(N * REFS);
-        for a in [&mut self.in_fx, &mut self.in_fy, &mut self.in_torque] {
-            a.as_flattened_mut()[..used].fill(R::ZERO);
+        let zero = pairs;
+        for a in [&mut self.fx, &mut self.fy, &mut self.torque] {
+            a.as_flattened_mut()[zero] = [R::ZERO; 2];
         }
-        self.depth = usize::from(ranks[..n].iter().copied().max().unwrap_or(0));
+        for (grain_refs, &used) in refs.iter_mut().zip(&self.refs_count).take(n) {
+            for entry in grain_refs.iter_mut().skip(usize::from(used)) {
+                *entry = (2 * zero) as u32;
+            }
+        }
+        for group in (0..n).step_by(GROUP) {
+            let end = (group + GROUP).min(n);
+            self.group_count[group] = self.refs_count[group..end]
+                .iter()
+                .copied()
+                .max()
+                .unwrap_or(0);
+        }
         (self.listed, self.pairs) = (q, pairs);
         self.ready = true;
     }
@@ -389,6 +383,19 @@ mod avx2 {
         unsafe { _mm256_storeu_pd(four.as_mut_ptr(), v) }
     }
 
+    /// Stores pairs q..q + 4 of two sides interleaved: `a[2q + 2l]` =
+    /// first[l], `a[2q + 2l + 1]` = second[l].
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn store_sides(a: &mut [f64], q: usize, first: __m256d, second: __m256d) {
+        let (low, high) = (
+            _mm256_unpacklo_pd(first, second),
+            _mm256_unpackhi_pd(first, second),
+        );
+        store(a, 2 * q, _mm256_permute2f128_pd::<0x20>(low, high));
+        store(a, 2 * q + L, _mm256_permute2f128_pd::<0x31>(low, high));
+    }
+
     /// The lanes of a vector.
     #[inline]
     #[target_feature(enable = "avx2")]
@@ -541,23 +548,14 @@ mod avx2 {
                 let fx = _mm256_and_pd(add(mul(neg(f_n), nx), mul(f_s, tx)), acts);
                 let fy = _mm256_and_pd(add(mul(neg(f_n), ny), mul(f_s, ty)), acts);
                 let f_s = _mm256_and_pd(f_s, acts);
-                let to = |a: &[[u32; PAIRS]; N]| {
-                    let a = a.as_flattened();
-                    [0, 1, 2, 3].map(|l| a[(q + l) & (cap - 1)] as usize & (N * REFS - 1))
-                };
-                let (to_i, to_j) = (to(&b.to_i), to(&b.to_j));
-                for (inbox, first, second) in [
-                    (&mut b.in_fx, fx, neg(fx)),
-                    (&mut b.in_fy, fy, neg(fy)),
-                    (&mut b.in_torque, mul(ri, f_s), mul(rj, f_s)),
-                ] {
-                    let inbox = inbox.as_flattened_mut();
-                    let (first, second) = (lanes(first), lanes(second));
-                    for l in 0..L {
-                        inbox[to_i[l]] = first[l];
-                        inbox[to_j[l]] = second[l];
-                    }
-                }
+                store_sides(b.fx.as_flattened_mut().as_flattened_mut(), q, fx, neg(fx));
+                store_sides(b.fy.as_flattened_mut().as_flattened_mut(), q, fy, neg(fy));
+                store_sides(
+                    b.torque.as_flattened_mut().as_flattened_mut(),
+                    q,
+                    mul(ri, f_s),
+                    mul(rj, f_s),
+                );
             }
         }
     }
@@ -580,9 +578,9 @@ mod avx2 {
         let largest = splat(f64::MAX);
         let abs = splat(f64::from_bits(!(1 << 63)));
         let b = &*s.batch;
-        let [in_fx, in_fy, in_torque] =
-            [&b.in_fx, &b.in_fy, &b.in_torque].map(|a| a.as_flattened());
-        let depth = b.depth.min(REFS);
+        let both = 2 * N * PAIRS;
+        let [fx_of, fy_of, torque_of] =
+            [&b.fx, &b.fy, &b.torque].map(|a| a.as_flattened().as_flattened());
         let mut max_v2 = zero;
         let groups = s.n.min(N).div_ceil(L).min(N / L);
         for grp in 0..groups {
@@ -598,11 +596,13 @@ mod avx2 {
             if _mm256_movemask_pd(mobile) == 0 {
                 continue;
             }
-            for k in 0..depth {
-                let at = super::inbox(g, k);
-                fx = add(fx, load_at(in_fx, at));
-                fy = add(fy, load_at(in_fy, at));
-                torque = sub(torque, load_at(in_torque, at));
+            for k in 0..usize::from(b.group_count[g]).min(REFS) {
+                let e = [0, 1, 2, 3]
+                    .map(|l| b.refs[(g + l) & (N - 1)][k & (REFS - 1)] as usize & (both - 1));
+                let gather = |a: &[f64]| _mm256_setr_pd(a[e[0]], a[e[1]], a[e[2]], a[e[3]]);
+                fx = add(fx, gather(fx_of));
+                fy = add(fy, gather(fy_of));
+                torque = sub(torque, gather(torque_of));
             }
             // Mover::advance.
             let im = at(s.inv_mass);
