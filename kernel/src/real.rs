@@ -70,11 +70,11 @@ pub trait Real:
     fn to_raw(self) -> u64;
     /// The value of raw IEEE bits (the low `BYTES` bytes).
     fn from_raw(bits: u64) -> Self;
-    /// Whether this precision has the batched step's vector lanes on this
-    /// target ([`crate::batch`]).
+    /// The batched step's lanes per vector for this precision on this
+    /// target, 0 for none ([`crate::batch`]).
     #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
     #[doc(hidden)]
-    const LANES: bool = false;
+    const LANES: usize = 0;
     /// The batched step in vector lanes ([`crate::batch`]): the largest
     /// squared speed or the error; `None` (nothing done) where this
     /// precision has no lanes on this target.
@@ -109,7 +109,7 @@ pub trait Real:
 
 impl Real for f64 {
     #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
-    const LANES: bool = true;
+    const LANES: usize = 4;
     #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
     #[inline]
     fn batched_step<const N: usize, const K: usize>(
@@ -171,6 +171,15 @@ impl Real for f64 {
 }
 
 impl Real for f32 {
+    #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+    const LANES: usize = 8;
+    #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+    #[inline]
+    fn batched_step<const N: usize, const K: usize>(
+        step: &mut crate::batch::BatchStep<'_, Self, N, K>,
+    ) -> Option<Result<Self, crate::Error>> {
+        Some(crate::batch::batched_step_f32(step))
+    }
     const ZERO: Self = 0.0;
     const ONE: Self = 1.0;
     const HALF: Self = 0.5;
