@@ -21,9 +21,10 @@
 //! or a rebuild reads them ([`Batch::history_to_slots`]).
 //!
 //! Lanes exist on x86-64 with AVX2 (`target-cpu=x86-64-v3` or newer, the
-//! host default), for f64 (four per vector) and f32 (eight), with capacities that are
-//! powers of two (every host capacity), so that masked indices need no
-//! bounds checks. Elsewhere the fused pass runs.
+//! host default), for f64 (four per vector) and f32 (eight), with
+//! capacities that are powers of two (every host capacity), so that masked
+//! indices need no bounds checks. Elsewhere the fused pass runs. One macro
+//! (`lanes!`) writes the step once for both precisions.
 
 use crate::contact::{ContactLaw, Spring};
 use crate::error::Error;
@@ -45,7 +46,7 @@ const REFS: usize = 8;
 #[derive(Debug, Clone)]
 #[repr(C)]
 pub(crate) struct Batch<R: Real, const N: usize, const K: usize> {
-    /// Listed pairs (padded to a whole batch with pairs (0, 0), then one
+    /// Listed pairs (padded to a whole vector with pairs (0, 0), then one
     /// more whose forces stay zero): first and second grain, and slot k.
     pair_i: [[u32; PAIRS]; N],
     _pad1: Pad,
@@ -347,9 +348,9 @@ macro_rules! lanes {
             /// A vector from L values.
             #[inline]
             #[target_feature(enable = "avx2")]
-            fn load(four: &[$R; L]) -> $V {
-                // SAFETY: `four` is L values (32 bytes); loadu needs no alignment.
-                unsafe { $loadu(four.as_ptr()) }
+            fn load(values: &[$R; L]) -> $V {
+                // SAFETY: `values` is L values (32 bytes); loadu needs no alignment.
+                unsafe { $loadu(values.as_ptr()) }
             }
 
             /// Group `group` of L grains of an array (N is a whole number of groups).
@@ -371,7 +372,7 @@ macro_rules! lanes {
             #[target_feature(enable = "avx2")]
             fn load_at(a: &[$R], at: usize) -> $V {
                 match a.get(at..).and_then(|s| s.first_chunk::<L>()) {
-                    Some(four) => load(four),
+                    Some(values) => load(values),
                     None => $setzero(),
                 }
             }
@@ -380,17 +381,17 @@ macro_rules! lanes {
             #[inline]
             #[target_feature(enable = "avx2")]
             fn store(a: &mut [$R], at: usize, v: $V) {
-                if let Some(four) = a.get_mut(at..).and_then(|s| s.first_chunk_mut::<L>()) {
-                    put(four, v);
+                if let Some(values) = a.get_mut(at..).and_then(|s| s.first_chunk_mut::<L>()) {
+                    put(values, v);
                 }
             }
 
             /// Stores a vector to L values.
             #[inline]
             #[target_feature(enable = "avx2")]
-            fn put(four: &mut [$R; L], v: $V) {
-                // SAFETY: `four` is L values (32 bytes); storeu needs no alignment.
-                unsafe { $storeu(four.as_mut_ptr(), v) }
+            fn put(values: &mut [$R; L], v: $V) {
+                // SAFETY: `values` is L values (32 bytes); storeu needs no alignment.
+                unsafe { $storeu(values.as_mut_ptr(), v) }
             }
 
             /// Stores pairs q..q + L of two sides interleaved: `a[2q + 2l]` =
@@ -600,8 +601,8 @@ macro_rules! lanes {
                     let at = |a: &[$R; N]| load(group(a, grp));
                     let (mut fx, mut fy, mut torque) = (at(s.fx), at(s.fy), at(s.torque));
                     for a in [&mut *s.fx, &mut *s.fy, &mut *s.torque] {
-                        if let Some(four) = group_mut(a, grp) {
-                            put(four, zero);
+                        if let Some(values) = group_mut(a, grp) {
+                            put(values, zero);
                         }
                     }
                     if $movemask(mobile) == 0 {
@@ -668,8 +669,8 @@ macro_rules! lanes {
                         (&mut *s.v, v0, v),
                         (&mut *s.w, w0, w),
                     ] {
-                        if let Some(four) = group_mut(a, grp) {
-                            put(four, select(old, new, mobile));
+                        if let Some(values) = group_mut(a, grp) {
+                            put(values, select(old, new, mobile));
                         }
                     }
                     let v2 = $and(add(mul(u, u), mul(v, v)), mobile);
