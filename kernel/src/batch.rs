@@ -224,10 +224,10 @@ impl<R: Real, const N: usize, const K: usize> Batch<R, N, K> {
         self.ready = true;
     }
 
-    /// The history of grain i's slot k (`count`: its used slots) while the
-    /// storage is ready, else `None` (the slots hold it).
-    pub(crate) fn spring_at(&self, i: usize, k: usize, count: usize) -> Option<Spring<R>> {
-        if !self.ready || k >= count {
+    /// The history of grain i's used slot k while the storage is ready,
+    /// else `None` (the slots hold it).
+    pub(crate) fn spring_at(&self, i: usize, k: usize) -> Option<Spring<R>> {
+        if !self.ready {
             return None;
         }
         let q = *self.start.get(i)? as usize + k;

@@ -218,15 +218,13 @@ impl<R: Real, const N: usize, const K: usize> Neighbours<R, N, K> {
         self.batch.history_to_slots(&mut self.spring);
     }
 
-    /// The history of grain i's slot k (`count`: its used slots), wherever
-    /// it lives.
+    /// The history of grain i's used slot k, wherever it lives.
     #[inline]
-    fn spring_at(&self, i: usize, k: usize, count: usize) -> Spring<R> {
+    fn spring_at(&self, i: usize, k: usize) -> Spring<R> {
         #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
-        if let Some(h) = self.batch.spring_at(i, k, count) {
+        if let Some(h) = self.batch.spring_at(i, k) {
             return h;
         }
-        let _ = count;
         self.spring[i][k]
     }
 
@@ -239,7 +237,7 @@ impl<R: Real, const N: usize, const K: usize> Neighbours<R, N, K> {
         (0..n.min(N)).flat_map(move |i| {
             let count = usize::from(self.count[i]).min(K);
             (0..count).filter_map(move |k| {
-                let (j, h) = (self.other[i][k] as usize, self.spring_at(i, k, count));
+                let (j, h) = (self.other[i][k] as usize, self.spring_at(i, k));
                 let active = h.e_n != R::ZERO || h.e_s != R::ZERO;
                 (active && j < n).then_some((i, j, h))
             })
@@ -267,7 +265,7 @@ impl<R: Real, const N: usize, const K: usize> Neighbours<R, N, K> {
         let count = usize::from(*self.count.get(a)?).min(K);
         let slots = self.other.get(a)?;
         let k = slots[..count].iter().position(|&o| o as usize == b)?;
-        Some(self.spring_at(a, k, count))
+        Some(self.spring_at(a, k))
     }
 }
 
