@@ -468,17 +468,19 @@ macro_rules! lanes {
                 // their laws, so that the core overlaps many batches' square roots
                 // and divisions instead of waiting for each.
                 let batches = b.pairs.min(cap) / L;
+                // One buffer for every chunk (zeroing it per chunk cost ~8
+                // instructions per grain-step).
+                let mut geometry = [Geometry {
+                    nx: zero,
+                    ny: zero,
+                    overlap: zero,
+                    ri: zero,
+                    rj: zero,
+                    touching: zero,
+                    keeps: zero,
+                }; CHUNK];
                 for chunk in (0..batches).step_by(CHUNK) {
                     let chunk = chunk..batches.min(chunk + CHUNK);
-                    let mut geometry = [Geometry {
-                        nx: zero,
-                        ny: zero,
-                        overlap: zero,
-                        ri: zero,
-                        rj: zero,
-                        touching: zero,
-                        keeps: zero,
-                    }; CHUNK];
                     // Geometry (State::contact).
                     for (t, g) in chunk.clone().zip(&mut geometry) {
                         let q = t * L;
