@@ -16,6 +16,10 @@
 //! changes a sum's bits (a force sum starts at +0, or at a drag force
 //! added to +0, so it is never −0, and s + 0 = s for every other s).
 //!
+//! Pairs are listed by first grain and padded so that each batch's first
+//! grains lie in one window of lanes' worth of grains: their values are a
+//! vector load and a permutation; only the second grains' are gathered.
+//!
 //! While the storage is ready it holds the spring history, in pair order
 //! (vector loads and stores); the slots get it back before the fused pass
 //! or a rebuild reads them ([`Batch::history_to_slots`]).
@@ -40,21 +44,27 @@ const PAIRS: usize = 4;
 /// the fused pass runs).
 const REFS: usize = 8;
 
+/// `pair_k` of a padding pair (w, w), which has no slot.
+const SELF_PAIR: u8 = u8::MAX;
+
 /// The batched step's storage, rebuilt with the neighbour slots; a
 /// [`Pad`] after each array, as in [`crate::grains::Grains`] (arrays of a
 /// power-of-two size would otherwise share cache sets).
 #[derive(Debug, Clone)]
 #[repr(C)]
 pub(crate) struct Batch<R: Real, const N: usize, const K: usize> {
-    /// Listed pairs (padded to a whole vector with pairs (0, 0), then one
-    /// more whose forces stay zero): first and second grain, and slot k.
+    /// Listed pairs, padded with pairs (w, w) ([`SELF_PAIR`]) so that each
+    /// batch's first grains lie in one window and the last batch is whole,
+    /// then one more whose forces stay zero: first and second grain, and
+    /// slot k.
     pair_i: [[u32; PAIRS]; N],
     _pad1: Pad,
     pair_j: [[u32; PAIRS]; N],
     _pad2: Pad,
     pair_k: [[u8; PAIRS]; N],
     _pad3: Pad,
-    /// Listed pairs, and pairs in whole batches (a multiple of the lanes).
+    /// Pairs up to the last listed one (padding pairs between included),
+    /// and pairs in whole batches (a multiple of the lanes).
     listed: usize,
     pairs: usize,
     /// Per pair, its spring history (e_n, e_s) while the storage is ready:
@@ -66,6 +76,15 @@ pub(crate) struct Batch<R: Real, const N: usize, const K: usize> {
     /// Per grain, its first pair: pairs (i, slot k) are listed at
     /// `start[i] + k`.
     start: [u32; N],
+    /// Per batch of pairs, the window of lanes' worth of grains that holds
+    /// its first grains (pairs are listed by first grain, and padded so
+    /// that each batch's lie in one window), and the 32-bit lanes that pick
+    /// each pair's first grain from it (a permutation control): their
+    /// values are one load and one permutation instead of a gather.
+    window: [u32; N],
+    _pad11: Pad,
+    window_lanes: [[u32; 8]; N],
+    _pad12: Pad,
     /// Per pair q (flattened): the force on its first grain (x, y) and
     /// r f_s of the first grain at 2q; minus the force and r f_s of the
     /// second grain at 2q + 1.
@@ -110,6 +129,10 @@ impl<R: Real, const N: usize, const K: usize> Batch<R, N, K> {
             e_s: [[R::ZERO; PAIRS]; N],
             _pad5: PAD,
             start: [0; N],
+            window: [0; N],
+            _pad11: PAD,
+            window_lanes: [[0; 8]; N],
+            _pad12: PAD,
             fx: [[[R::ZERO; 2]; PAIRS]; N],
             _pad6: PAD,
             fy: [[[R::ZERO; 2]; PAIRS]; N],
@@ -127,11 +150,11 @@ impl<R: Real, const N: usize, const K: usize> Batch<R, N, K> {
     }
 
     /// Indexes the listed pairs of the first `n` grains (`count`, `other`,
-    /// `spring`: the neighbour slots; `fixed`): pair list with its history,
-    /// each grain's pairs in summing order, lane masks. Not ready (the fused
-    /// pass runs) if the precision has no lanes or the capacities do not
-    /// suit them ([`lanes_fit`]), or the pairs with padding (`PAIRS` per
-    /// grain) or a grain's pairs (`REFS`) do not fit.
+    /// `spring`: the neighbour slots; `fixed`): pair list with its history
+    /// and windows, each grain's pairs in summing order, lane masks. Not
+    /// ready (the fused pass runs) if the precision has no lanes or the
+    /// capacities do not suit them ([`lanes_fit`]), or the pairs with
+    /// padding (`PAIRS` per grain) or a grain's pairs (`REFS`) do not fit.
     pub(crate) fn index(
         &mut self,
         n: usize,
@@ -151,59 +174,63 @@ impl<R: Real, const N: usize, const K: usize> Batch<R, N, K> {
         }
         self.mobile[n..].fill(R::ZERO);
         let cap = N * PAIRS;
-        let (pair_i, pair_j) = (
-            self.pair_i.as_flattened_mut(),
-            self.pair_j.as_flattened_mut(),
-        );
-        let pair_k = self.pair_k.as_flattened_mut();
-        let (e_n, e_s) = (self.e_n.as_flattened_mut(), self.e_s.as_flattened_mut());
+        let mut list = PairList {
+            i: self.pair_i.as_flattened_mut(),
+            j: self.pair_j.as_flattened_mut(),
+            k: self.pair_k.as_flattened_mut(),
+            e_n: self.e_n.as_flattened_mut(),
+            e_s: self.e_s.as_flattened_mut(),
+            len: 0,
+            lanes,
+        };
         let refs = &mut self.refs;
         self.refs_count[..n].fill(0);
-        let mut q = 0;
         // Second-grain entries first: pair (m, i) reaches grain i while m
         // ascends, before grain i's own pairs are listed.
         for (m, ((&c, js), springs)) in count.iter().zip(other).zip(spring).take(n).enumerate() {
-            self.start[m] = q as u32;
             let own = usize::from(c).min(K);
+            // A batch's first grains lie in one window of `lanes` grains.
+            if own > 0 && list.window_of_batch().is_some_and(|w| m - w >= lanes) && !list.pad() {
+                return;
+            }
+            self.start[m] = list.len as u32;
             for (k, (&j, h)) in js.iter().zip(springs).take(own).enumerate() {
-                let j = j as usize;
-                if j >= n || j <= m || q >= cap {
+                let q = list.len;
+                if j as usize >= n || j as usize <= m || !list.push(m as u32, j, k as u8, *h) {
                     return;
                 }
-                (pair_i[q], pair_j[q], pair_k[q]) = (m as u32, j as u32, k as u8);
-                (e_n[q], e_s[q]) = (h.e_n, h.e_s);
-                let used = usize::from(self.refs_count[j]);
-                let Some(entry) = refs[j].get_mut(used) else {
+                let used = usize::from(self.refs_count[j as usize]);
+                let Some(entry) = refs[j as usize].get_mut(used) else {
                     return;
                 };
                 *entry = (2 * q + 1) as u32;
-                self.refs_count[j] += 1;
-                q += 1;
+                self.refs_count[j as usize] += 1;
             }
         }
-        // Then each grain's own pairs, in slot order (q ascends with (m, k)).
-        let mut q_own = 0;
+        // Then each grain's own pairs, in slot order.
         for (m, &c) in count.iter().enumerate().take(n) {
-            for _ in 0..usize::from(c).min(K) {
+            for k in 0..usize::from(c).min(K) {
                 let used = usize::from(self.refs_count[m]);
                 let Some(entry) = refs[m].get_mut(used) else {
                     return;
                 };
-                *entry = (2 * q_own) as u32;
+                *entry = 2 * (self.start[m] + k as u32);
                 self.refs_count[m] += 1;
-                q_own += 1;
             }
         }
-        // Whole batches of (0, 0) pairs, then the zero pair.
-        let pairs = q.div_ceil(lanes) * lanes;
-        if pairs >= cap {
+        // A whole last batch (at least one), then the zero pair.
+        let listed = list.len;
+        let zero_history = Spring {
+            e_n: R::ZERO,
+            e_s: R::ZERO,
+        };
+        if listed == 0 && !list.push(0, 0, SELF_PAIR, zero_history) {
             return;
         }
-        for p in q..pairs {
-            (pair_i[p], pair_j[p], pair_k[p]) = (0, 0, 0);
-            (e_n[p], e_s[p]) = (R::ZERO, R::ZERO);
+        if !list.pad() || list.len >= cap {
+            return;
         }
-        let zero = pairs;
+        let (pairs, zero) = (list.len, list.len);
         for a in [&mut self.fx, &mut self.fy, &mut self.torque] {
             a.as_flattened_mut()[zero] = [R::ZERO; 2];
         }
@@ -220,8 +247,35 @@ impl<R: Real, const N: usize, const K: usize> Batch<R, N, K> {
                 .max()
                 .unwrap_or(0);
         }
-        (self.listed, self.pairs) = (q, pairs);
+        if !self.find_windows(pairs, lanes) {
+            return;
+        }
+        (self.listed, self.pairs) = (listed, pairs);
         self.ready = true;
+    }
+
+    /// Finds each batch's window ([`Batch::window`]) for the first `pairs`
+    /// pairs, `lanes` per batch: false if a batch's first grains do not lie
+    /// in one.
+    fn find_windows(&mut self, pairs: usize, lanes: usize) -> bool {
+        let pair_i = self.pair_i.as_flattened();
+        let per_lane = 8 / lanes.max(1);
+        let batches = pair_i[..pairs.min(pair_i.len())].chunks_exact(lanes.max(1));
+        for (batch, (window, control)) in
+            batches.zip(self.window.iter_mut().zip(&mut self.window_lanes))
+        {
+            // The window ends within the grains' arrays.
+            let first = batch[0].min((N - lanes) as u32);
+            if batch.iter().any(|&i| i.wrapping_sub(first) >= lanes as u32) {
+                return false;
+            }
+            *window = first;
+            for (e, entry) in control.iter_mut().enumerate() {
+                let lane = batch.get(e / per_lane).map_or(0, |&i| i - first);
+                *entry = lane * per_lane as u32 + (e % per_lane) as u32;
+            }
+        }
+        true
     }
 
     /// The history of grain i's used slot k while the storage is ready,
@@ -249,6 +303,9 @@ impl<R: Real, const N: usize, const K: usize> Batch<R, N, K> {
         let (pair_i, pair_k) = (self.pair_i.as_flattened(), self.pair_k.as_flattened());
         let listed = self.listed.min(e_n.len());
         for q in 0..listed {
+            if pair_k[q] == SELF_PAIR {
+                continue;
+            }
             let (i, k) = (pair_i[q] as usize, usize::from(pair_k[q]));
             if let Some(slot) = spring.get_mut(i).and_then(|s| s.get_mut(k)) {
                 *slot = Spring {
@@ -257,6 +314,60 @@ impl<R: Real, const N: usize, const K: usize> Batch<R, N, K> {
                 };
             }
         }
+    }
+}
+
+/// The pair list being built by [`Batch::index`]: first and second grain,
+/// slot and history per pair, `len` pairs so far, `lanes` per batch.
+struct PairList<'a, R> {
+    i: &'a mut [u32],
+    j: &'a mut [u32],
+    k: &'a mut [u8],
+    e_n: &'a mut [R],
+    e_s: &'a mut [R],
+    len: usize,
+    lanes: usize,
+}
+
+impl<R: Real> PairList<'_, R> {
+    /// Appends pair (i, j) of slot k with history h: false if full.
+    fn push(&mut self, i: u32, j: u32, k: u8, h: Spring<R>) -> bool {
+        let q = self.len;
+        if q >= self.i.len().min(self.j.len()).min(self.k.len())
+            || q >= self.e_n.len().min(self.e_s.len())
+        {
+            return false;
+        }
+        (self.i[q], self.j[q], self.k[q]) = (i, j, k);
+        (self.e_n[q], self.e_s[q]) = (h.e_n, h.e_s);
+        self.len += 1;
+        true
+    }
+
+    /// The first grain of the batch being filled (None: none is).
+    fn window_of_batch(&self) -> Option<usize> {
+        let filled = self.len % self.lanes.max(1);
+        let first = self.i.get(self.len.wrapping_sub(filled))?;
+        (filled > 0).then_some(*first as usize)
+    }
+
+    /// Fills the batch being filled with pairs (w, w) of its first grain w:
+    /// coincident, so they keep a zero history and exert no force. False
+    /// if full.
+    fn pad(&mut self) -> bool {
+        let Some(w) = self.window_of_batch() else {
+            return true;
+        };
+        let zero = Spring {
+            e_n: R::ZERO,
+            e_s: R::ZERO,
+        };
+        while !self.len.is_multiple_of(self.lanes.max(1)) {
+            if !self.push(w as u32, w as u32, SELF_PAIR, zero) {
+                return false;
+            }
+        }
+        true
     }
 }
 
@@ -316,7 +427,7 @@ pub(crate) use f64x4::batched_step as batched_step_f64;
 macro_rules! lanes {
     (
         $module:ident, $R:ty, $bits:ty, $V:ty, $lanes:literal,
-        $loadu:ident, $storeu:ident, $setzero:ident, $set1:ident, $gather:expr,
+        $loadu:ident, $storeu:ident, $setzero:ident, $set1:ident, $gather:expr, $permute:expr,
         $unpacklo:ident, $unpackhi:ident, $permute2f128:ident,
         $add:ident, $sub:ident, $mul:ident, $div:ident, $sqrt:ident,
         $and:ident, $andnot:ident, $xor:ident, $blendv:ident, $cmp:ident,
@@ -421,6 +532,14 @@ macro_rules! lanes {
                 $gather(v)
             }
 
+            /// The values of `a` at grains `window + lane` (`lanes`: a permutation
+            /// control of 32-bit lanes; zero if the window is out of bounds).
+            #[inline]
+            #[target_feature(enable = "avx2")]
+            fn window(a: &[$R], window: usize, lanes: __m256i) -> $V {
+                $permute(load_at(a, window), lanes)
+            }
+
             /// Batches of pairs whose geometry is found before their laws.
             const CHUNK: usize = 8;
 
@@ -463,6 +582,21 @@ macro_rules! lanes {
                     let a = a.as_flattened();
                     core::array::from_fn(|l| a[(q + l) & (cap - 1)] as usize & (N - 1))
                 };
+                // Batch t's first grains: its window and their lanes in it.
+                let first_window = |t: usize| {
+                    let c = &b.window_lanes[t & (N - 1)];
+                    let lanes = _mm256_setr_epi32(
+                        c[0] as i32,
+                        c[1] as i32,
+                        c[2] as i32,
+                        c[3] as i32,
+                        c[4] as i32,
+                        c[5] as i32,
+                        c[6] as i32,
+                        c[7] as i32,
+                    );
+                    (b.window[t & (N - 1)] as usize, lanes)
+                };
 
                 // Chunks of batches: first their geometry up to the division, then
                 // their laws, so that the core overlaps many batches' square roots
@@ -484,15 +618,17 @@ macro_rules! lanes {
                     // Geometry (State::contact).
                     for (t, g) in chunk.clone().zip(&mut geometry) {
                         let q = t * L;
-                        let (i, j) = (at(&b.pair_i, q), at(&b.pair_j, q));
-                        let d = sub(gather(x, &j), gather(x, &i));
+                        let j = at(&b.pair_j, q);
+                        let (start, lanes) = first_window(t);
+                        let own = |a: &[$R; N]| window(a, start, lanes);
+                        let d = sub(gather(x, &j), own(x));
                         let dx = select(
                             select(d, add(d, width), $cmp(d, neg(half_width), _CMP_LT_OQ)),
                             sub(d, width),
                             $cmp(d, half_width, _CMP_GT_OQ),
                         );
-                        let dy = sub(gather(y, &j), gather(y, &i));
-                        let (ri, rj) = (gather(r, &i), gather(r, &j));
+                        let dy = sub(gather(y, &j), own(y));
+                        let (ri, rj) = (own(r), gather(r, &j));
                         let reach = add(ri, rj);
                         let dist2 = add(mul(dx, dx), mul(dy, dy));
                         let apart = $cmp(dist2, mul(reach, reach), _CMP_GE_OQ);
@@ -511,9 +647,10 @@ macro_rules! lanes {
                     }
                     for (t, g) in chunk.zip(&geometry) {
                         let q = t * L;
-                        let (i, j) = (at(&b.pair_i, q), at(&b.pair_j, q));
-                        let (own, other) =
-                            (|a: &[$R; N]| gather(a, &i), |a: &[$R; N]| gather(a, &j));
+                        let j = at(&b.pair_j, q);
+                        let (start, lanes) = first_window(t);
+                        let own = |a: &[$R; N]| window(a, start, lanes);
+                        let other = |a: &[$R; N]| gather(a, &j);
                         let Geometry {
                             nx,
                             ny,
@@ -695,6 +832,10 @@ lanes!(
     _mm256_setzero_pd,
     _mm256_set1_pd,
     |v: [f64; 4]| _mm256_setr_pd(v[0], v[1], v[2], v[3]),
+    |v: __m256d, lanes: __m256i| _mm256_castps_pd(_mm256_permutevar8x32_ps(
+        _mm256_castpd_ps(v),
+        lanes
+    )),
     _mm256_unpacklo_pd,
     _mm256_unpackhi_pd,
     _mm256_permute2f128_pd,
@@ -723,6 +864,7 @@ lanes!(
     _mm256_setzero_ps,
     _mm256_set1_ps,
     |v: [f32; 8]| _mm256_setr_ps(v[0], v[1], v[2], v[3], v[4], v[5], v[6], v[7]),
+    _mm256_permutevar8x32_ps,
     _mm256_unpacklo_ps,
     _mm256_unpackhi_ps,
     _mm256_permute2f128_ps,
