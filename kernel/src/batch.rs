@@ -32,6 +32,7 @@
 
 use crate::contact::{ContactLaw, Spring};
 use crate::error::Error;
+use crate::flow::Profile;
 use crate::grains::{Pad, PAD};
 use crate::real::Real;
 use crate::sim::Mover;
@@ -399,6 +400,20 @@ pub struct BatchStep<'a, R: Real, const N: usize, const K: usize> {
     pub(crate) law: ContactLaw<R>,
     pub(crate) mover: Mover<R>,
     pub(crate) batch: &'a mut Batch<R, N, K>,
+    /// The flow's drag, added to the forces first (flow on), or None.
+    pub(crate) drag: Option<Drag<'a, R, N>>,
+}
+
+/// What the drag (4)–(5) of [`Profile::drag`] reads: the profile, the mean
+/// bed level heights are measured from, and per grain ½ρC_D A2 d² and the
+/// held fluctuation draws.
+#[derive(Clone, Copy)]
+pub struct Drag<'a, R: Real, const N: usize> {
+    pub(crate) profile: Profile<R>,
+    pub(crate) bed_level: R,
+    pub(crate) coef: &'a [R; N],
+    pub(crate) z_u: &'a [R; N],
+    pub(crate) z_v: &'a [R; N],
 }
 
 /// Runs the batched step if this precision has lanes on this target and
@@ -451,6 +466,9 @@ macro_rules! lanes {
                 // SAFETY: this module is compiled only with AVX2 enabled for the
                 // whole build, so the CPU running it has AVX2.
                 unsafe {
+                    if let Some(drag) = step.drag {
+                        drag_pass(step, &drag);
+                    }
                     pair_pass(step);
                     grain_pass(step)
                 }
@@ -538,6 +556,99 @@ macro_rules! lanes {
             #[target_feature(enable = "avx2")]
             fn window(a: &[$R], window: usize, lanes: __m256i) -> $V {
                 $permute(load_at(a, window), lanes)
+            }
+
+            /// `f` of the lanes of `v` selected by `mask`, zero elsewhere (scalar
+            /// calls: the vector holds the same values as the fused pass's).
+            #[inline]
+            #[target_feature(enable = "avx2")]
+            fn map_where(v: $V, mask: $V, f: fn($R) -> $R) -> $V {
+                if $movemask(mask) == 0 {
+                    return $setzero();
+                }
+                let (values, selected) = (lanes(v), lanes(mask));
+                // Built in registers: a vector load of scalar stores would stall.
+                $gather(core::array::from_fn(|l| {
+                    if selected[l].to_bits() != 0 {
+                        f(values[l])
+                    } else {
+                        0.0
+                    }
+                }))
+            }
+
+            /// Adds the drag (4)–(5) to every mobile grain's force, L grains at a
+            /// time, lane by lane as [`Profile::drag`](crate::flow::Profile::drag)
+            /// (its scalar `ln` and `exp` only in the lanes that need them).
+            #[target_feature(enable = "avx2")]
+            fn drag_pass<const N: usize, const K: usize>(
+                s: &mut BatchStep<'_, $R, N, K>,
+                d: &super::Drag<'_, $R, N>,
+            ) {
+                let splat = $set1;
+                let zero = $setzero();
+                let (add, sub, mul) = ($add, $sub, $mul);
+                let select = |no: $V, yes: $V, mask: $V| $blendv(no, yes, mask);
+                let p = &d.profile;
+                let one = splat(1.0);
+                let (bed, shift, inv_ks) = (
+                    splat(d.bed_level),
+                    splat(p.zero_shift),
+                    splat(p.inv_roughness),
+                );
+                let log_law = splat(<$R as Real>::from_f64(30.1));
+                let (eps0, open) = (splat(p.eps0), splat(1.0 - p.eps0));
+                let turbulence = splat(if p.turbulence {
+                    <$R>::from_bits(<$bits>::MAX)
+                } else {
+                    0.0
+                });
+                let b = &*s.batch;
+                let groups = s.n.min(N).div_ceil(L).min(N / L);
+                for grp in 0..groups {
+                    let mobile = load(group(&b.mobile, grp));
+                    if $movemask(mobile) == 0 {
+                        continue;
+                    }
+                    let at = |a: &[$R; N]| load(group(a, grp));
+                    let y = sub(at(s.y), bed);
+                    // (14) mean velocity.
+                    let above = add(y, shift);
+                    let arg = mul(mul(log_law, above), inv_ks);
+                    let flows = $and($cmp(arg, one, _CMP_GT_OQ), mobile);
+                    let mean = $and(
+                        mul(
+                            splat(p.u_star_over_kappa),
+                            map_where(arg, flows, <$R as Real>::ln),
+                        ),
+                        flows,
+                    );
+                    // (15) fluctuations where U > 0.
+                    let fluctuates = $and($cmp(mean, zero, _CMP_GT_OQ), turbulence);
+                    let decay = map_where(
+                        mul(y, splat(p.minus_inv_depth)),
+                        fluctuates,
+                        <$R as Real>::exp,
+                    );
+                    let fluct_u = $and(mul(at(d.z_u), mul(splat(p.rms_u0), decay)), fluctuates);
+                    let fluct_v = $and(mul(at(d.z_v), mul(splat(p.rms_v0), decay)), fluctuates);
+                    let wx = sub(add(mean, fluct_u), at(s.u));
+                    let wy = sub(fluct_v, at(s.v));
+                    // (16) sheltering.
+                    let z = mul(above, inv_ks);
+                    let exposed = $and($cmp(z, zero, _CMP_GT_OQ), mobile);
+                    let hidden =
+                        map_where($xor(mul(z, z), splat(-0.0)), exposed, <$R as Real>::exp);
+                    let eps = select(eps0, add(eps0, mul(open, sub(one, hidden))), exposed);
+                    // (4)–(5).
+                    let xi = mul(mul(at(d.coef), eps), $sqrt(add(mul(wx, wx), mul(wy, wy))));
+                    for (a, force) in [(&mut *s.fx, mul(xi, wx)), (&mut *s.fy, mul(xi, wy))] {
+                        if let Some(values) = group_mut(a, grp) {
+                            let old = load(values);
+                            put(values, select(old, add(old, force), mobile));
+                        }
+                    }
+                }
             }
 
             /// Batches of pairs whose geometry is found before their laws.

@@ -2,7 +2,7 @@
 //! motion (1)–(3) with symplectic Euler), and its error checks.
 
 #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
-use crate::batch::{batched_step, BatchStep};
+use crate::batch::{batched_step, BatchStep, Drag};
 use crate::constants::{ContactConstants, Material, A2};
 use crate::contact::{ContactLaw, Spring};
 use crate::error::{check, finite, positive, Capacity, Error, Quantity};
@@ -343,9 +343,6 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
                 self.draw_fluctuations(since / hold);
             }
         }
-        if self.flow_on {
-            self.add_drag();
-        }
         #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
         let batched = if BATCHED {
             self.batched_forces_and_motion()
@@ -356,7 +353,12 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
         let batched = None;
         let moved = match batched {
             Some(moved) => moved,
-            None => self.forces_and_motion::<BUFFER>(),
+            None => {
+                if self.flow_on {
+                    self.add_drag();
+                }
+                self.forces_and_motion::<BUFFER>()
+            }
         };
         if moved.is_err() {
             self.clear_forces();
@@ -504,7 +506,8 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
         Ok(())
     }
 
-    /// The batched step ([`crate::batch`]): every listed pair's force, then
+    /// The batched step ([`crate::batch`]): the drag (flow on), every listed
+    /// pair's force, then
     /// every grain's sums (in the order of [`Sim::forces_and_motion`]) and
     /// motion, in vector lanes. Same bits as the fused pass. `None` where
     /// this precision has no lanes on this target or the pairs do not fit
@@ -531,6 +534,13 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
             law: self.law,
             mover,
             batch: &mut nb.batch,
+            drag: self.flow_on.then_some(Drag {
+                profile: self.profile,
+                bed_level: self.bed_level,
+                coef: &g.drag_coef,
+                z_u: &g.z_u,
+                z_v: &g.z_v,
+            }),
         };
         match batched_step(&mut step)? {
             Ok(max_v2) => {
