@@ -79,12 +79,13 @@ pub(crate) struct Batch<R: Real, const N: usize, const K: usize> {
     start: [u32; N],
     /// Per batch of pairs, the window of lanes' worth of grains that holds
     /// its first grains (pairs are listed by first grain, and padded so
-    /// that each batch's lie in one window), and the 32-bit lanes that pick
-    /// each pair's first grain from it (a permutation control): their
-    /// values are one load and one permutation instead of a gather.
+    /// that each batch's lie in one window), and the 32-bit lanes (one
+    /// byte each) that pick each pair's first grain from it (a permutation
+    /// control): their values are one load and one permutation instead of
+    /// a gather.
     window: [u32; N],
     _pad11: Pad,
-    window_lanes: [[u32; 8]; N],
+    window_lanes: [[u8; 8]; N],
     _pad12: Pad,
     /// Per pair q (flattened): the force on its first grain (x, y) and
     /// r f_s of the first grain at 2q; minus the force and r f_s of the
@@ -273,7 +274,7 @@ impl<R: Real, const N: usize, const K: usize> Batch<R, N, K> {
             *window = first;
             for (e, entry) in control.iter_mut().enumerate() {
                 let lane = batch.get(e / per_lane).map_or(0, |&i| i - first);
-                *entry = lane * per_lane as u32 + (e % per_lane) as u32;
+                *entry = (lane as usize * per_lane + e % per_lane) as u8;
             }
         }
         true
@@ -695,17 +696,8 @@ macro_rules! lanes {
                 };
                 // Batch t's first grains: its window and their lanes in it.
                 let first_window = |t: usize| {
-                    let c = &b.window_lanes[t & (N - 1)];
-                    let lanes = _mm256_setr_epi32(
-                        c[0] as i32,
-                        c[1] as i32,
-                        c[2] as i32,
-                        c[3] as i32,
-                        c[4] as i32,
-                        c[5] as i32,
-                        c[6] as i32,
-                        c[7] as i32,
-                    );
+                    let c = b.window_lanes[t & (N - 1)];
+                    let lanes = _mm256_cvtepu8_epi32(_mm_cvtsi64_si128(i64::from_le_bytes(c)));
                     (b.window[t & (N - 1)] as usize, lanes)
                 };
 
