@@ -1,7 +1,7 @@
-//! The batched step: every listed pair's contact force (SPEC §2 geometry,
-//! law (6)–(9)) in vector lanes, then every grain's force sum and motion
-//! (SPEC (1)–(3)) in lanes, with the bits of the fused pass
-//! ([`crate::Sim::step`] on every other target).
+//! The batched step: the drag (SPEC (4)–(5), flow on) on every grain, every
+//! listed pair's contact force (SPEC §2 geometry, law (6)–(9)), then every
+//! grain's force sum and motion (SPEC (1)–(3)), all in vector lanes, with
+//! the bits of the fused pass ([`crate::Sim::step`] on every other target).
 //!
 //! Pairs are independent until their forces are summed, and the sums fix
 //! the bits. So the pair pass finds every pair's force and keeps it per
