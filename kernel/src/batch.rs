@@ -77,16 +77,14 @@ pub(crate) struct Batch<R: Real, const N: usize, const K: usize> {
     /// Per grain, its first pair: pairs (i, slot k) are listed at
     /// `start[i] + k`.
     start: [u32; N],
-    /// Per batch of pairs, the window of lanes' worth of grains that holds
-    /// its first grains (pairs are listed by first grain, and padded so
-    /// that each batch's lie in one window), and the 32-bit lanes (one
-    /// byte each) that pick each pair's first grain from it (a permutation
-    /// control): their values are one load and one permutation instead of
-    /// a gather.
-    window: [u32; N],
-    _pad11: Pad,
+    /// Per batch of pairs, the 32-bit lanes (one byte each) that pick each
+    /// pair's first grain from the batch's window (a permutation control):
+    /// the window is the lanes' worth of grains from the batch's first
+    /// grain ([`window_start`]; pairs are listed by first grain, and padded
+    /// so that each batch's lie in one window), and their values are one
+    /// load and one permutation instead of a gather.
     window_lanes: [[u8; 8]; N],
-    _pad12: Pad,
+    _pad11: Pad,
     /// Per pair q (flattened): the force on its first grain (x, y) and
     /// r f_s of the first grain at 2q; minus the force and r f_s of the
     /// second grain at 2q + 1.
@@ -131,10 +129,8 @@ impl<R: Real, const N: usize, const K: usize> Batch<R, N, K> {
             e_s: [[R::ZERO; PAIRS]; N],
             _pad5: PAD,
             start: [0; N],
-            window: [0; N],
-            _pad11: PAD,
             window_lanes: [[0; 8]; N],
-            _pad12: PAD,
+            _pad11: PAD,
             fx: [[[R::ZERO; 2]; PAIRS]; N],
             _pad6: PAD,
             fy: [[[R::ZERO; 2]; PAIRS]; N],
@@ -220,15 +216,8 @@ impl<R: Real, const N: usize, const K: usize> Batch<R, N, K> {
                 self.refs_count[m] += 1;
             }
         }
-        // A whole last batch (at least one), then the zero pair.
+        // A whole last batch, then the zero pair.
         let listed = list.len;
-        let zero_history = Spring {
-            e_n: R::ZERO,
-            e_s: R::ZERO,
-        };
-        if listed == 0 && !list.push(0, 0, SELF_PAIR, zero_history) {
-            return;
-        }
         if !list.pad() || list.len >= cap {
             return;
         }
@@ -256,22 +245,18 @@ impl<R: Real, const N: usize, const K: usize> Batch<R, N, K> {
         self.ready = true;
     }
 
-    /// Finds each batch's window ([`Batch::window`]) for the first `pairs`
-    /// pairs, `lanes` per batch: false if a batch's first grains do not lie
-    /// in one.
+    /// Finds each batch's window controls ([`Batch::window_lanes`]) for the
+    /// first `pairs` pairs, `lanes` per batch: false if a batch's first
+    /// grains do not lie in its window.
     fn find_windows(&mut self, pairs: usize, lanes: usize) -> bool {
         let pair_i = self.pair_i.as_flattened();
         let per_lane = 8 / lanes.max(1);
         let batches = pair_i[..pairs.min(pair_i.len())].chunks_exact(lanes.max(1));
-        for (batch, (window, control)) in
-            batches.zip(self.window.iter_mut().zip(&mut self.window_lanes))
-        {
-            // The window ends within the grains' arrays.
-            let first = batch[0].min((N - lanes) as u32);
+        for (batch, control) in batches.zip(&mut self.window_lanes) {
+            let first = window_start::<N>(batch[0], lanes) as u32;
             if batch.iter().any(|&i| i.wrapping_sub(first) >= lanes as u32) {
                 return false;
             }
-            *window = first;
             for (e, entry) in control.iter_mut().enumerate() {
                 let lane = batch.get(e / per_lane).map_or(0, |&i| i - first);
                 *entry = (lane as usize * per_lane + e % per_lane) as u8;
@@ -360,17 +345,21 @@ impl<R: Real> PairList<'_, R> {
         let Some(w) = self.window_of_batch() else {
             return true;
         };
-        let zero = Spring {
-            e_n: R::ZERO,
-            e_s: R::ZERO,
-        };
         while !self.len.is_multiple_of(self.lanes.max(1)) {
-            if !self.push(w as u32, w as u32, SELF_PAIR, zero) {
+            if !self.push(w as u32, w as u32, SELF_PAIR, Spring::ZERO) {
                 return false;
             }
         }
         true
     }
+}
+
+/// The first grain of the window of a batch of pairs whose first pair's
+/// first grain is `i`: i itself, or the last window that ends within the
+/// grains' arrays.
+#[inline]
+fn window_start<const N: usize>(i: u32, lanes: usize) -> usize {
+    (i as usize).min(N.saturating_sub(lanes))
 }
 
 /// Whether capacities suit `lanes` lanes (none: 0): N and K powers of
@@ -698,7 +687,8 @@ macro_rules! lanes {
                 let first_window = |t: usize| {
                     let c = b.window_lanes[t & (N - 1)];
                     let lanes = _mm256_cvtepu8_epi32(_mm_cvtsi64_si128(i64::from_le_bytes(c)));
-                    (b.window[t & (N - 1)] as usize, lanes)
+                    let first = b.pair_i.as_flattened()[(t * L) & (cap - 1)];
+                    (super::window_start::<N>(first, L), lanes)
                 };
 
                 // Chunks of batches: first their geometry up to the division, then

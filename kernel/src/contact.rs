@@ -20,6 +20,14 @@ pub struct Spring<R: Real> {
     pub e_s: R,
 }
 
+impl<R: Real> Spring<R> {
+    /// No history: a pair not in contact.
+    pub const ZERO: Self = Spring {
+        e_n: R::ZERO,
+        e_s: R::ZERO,
+    };
+}
+
 /// The constants of the contact law in the working precision.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ContactLaw<R: Real> {

@@ -55,10 +55,7 @@ impl<R: Real, const N: usize, const K: usize> Neighbours<R, N, K> {
         Neighbours {
             count: [0; N],
             other: [[0; K]; N],
-            spring: [[Spring {
-                e_n: R::ZERO,
-                e_s: R::ZERO,
-            }; K]; N],
+            spring: [[Spring::ZERO; K]; N],
             head: [0; N],
             next: [0; N],
             cell_x: [0; N],
