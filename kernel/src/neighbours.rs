@@ -127,8 +127,9 @@ impl<R: Real, const N: usize, const K: usize> Neighbours<R, N, K> {
         let cell = width / R::from_f64(nx as f64);
         let inv_cell = R::ONE / cell;
 
-        // One bucket per grain: clearing costs O(n), not O(N).
-        let buckets = n.max(1).min(N);
+        // About one bucket per grain (clearing costs O(n), not O(N)), a
+        // power of two so that a cell's bucket is a mask, not a division.
+        let buckets = bucket_count(n, N);
         self.head[..buckets].fill(0);
         for i in 0..n {
             let cx = ((g.x[i] * inv_cell).to_f64() as u32).min(nx - 1);
@@ -144,12 +145,14 @@ impl<R: Real, const N: usize, const K: usize> Neighbours<R, N, K> {
         for i in 0..n {
             let mut found = heapless::Vec::<u32, K>::new();
             let (cx, cy) = (self.cell_x[i], self.cell_y[i]);
+            // The cell's column and its periodic neighbours (nx ≥ 3).
+            let left = if cx == 0 { nx - 1 } else { cx - 1 };
+            let right = if cx + 1 >= nx { 0 } else { cx + 1 };
             for dy in 0..3u32 {
                 let Some(ny) = (cy + dy).checked_sub(1) else {
                     continue;
                 };
-                for dx in 0..3u32 {
-                    let nxc = (cx + dx + nx - 1) % nx;
+                for nxc in [left, cx, right] {
                     let mut link = self.head[bucket(nxc, ny, nx, buckets)];
                     while link != 0 {
                         let j = (link - 1) as usize;
@@ -272,10 +275,20 @@ impl<R: Real, const N: usize, const K: usize> Default for Neighbours<R, N, K> {
     }
 }
 
-/// Bucket of cell (cx, cy) among `buckets` (≥ 1).
+/// Buckets for `n` grains with capacity `capacity`: the smallest power of
+/// two ≥ n, or the largest that fits the capacity (none if it is 0).
+fn bucket_count(n: usize, capacity: usize) -> usize {
+    let fits = capacity.checked_ilog2().map_or(0, |log| 1 << log);
+    n.max(1)
+        .checked_next_power_of_two()
+        .unwrap_or(fits)
+        .min(fits)
+}
+
+/// Bucket of cell (cx, cy) among `buckets` (a power of two).
 #[inline]
 fn bucket(cx: u32, cy: u32, nx: u32, buckets: usize) -> usize {
-    ((cy as u64 * nx as u64 + cx as u64) % (buckets as u64)) as usize
+    ((cy as u64 * nx as u64 + cx as u64) & (buckets as u64 - 1)) as usize
 }
 
 /// Minimum-image separation in the periodic x direction.
