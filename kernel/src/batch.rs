@@ -4,17 +4,19 @@
 //! the bits of the fused pass ([`crate::Sim::step`] on every other target).
 //!
 //! Pairs are independent until their forces are summed, and the sums fix
-//! the bits. So the pair pass finds every pair's force and keeps it per
-//! side (the force on its first grain, and its negation on the second),
-//! and the grain pass adds each grain's in exactly the fused pass's order:
-//! the pairs (m, i), m ascending, whose second grain it is, then its own
-//! pairs (i, j), j ascending. Every lane does the operations of
-//! [`crate::pairs::State::contact`], [`crate::contact::ContactLaw::apply`]
-//! and the integrator in their order; branches become selects. A pair that
-//! exerts no force stores +0 (and −0 for its second grain), and a grain
-//! with fewer pairs than its lane neighbours adds a +0 entry: neither
-//! changes a sum's bits (a force sum starts at +0, or at a drag force
-//! added to +0, so it is never −0, and s + 0 = s for every other s).
+//! the bits. So the pair pass finds every pair's force on its first grain
+//! and its shear force f_s, and the grain pass adds each grain's in
+//! exactly the fused pass's order: the pairs (m, i), m ascending, whose
+//! second grain it is (the force negated: s + (−f) is s − f, bit for bit),
+//! then its own pairs (i, j), j ascending; each grain's torque adds its
+//! own r f_s, the product the fused pass forms. Every lane does the
+//! operations of [`crate::pairs::State::contact`],
+//! [`crate::contact::ContactLaw::apply`] and the integrator in their
+//! order; branches become selects. A pair that exerts no force stores +0
+//! (−0 for its second grain), and a grain with fewer pairs than its lane
+//! neighbours adds a +0 entry: neither changes a sum's bits (a force sum
+//! starts at +0, or at a drag force added to +0, so it is never −0, and
+//! s + 0 = s for every other s).
 //!
 //! Pairs are listed by first grain and padded so that each batch's first
 //! grains lie in one window of lanes' worth of grains: their values are a
@@ -85,17 +87,19 @@ pub(crate) struct Batch<R: Real, const N: usize, const K: usize> {
     /// load and one permutation instead of a gather.
     window_lanes: [[u8; 8]; N],
     _pad11: Pad,
-    /// Per pair q (flattened): the force on its first grain (x, y) and
-    /// r f_s of the first grain at 2q; minus the force and r f_s of the
-    /// second grain at 2q + 1.
-    fx: [[[R; 2]; PAIRS]; N],
+    /// Per pair q (flattened): the force on its first grain (x, y), minus
+    /// the force on its second, and the shear force f_s (each grain's
+    /// torque is its own r f_s).
+    fx: [[R; PAIRS]; N],
     _pad6: Pad,
-    fy: [[[R; 2]; PAIRS]; N],
+    fy: [[R; PAIRS]; N],
     _pad7: Pad,
-    torque: [[[R; 2]; PAIRS]; N],
+    shear: [[R; PAIRS]; N],
     _pad8: Pad,
-    /// Per grain, its pairs in summing order as indices into `fx`, `fy`,
-    /// `torque`; unused entries point at the zero pair.
+    /// Per group of lanes' worth of grains, per rank in its grains' sums,
+    /// per lane (flattened, [`ref_slot`]): the pair q added there, as
+    /// 2q for its first grain and 2q + 1 for its second (whose force is
+    /// the negation); unused entries point at the zero pair.
     refs: [[u32; REFS]; N],
     _pad9: Pad,
     /// Per grain, all-ones bits if it moves (is not fixed), else zero: the
@@ -131,11 +135,11 @@ impl<R: Real, const N: usize, const K: usize> Batch<R, N, K> {
             start: [0; N],
             window_lanes: [[0; 8]; N],
             _pad11: PAD,
-            fx: [[[R::ZERO; 2]; PAIRS]; N],
+            fx: [[R::ZERO; PAIRS]; N],
             _pad6: PAD,
-            fy: [[[R::ZERO; 2]; PAIRS]; N],
+            fy: [[R::ZERO; PAIRS]; N],
             _pad7: PAD,
-            torque: [[[R::ZERO; 2]; PAIRS]; N],
+            shear: [[R::ZERO; PAIRS]; N],
             _pad8: PAD,
             refs: [[0; REFS]; N],
             _pad9: PAD,
@@ -181,7 +185,7 @@ impl<R: Real, const N: usize, const K: usize> Batch<R, N, K> {
             len: 0,
             lanes,
         };
-        let refs = &mut self.refs;
+        let refs = self.refs.as_flattened_mut();
         self.refs_count[..n].fill(0);
         // Second-grain entries first: pair (m, i) reaches grain i while m
         // ascends, before grain i's own pairs are listed.
@@ -198,7 +202,7 @@ impl<R: Real, const N: usize, const K: usize> Batch<R, N, K> {
                     return;
                 }
                 let used = usize::from(self.refs_count[j as usize]);
-                let Some(entry) = refs[j as usize].get_mut(used) else {
+                let Some(entry) = refs.get_mut(ref_slot(j as usize, used, lanes)) else {
                     return;
                 };
                 *entry = (2 * q + 1) as u32;
@@ -209,7 +213,7 @@ impl<R: Real, const N: usize, const K: usize> Batch<R, N, K> {
         for (m, &c) in count.iter().enumerate().take(n) {
             for k in 0..usize::from(c).min(K) {
                 let used = usize::from(self.refs_count[m]);
-                let Some(entry) = refs[m].get_mut(used) else {
+                let Some(entry) = refs.get_mut(ref_slot(m, used, lanes)) else {
                     return;
                 };
                 *entry = 2 * (self.start[m] + k as u32);
@@ -222,12 +226,14 @@ impl<R: Real, const N: usize, const K: usize> Batch<R, N, K> {
             return;
         }
         let (pairs, zero) = (list.len, list.len);
-        for a in [&mut self.fx, &mut self.fy, &mut self.torque] {
-            a.as_flattened_mut()[zero] = [R::ZERO; 2];
+        for a in [&mut self.fx, &mut self.fy, &mut self.shear] {
+            a.as_flattened_mut()[zero] = R::ZERO;
         }
-        for (grain_refs, &used) in refs.iter_mut().zip(&self.refs_count).take(n) {
-            for entry in grain_refs.iter_mut().skip(usize::from(used)) {
-                *entry = (2 * zero) as u32;
+        for (i, &used) in self.refs_count.iter().enumerate().take(n) {
+            for rank in usize::from(used)..REFS {
+                if let Some(entry) = refs.get_mut(ref_slot(i, rank, lanes)) {
+                    *entry = (2 * zero) as u32;
+                }
             }
         }
         for group in (0..n).step_by(lanes) {
@@ -354,6 +360,15 @@ impl<R: Real> PairList<'_, R> {
     }
 }
 
+/// Where grain i's entry of rank `rank` lies in the flattened
+/// [`Batch::refs`]: by group of `lanes` grains, then rank, then lane, so
+/// that a group's entries of one rank are one vector.
+#[inline]
+fn ref_slot(i: usize, rank: usize, lanes: usize) -> usize {
+    let lanes = lanes.max(1);
+    ((i / lanes) * REFS + rank) * lanes + i % lanes
+}
+
 /// The first grain of the window of a batch of pairs whose first pair's
 /// first grain is `i`: i itself, or the last window that ends within the
 /// grains' arrays.
@@ -424,16 +439,18 @@ pub(crate) use f64x4::batched_step as batched_step_f64;
 
 /// The batched step in AVX2 lanes of one precision: module `$module`,
 /// precision `$R` (raw bits `$bits`), vector `$V` of `$lanes` lanes, and
-/// the precision's intrinsics. `unsafe` appears three times: the call of a
-/// `#[target_feature]` function, sound because the build enables AVX2
-/// (`cfg(target_feature = "avx2")`), and the load and store of a vector
-/// from and to a `[$R; $lanes]`, sound because the array is exactly 32
-/// bytes and the unaligned load and store need no alignment.
+/// the precision's intrinsics. `unsafe` appears three times in the macro:
+/// the call of a `#[target_feature]` function, sound because the build
+/// enables AVX2 (`cfg(target_feature = "avx2")`), and the load and store
+/// of a vector from and to a `[$R; $lanes]`, sound because the array is
+/// exactly 32 bytes and the unaligned load and store need no alignment;
+/// and once per precision below, the unaligned load of a `[u32; $lanes]`
+/// (`$second_sides`), sound likewise.
 macro_rules! lanes {
     (
         $module:ident, $R:ty, $bits:ty, $V:ty, $lanes:literal,
         $loadu:ident, $storeu:ident, $setzero:ident, $set1:ident, $gather:expr, $permute:expr,
-        $unpacklo:ident, $unpackhi:ident, $permute2f128:ident,
+        $second_sides:expr,
         $add:ident, $sub:ident, $mul:ident, $div:ident, $sqrt:ident,
         $and:ident, $andnot:ident, $xor:ident, $blendv:ident, $cmp:ident,
         $max:ident, $movemask:ident
@@ -511,16 +528,6 @@ macro_rules! lanes {
             fn put(values: &mut [$R; L], v: $V) {
                 // SAFETY: `values` is L values (32 bytes); storeu needs no alignment.
                 unsafe { $storeu(values.as_mut_ptr(), v) }
-            }
-
-            /// Stores pairs q..q + L of two sides interleaved: `a[2q + 2l]` =
-            /// first[l], `a[2q + 2l + 1]` = second[l].
-            #[inline]
-            #[target_feature(enable = "avx2")]
-            fn store_sides(a: &mut [$R], q: usize, first: $V, second: $V) {
-                let (low, high) = ($unpacklo(first, second), $unpackhi(first, second));
-                store(a, 2 * q, $permute2f128::<0x20>(low, high));
-                store(a, 2 * q + L, $permute2f128::<0x31>(low, high));
             }
 
             /// The lanes of a vector.
@@ -791,15 +798,9 @@ macro_rules! lanes {
                         store(b.e_s.as_flattened_mut(), q, e_s_out);
                         let fx = $and(add(mul(neg(f_n), nx), mul(f_s, tx)), acts);
                         let fy = $and(add(mul(neg(f_n), ny), mul(f_s, ty)), acts);
-                        let f_s = $and(f_s, acts);
-                        store_sides(b.fx.as_flattened_mut().as_flattened_mut(), q, fx, neg(fx));
-                        store_sides(b.fy.as_flattened_mut().as_flattened_mut(), q, fy, neg(fy));
-                        store_sides(
-                            b.torque.as_flattened_mut().as_flattened_mut(),
-                            q,
-                            mul(ri, f_s),
-                            mul(rj, f_s),
-                        );
+                        store(b.fx.as_flattened_mut(), q, fx);
+                        store(b.fy.as_flattened_mut(), q, fy);
+                        store(b.shear.as_flattened_mut(), q, $and(f_s, acts));
                     }
                 }
             }
@@ -822,9 +823,9 @@ macro_rules! lanes {
                 let largest = splat(<$R>::MAX);
                 let abs = splat(<$R>::from_bits(<$bits>::MAX >> 1));
                 let b = &*s.batch;
-                let both = 2 * N * PAIRS;
-                let [fx_of, fy_of, torque_of] =
-                    [&b.fx, &b.fy, &b.torque].map(|a| a.as_flattened().as_flattened());
+                let cap = N * PAIRS;
+                let [fx_of, fy_of, shear_of] = [&b.fx, &b.fy, &b.shear].map(|a| a.as_flattened());
+                let (refs, _) = b.refs.as_flattened().as_chunks::<L>();
                 let mut max_v2 = zero;
                 let groups = s.n.min(N).div_ceil(L).min(N / L);
                 for grp in 0..groups {
@@ -840,14 +841,18 @@ macro_rules! lanes {
                     if $movemask(mobile) == 0 {
                         continue;
                     }
+                    let radius = at(s.r);
                     for k in 0..usize::from(b.group_count[g]).min(REFS) {
-                        let e: [usize; L] = core::array::from_fn(|l| {
-                            b.refs[(g + l) & (N - 1)][k & (REFS - 1)] as usize & (both - 1)
-                        });
-                        let gather = |a: &[$R]| gather(a, &e);
-                        fx = add(fx, gather(fx_of));
-                        fy = add(fy, gather(fy_of));
-                        torque = sub(torque, gather(torque_of));
+                        // Rank k's entries: pair 2q (first grain) or 2q + 1
+                        // (second: the force negated, a + (−b) = a − b exactly).
+                        let entries = &refs[(grp * REFS + k) & (N * REFS / L - 1)];
+                        let negate = $second_sides(entries);
+                        let q: [usize; L] =
+                            core::array::from_fn(|l| (entries[l] >> 1) as usize & (cap - 1));
+                        let gather = |a: &[$R]| gather(a, &q);
+                        fx = add(fx, $xor(gather(fx_of), negate));
+                        fy = add(fy, $xor(gather(fy_of), negate));
+                        torque = sub(torque, mul(radius, gather(shear_of)));
                     }
                     // Mover::advance.
                     let im = at(s.inv_mass);
@@ -929,9 +934,11 @@ lanes!(
         _mm256_castpd_ps(v),
         lanes
     )),
-    _mm256_unpacklo_pd,
-    _mm256_unpackhi_pd,
-    _mm256_permute2f128_pd,
+    |e: &[u32; 4]| {
+        // SAFETY: `e` is 16 bytes; loadu needs no alignment.
+        let e = unsafe { _mm_loadu_si128(e.as_ptr().cast()) };
+        _mm256_castsi256_pd(_mm256_slli_epi64::<63>(_mm256_cvtepu32_epi64(e)))
+    },
     _mm256_add_pd,
     _mm256_sub_pd,
     _mm256_mul_pd,
@@ -958,9 +965,11 @@ lanes!(
     _mm256_set1_ps,
     |v: [f32; 8]| _mm256_setr_ps(v[0], v[1], v[2], v[3], v[4], v[5], v[6], v[7]),
     _mm256_permutevar8x32_ps,
-    _mm256_unpacklo_ps,
-    _mm256_unpackhi_ps,
-    _mm256_permute2f128_ps,
+    |e: &[u32; 8]| {
+        // SAFETY: `e` is 32 bytes; loadu needs no alignment.
+        let e = unsafe { _mm256_loadu_si256(e.as_ptr().cast()) };
+        _mm256_castsi256_ps(_mm256_slli_epi32::<31>(e))
+    },
     _mm256_add_ps,
     _mm256_sub_ps,
     _mm256_mul_ps,
