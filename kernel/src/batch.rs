@@ -667,7 +667,8 @@ macro_rules! lanes {
             }
 
             /// Every listed pair's geometry and law, L pairs at a time, lane by
-            /// lane as `State::contact` and `ContactLaw::apply`; forces per side.
+            /// lane as `State::contact` and `ContactLaw::apply`; each pair's force on
+            /// its first grain and its f_s.
             #[target_feature(enable = "avx2")]
             fn pair_pass<const N: usize, const K: usize>(s: &mut BatchStep<'_, $R, N, K>) {
                 let splat = $set1;
