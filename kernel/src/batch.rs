@@ -202,7 +202,8 @@ impl<R: Real, const N: usize, const K: usize> Batch<R, N, K> {
                     return;
                 }
                 let used = usize::from(self.refs_count[j as usize]);
-                let Some(entry) = refs.get_mut(ref_slot(j as usize, used, lanes)) else {
+                let Some(entry) = ref_slot(j as usize, used, lanes).and_then(|e| refs.get_mut(e))
+                else {
                     return;
                 };
                 *entry = (2 * q + 1) as u32;
@@ -213,7 +214,7 @@ impl<R: Real, const N: usize, const K: usize> Batch<R, N, K> {
         for (m, &c) in count.iter().enumerate().take(n) {
             for k in 0..usize::from(c).min(K) {
                 let used = usize::from(self.refs_count[m]);
-                let Some(entry) = refs.get_mut(ref_slot(m, used, lanes)) else {
+                let Some(entry) = ref_slot(m, used, lanes).and_then(|e| refs.get_mut(e)) else {
                     return;
                 };
                 *entry = 2 * (self.start[m] + k as u32);
@@ -231,7 +232,7 @@ impl<R: Real, const N: usize, const K: usize> Batch<R, N, K> {
         }
         for (i, &used) in self.refs_count.iter().enumerate().take(n) {
             for rank in usize::from(used)..REFS {
-                if let Some(entry) = refs.get_mut(ref_slot(i, rank, lanes)) {
+                if let Some(entry) = ref_slot(i, rank, lanes).and_then(|e| refs.get_mut(e)) {
                     *entry = (2 * zero) as u32;
                 }
             }
@@ -362,11 +363,12 @@ impl<R: Real> PairList<'_, R> {
 
 /// Where grain i's entry of rank `rank` lies in the flattened
 /// [`Batch::refs`]: by group of `lanes` grains, then rank, then lane, so
-/// that a group's entries of one rank are one vector.
+/// that a group's entries of one rank are one vector. None beyond
+/// [`REFS`] ranks (the grain is in too many pairs).
 #[inline]
-fn ref_slot(i: usize, rank: usize, lanes: usize) -> usize {
+fn ref_slot(i: usize, rank: usize, lanes: usize) -> Option<usize> {
     let lanes = lanes.max(1);
-    ((i / lanes) * REFS + rank) * lanes + i % lanes
+    (rank < REFS).then(|| ((i / lanes) * REFS + rank) * lanes + i % lanes)
 }
 
 /// The first grain of the window of a batch of pairs whose first pair's

@@ -444,6 +444,8 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
     /// grain i; without, just before grain i's laws. The laws and sums run
     /// in the fixed order either way.
     fn forces_and_motion<const BUFFER: usize>(&mut self) -> Result<(), Error> {
+        // A buffer holds every slot of a grain, or there is none.
+        const { assert!(BUFFER == 0 || BUFFER >= K) };
         let ahead = BUFFER > 0;
         let n = self.grains.len.min(N);
         let law = self.law;
@@ -839,6 +841,60 @@ mod tests {
         let fused = digests::<f32, 0, false>();
         assert_eq!(digests::<f32, 8, false>(), fused);
         assert_eq!(digests::<f32, 8, true>(), fused);
+    }
+
+    /// A grain in more pairs than the batched storage takes (a large grain
+    /// ringed by 14 small ones, as first or as second grain of its pairs)
+    /// makes the step fall back to the fused pass: the same bits.
+    #[test]
+    fn a_grain_in_many_pairs_falls_back_to_the_fused_pass() {
+        for big_first in [true, false] {
+            let ring = |batched: bool| ring_digest::<f64>(big_first, batched);
+            assert_eq!(ring(true), ring(false));
+            let ring = |batched: bool| ring_digest::<f32>(big_first, batched);
+            assert_eq!(ring(true), ring(false));
+        }
+    }
+
+    fn ring_digest<R: Real>(big_first: bool, batched: bool) -> u64 {
+        let mut sim = Sim::<R, 64, 16>::new();
+        let mut config = Scenario::paper().sim_config().unwrap();
+        (config.width, config.y_min) = (0.02, -0.01);
+        sim.reset(&config).unwrap();
+        let big = GrainSpec {
+            x: 0.01,
+            y: 0.005,
+            diameter: 2e-3,
+            ..GrainSpec::default()
+        };
+        if big_first {
+            sim.add_grain(&big).unwrap();
+        }
+        for k in 0..14 {
+            let angle = core::f64::consts::TAU * f64::from(k) / 14.0;
+            let reach = 1.249e-3;
+            sim.add_grain(&GrainSpec {
+                x: big.x + reach * libm::cos(angle),
+                y: big.y + reach * libm::sin(angle),
+                diameter: 0.5e-3,
+                ..GrainSpec::default()
+            })
+            .unwrap();
+        }
+        if !big_first {
+            sim.add_grain(&big).unwrap();
+        }
+        for _ in 0..20 {
+            if batched {
+                sim.step_with::<16, true>().unwrap();
+            } else {
+                sim.step_with::<0, false>().unwrap();
+            }
+        }
+        #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+        assert!(sim.batched_forces_and_motion().is_none());
+        assert_eq!(sim.contacts().count(), 14);
+        sim.digest()
     }
 
     /// A grain thrown out of the domain fails the batched and the fused
