@@ -77,7 +77,7 @@ impl<R: Real> ContactLaw<R> {
         };
         h.e_n += self.k_n * dxi_n;
         if h.e_n < R::ZERO {
-            *h = Spring::default();
+            *h = Spring::ZERO;
             return None;
         }
         let f_n = h.e_n + self.eta_n * v_n;

@@ -204,7 +204,7 @@ impl<R: Real, const N: usize, const K: usize> Neighbours<R, N, K> {
             self.spring[i][k] = if k_old < old_count && old_other[k_old] == j {
                 old_spring[k_old]
             } else {
-                Spring::default()
+                Spring::ZERO
             };
         }
         self.count[i] = found.len().min(K) as u8;

@@ -87,7 +87,7 @@ impl<'a, R: Real> State<'a, R> {
         let reach = own.r + rj;
         let dist2 = dx * dx + dy * dy;
         if dist2 >= reach * reach {
-            *spring = Spring::default();
+            *spring = Spring::ZERO;
             return None;
         }
         let dist = R::sqrt(dist2);
