@@ -4,19 +4,19 @@
 //! the bits of the fused pass ([`crate::Sim::step`] on every other target).
 //!
 //! Pairs are independent until their forces are summed, and the sums fix
-//! the bits. So the pair pass finds every pair's force on its first grain
-//! and its shear force f_s, and the grain pass adds each grain's in
-//! exactly the fused pass's order: the pairs (m, i), m ascending, whose
-//! second grain it is (the force negated: s + (−f) is s − f, bit for bit),
-//! then its own pairs (i, j), j ascending; each grain's torque adds its
-//! own r f_s, the product the fused pass forms. Every lane does the
+//! the bits. The pair pass finds a vector of pairs' forces, then adds each
+//! pair's to its two grains' sums lane by lane, in pair order: one row
+//! (f_x, f_y, torque) per grain, one vector add per side. Pairs are listed
+//! by first grain, so grain i receives the pairs (m, i), m ascending, whose
+//! second grain it is, then its own pairs (i, j) in slot order: exactly the
+//! fused pass's order (the second grain's force negated: s + (−f) is s − f,
+//! bit for bit; each torque adds its own −r f_s, the product the fused pass
+//! forms). The grain pass then moves each grain. Every lane does the
 //! operations of [`crate::pairs::State::contact`],
 //! [`crate::contact::ContactLaw::apply`] and the integrator in their
-//! order; branches become selects. A pair that exerts no force stores +0
-//! (−0 for its second grain), and a grain with fewer pairs than its lane
-//! neighbours adds a +0 entry: neither changes a sum's bits (a force sum
-//! starts at +0, or at a drag force added to +0, so it is never −0, and
-//! s + 0 = s for every other s).
+//! order; branches become selects. A pair that exerts no force adds +0 or
+//! −0: neither changes a sum's bits (a sum starts at +0, or at a drag
+//! force added to +0, so it is never −0, and s + 0 = s for every other s).
 //!
 //! Pairs are listed by first grain and padded so that each batch's first
 //! grains lie in one window of lanes' worth of grains: their values are a
@@ -38,14 +38,15 @@ use crate::flow::Profile;
 use crate::grains::{Pad, PAD};
 use crate::real::Real;
 use crate::sim::Mover;
+use core::arch::x86_64::{
+    __m128, __m256, __m256d, _mm256_castps256_ps128, _mm256_extractf128_ps, _mm256_permute2f128_pd,
+    _mm256_set_m128, _mm256_shuffle_ps, _mm256_unpackhi_pd, _mm256_unpackhi_ps, _mm256_unpacklo_pd,
+    _mm256_unpacklo_ps,
+};
 
 /// Listed pairs the storage holds per grain on average (a settled bed has
 /// about 2.3; more: the fused pass runs).
 const PAIRS: usize = 4;
-
-/// Pairs one grain may take part in (a settled bed has about 4.5; more:
-/// the fused pass runs).
-const REFS: usize = 8;
 
 /// `pair_k` of a padding pair (w, w), which has no slot.
 const SELF_PAIR: u8 = u8::MAX;
@@ -58,8 +59,7 @@ const SELF_PAIR: u8 = u8::MAX;
 pub(crate) struct Batch<R: Real, const N: usize, const K: usize> {
     /// Listed pairs, padded with pairs (w, w) ([`SELF_PAIR`]) so that each
     /// batch's first grains lie in one window and the last batch is whole,
-    /// then one more whose forces stay zero: first and second grain, and
-    /// slot k.
+    /// first and second grain, and slot k.
     pair_i: [[u32; PAIRS]; N],
     _pad1: Pad,
     pair_j: [[u32; PAIRS]; N],
@@ -87,29 +87,14 @@ pub(crate) struct Batch<R: Real, const N: usize, const K: usize> {
     /// load and one permutation instead of a gather.
     window_lanes: [[u8; 8]; N],
     _pad11: Pad,
-    /// Per pair q (flattened): the force on its first grain (x, y), minus
-    /// the force on its second, and the shear force f_s (each grain's
-    /// torque is its own r f_s).
-    fx: [[R; PAIRS]; N],
+    /// Per grain, its sums during a step: force (x, y), torque, and a
+    /// fourth value that is never read. Zero between steps.
+    sums: [[R; 4]; N],
     _pad6: Pad,
-    fy: [[R; PAIRS]; N],
-    _pad7: Pad,
-    shear: [[R; PAIRS]; N],
-    _pad8: Pad,
-    /// Per group of lanes' worth of grains, per rank in its grains' sums,
-    /// per lane (flattened, [`ref_slot`]): the pair q added there, as
-    /// 2q for its first grain and 2q + 1 for its second (whose force is
-    /// the negation); unused entries point at the zero pair.
-    refs: [[u32; REFS]; N],
-    _pad9: Pad,
     /// Per grain, all-ones bits if it moves (is not fixed), else zero: the
     /// lane mask of the grain pass.
     mobile: [R; N],
     _pad10: Pad,
-    /// Entries of `refs` used, per grain; and the largest per group of
-    /// lanes' worth of grains (at its first grain).
-    refs_count: [u8; N],
-    group_count: [u8; N],
     /// The storage matches the current slots (false when they do not fit:
     /// then the fused pass runs). Every change of the slots marks them
     /// stale, so a step rebuilds and re-indexes before it reads this.
@@ -135,28 +120,20 @@ impl<R: Real, const N: usize, const K: usize> Batch<R, N, K> {
             start: [0; N],
             window_lanes: [[0; 8]; N],
             _pad11: PAD,
-            fx: [[R::ZERO; PAIRS]; N],
+            sums: [[R::ZERO; 4]; N],
             _pad6: PAD,
-            fy: [[R::ZERO; PAIRS]; N],
-            _pad7: PAD,
-            shear: [[R::ZERO; PAIRS]; N],
-            _pad8: PAD,
-            refs: [[0; REFS]; N],
-            _pad9: PAD,
             mobile: [R::ZERO; N],
             _pad10: PAD,
-            refs_count: [0; N],
-            group_count: [0; N],
             ready: false,
         }
     }
 
     /// Indexes the listed pairs of the first `n` grains (`count`, `other`,
     /// `spring`: the neighbour slots; `fixed`): pair list with its history
-    /// and windows, each grain's pairs in summing order, lane masks. Not
-    /// ready (the fused pass runs) if the precision has no lanes or the
-    /// capacities do not suit them ([`lanes_fit`]), or the pairs with
-    /// padding (`PAIRS` per grain) or a grain's pairs (`REFS`) do not fit.
+    /// and windows, lane masks. Not ready (the fused pass runs) if the
+    /// precision has no lanes or the capacities do not suit them
+    /// ([`lanes_fit`]), or the pairs with padding (`PAIRS` per grain) do
+    /// not fit.
     pub(crate) fn index(
         &mut self,
         n: usize,
@@ -175,7 +152,6 @@ impl<R: Real, const N: usize, const K: usize> Batch<R, N, K> {
             *mask = R::from_raw(if fixed { 0 } else { u64::MAX });
         }
         self.mobile[n..].fill(R::ZERO);
-        let cap = N * PAIRS;
         let mut list = PairList {
             i: self.pair_i.as_flattened_mut(),
             j: self.pair_j.as_flattened_mut(),
@@ -185,10 +161,6 @@ impl<R: Real, const N: usize, const K: usize> Batch<R, N, K> {
             len: 0,
             lanes,
         };
-        let refs = self.refs.as_flattened_mut();
-        self.refs_count[..n].fill(0);
-        // Second-grain entries first: pair (m, i) reaches grain i while m
-        // ascends, before grain i's own pairs are listed.
         for (m, ((&c, js), springs)) in count.iter().zip(other).zip(spring).take(n).enumerate() {
             let own = usize::from(c).min(K);
             // A batch's first grains lie in one window of `lanes` grains.
@@ -197,54 +169,17 @@ impl<R: Real, const N: usize, const K: usize> Batch<R, N, K> {
             }
             self.start[m] = list.len as u32;
             for (k, (&j, h)) in js.iter().zip(springs).take(own).enumerate() {
-                let q = list.len;
                 if j as usize >= n || j as usize <= m || !list.push(m as u32, j, k as u8, *h) {
                     return;
                 }
-                let used = usize::from(self.refs_count[j as usize]);
-                let Some(entry) = ref_slot(j as usize, used, lanes).and_then(|e| refs.get_mut(e))
-                else {
-                    return;
-                };
-                *entry = (2 * q + 1) as u32;
-                self.refs_count[j as usize] += 1;
             }
         }
-        // Then each grain's own pairs, in slot order.
-        for (m, &c) in count.iter().enumerate().take(n) {
-            for k in 0..usize::from(c).min(K) {
-                let used = usize::from(self.refs_count[m]);
-                let Some(entry) = ref_slot(m, used, lanes).and_then(|e| refs.get_mut(e)) else {
-                    return;
-                };
-                *entry = 2 * (self.start[m] + k as u32);
-                self.refs_count[m] += 1;
-            }
-        }
-        // A whole last batch, then the zero pair.
+        // A whole last batch.
         let listed = list.len;
-        if !list.pad() || list.len >= cap {
+        if !list.pad() {
             return;
         }
-        let (pairs, zero) = (list.len, list.len);
-        for a in [&mut self.fx, &mut self.fy, &mut self.shear] {
-            a.as_flattened_mut()[zero] = R::ZERO;
-        }
-        for (i, &used) in self.refs_count.iter().enumerate().take(n) {
-            for rank in usize::from(used)..REFS {
-                if let Some(entry) = ref_slot(i, rank, lanes).and_then(|e| refs.get_mut(e)) {
-                    *entry = (2 * zero) as u32;
-                }
-            }
-        }
-        for group in (0..n).step_by(lanes) {
-            let end = (group + lanes).min(n);
-            self.group_count[group] = self.refs_count[group..end]
-                .iter()
-                .copied()
-                .max()
-                .unwrap_or(0);
-        }
+        let pairs = list.len;
         if !self.find_windows(pairs, lanes) {
             return;
         }
@@ -361,16 +296,6 @@ impl<R: Real> PairList<'_, R> {
     }
 }
 
-/// Where grain i's entry of rank `rank` lies in the flattened
-/// [`Batch::refs`]: by group of `lanes` grains, then rank, then lane, so
-/// that a group's entries of one rank are one vector. None beyond
-/// [`REFS`] ranks (the grain is in too many pairs).
-#[inline]
-fn ref_slot(i: usize, rank: usize, lanes: usize) -> Option<usize> {
-    let lanes = lanes.max(1);
-    (rank < REFS).then(|| ((i / lanes) * REFS + rank) * lanes + i % lanes)
-}
-
 /// The first grain of the window of a batch of pairs whose first pair's
 /// first grain is `i`: i itself, or the last window that ends within the
 /// grains' arrays.
@@ -396,10 +321,6 @@ pub struct BatchStep<'a, R: Real, const N: usize, const K: usize> {
     pub(crate) u: &'a mut [R; N],
     pub(crate) v: &'a mut [R; N],
     pub(crate) w: &'a mut [R; N],
-    /// Forces and torques so far (drag or zero); zeroed.
-    pub(crate) fx: &'a mut [R; N],
-    pub(crate) fy: &'a mut [R; N],
-    pub(crate) torque: &'a mut [R; N],
     pub(crate) r: &'a [R; N],
     pub(crate) inv_mass: &'a [R; N],
     pub(crate) inv_inertia: &'a [R; N],
@@ -441,25 +362,27 @@ pub(crate) use f64x4::batched_step as batched_step_f64;
 
 /// The batched step in AVX2 lanes of one precision: module `$module`,
 /// precision `$R` (raw bits `$bits`), vector `$V` of `$lanes` lanes, and
-/// the precision's intrinsics. `unsafe` appears three times in the macro:
-/// the call of a `#[target_feature]` function, sound because the build
-/// enables AVX2 (`cfg(target_feature = "avx2")`), and the load and store
-/// of a vector from and to a `[$R; $lanes]`, sound because the array is
-/// exactly 32 bytes and the unaligned load and store need no alignment;
-/// and once per precision below, the unaligned load of a `[u32; $lanes]`
-/// (`$second_sides`), sound likewise.
+/// the precision's intrinsics; rows of a grain's four sums are `$Row`, and
+/// `$to_rows` and `$from_rows` transpose four vectors to a row per lane and
+/// back. `unsafe` appears five times in the macro: the call of a
+/// `#[target_feature]` function, sound because the build enables AVX2
+/// (`cfg(target_feature = "avx2")`), and the loads and stores of a vector
+/// from and to a `[$R; $lanes]` and of a row from and to a `[$R; 4]`,
+/// sound because the array is exactly the vector's or row's size and the
+/// unaligned loads and stores need no alignment.
 macro_rules! lanes {
     (
         $module:ident, $R:ty, $bits:ty, $V:ty, $lanes:literal,
         $loadu:ident, $storeu:ident, $setzero:ident, $set1:ident, $gather:expr, $permute:expr,
-        $second_sides:expr,
+        $Row:ty, $row_loadu:ident, $row_storeu:ident, $row_add:ident, $second_row:expr,
+        $to_rows:expr, $from_rows:expr,
         $add:ident, $sub:ident, $mul:ident, $div:ident, $sqrt:ident,
         $and:ident, $andnot:ident, $xor:ident, $blendv:ident, $cmp:ident,
         $max:ident, $movemask:ident
     ) => {
         #[allow(unsafe_code)]
         mod $module {
-            use super::{BatchStep, PAIRS, REFS};
+            use super::{BatchStep, PAIRS};
             use crate::error::Error;
             use crate::real::Real;
             use core::arch::x86_64::*;
@@ -532,6 +455,23 @@ macro_rules! lanes {
                 unsafe { $storeu(values.as_mut_ptr(), v) }
             }
 
+            /// A grain's sums as a row.
+            #[inline]
+            #[target_feature(enable = "avx2")]
+            fn load_row(values: &[$R; 4]) -> $Row {
+                // SAFETY: `values` is one row; loadu needs no alignment.
+                unsafe { $row_loadu(values.as_ptr()) }
+            }
+
+            /// Adds a row to a grain's sums.
+            #[inline]
+            #[target_feature(enable = "avx2")]
+            fn add_row(values: &mut [$R; 4], row: $Row) {
+                let sum = $row_add(load_row(values), row);
+                // SAFETY: `values` is one row; storeu needs no alignment.
+                unsafe { $row_storeu(values.as_mut_ptr(), sum) }
+            }
+
             /// The lanes of a vector.
             #[inline]
             #[target_feature(enable = "avx2")]
@@ -602,7 +542,7 @@ macro_rules! lanes {
                 } else {
                     0.0
                 });
-                let b = &*s.batch;
+                let b = &mut *s.batch;
                 let groups = s.n.min(N).div_ceil(L).min(N / L);
                 for grp in 0..groups {
                     let mobile = load(group(&b.mobile, grp));
@@ -641,10 +581,12 @@ macro_rules! lanes {
                     let eps = select(eps0, add(eps0, mul(open, sub(one, hidden))), exposed);
                     // (4)–(5).
                     let xi = mul(mul(at(d.coef), eps), $sqrt(add(mul(wx, wx), mul(wy, wy))));
-                    for (a, force) in [(&mut *s.fx, mul(xi, wx)), (&mut *s.fy, mul(xi, wy))] {
-                        if let Some(values) = group_mut(a, grp) {
-                            // Fixed grains add +0 to their +0 force.
-                            put(values, add(load(values), $and(force, mobile)));
+                    // The sums (+0) add the drag (+0 for fixed grains).
+                    let [fx, fy] = [mul(xi, wx), mul(xi, wy)].map(|f| $and(f, mobile));
+                    let rows = $to_rows([fx, fy, zero, zero]);
+                    if let Some(sums) = b.sums.as_chunks_mut::<L>().0.get_mut(grp) {
+                        for (sum, row) in sums.iter_mut().zip(rows) {
+                            add_row(sum, row);
                         }
                     }
                 }
@@ -801,16 +743,23 @@ macro_rules! lanes {
                         store(b.e_s.as_flattened_mut(), q, e_s_out);
                         let fx = $and(add(mul(neg(f_n), nx), mul(f_s, tx)), acts);
                         let fy = $and(add(mul(neg(f_n), ny), mul(f_s, ty)), acts);
-                        store(b.fx.as_flattened_mut(), q, fx);
-                        store(b.fy.as_flattened_mut(), q, fy);
-                        store(b.shear.as_flattened_mut(), q, $and(f_s, acts));
+                        let f_s = $and(f_s, acts);
+                        // Rows (f_x, f_y, −r_i f_s, −r_j f_s), added in pair order:
+                        // the first three to the first grain, the force negated and
+                        // the fourth to the second.
+                        let rows = $to_rows([fx, fy, neg(mul(ri, f_s)), neg(mul(rj, f_s))]);
+                        let i = at(&b.pair_i, q);
+                        for (l, row) in rows.into_iter().enumerate() {
+                            add_row(&mut b.sums[i[l]], row);
+                            add_row(&mut b.sums[j[l]], $second_row(row));
+                        }
                     }
                 }
             }
 
-            /// Every grain's sums in the fused pass's order and its motion
-            /// (`Mover::advance`), L grains at a time: the largest squared
-            /// speed, or the first failing grain's error.
+            /// Every grain's motion (`Mover::advance`) from its sums, which it
+            /// zeroes, L grains at a time: the largest squared speed, or the
+            /// first failing grain's error (the sums then all zeroed).
             #[target_feature(enable = "avx2")]
             fn grain_pass<const N: usize, const K: usize>(
                 s: &mut BatchStep<'_, $R, N, K>,
@@ -825,37 +774,20 @@ macro_rules! lanes {
                 let (y_min, y_max) = (splat(m.y_min), splat(m.y_max));
                 let largest = splat(<$R>::MAX);
                 let abs = splat(<$R>::from_bits(<$bits>::MAX >> 1));
-                let b = &*s.batch;
-                let cap = N * PAIRS;
-                let [fx_of, fy_of, shear_of] = [&b.fx, &b.fy, &b.shear].map(|a| a.as_flattened());
-                let (refs, _) = b.refs.as_flattened().as_chunks::<L>();
+                let b = &mut *s.batch;
                 let mut max_v2 = zero;
                 let groups = s.n.min(N).div_ceil(L).min(N / L);
                 for grp in 0..groups {
                     let g = grp * L;
                     let mobile = load(group(&b.mobile, grp));
                     let at = |a: &[$R; N]| load(group(a, grp));
-                    let (mut fx, mut fy, mut torque) = (at(s.fx), at(s.fy), at(s.torque));
-                    for a in [&mut *s.fx, &mut *s.fy, &mut *s.torque] {
-                        if let Some(values) = group_mut(a, grp) {
-                            put(values, zero);
-                        }
-                    }
+                    let Some(sums) = b.sums.as_chunks_mut::<L>().0.get_mut(grp) else {
+                        break;
+                    };
+                    let [fx, fy, torque, _] = $from_rows(sums.each_ref().map(|row| load_row(row)));
+                    *sums = [[0.0; 4]; L];
                     if $movemask(mobile) == 0 {
                         continue;
-                    }
-                    let radius = at(s.r);
-                    for k in 0..usize::from(b.group_count[g]).min(REFS) {
-                        // Rank k's entries: pair 2q (first grain) or 2q + 1
-                        // (second: the force negated, a + (−b) = a − b exactly).
-                        let entries = &refs[(grp * REFS + k) & (N * REFS / L - 1)];
-                        let negate = $second_sides(entries);
-                        let q: [usize; L] =
-                            core::array::from_fn(|l| (entries[l] >> 1) as usize & (cap - 1));
-                        let gather = |a: &[$R]| gather(a, &q);
-                        fx = add(fx, $xor(gather(fx_of), negate));
-                        fy = add(fy, $xor(gather(fy_of), negate));
-                        torque = sub(torque, mul(radius, gather(shear_of)));
                     }
                     // Mover::advance.
                     let im = at(s.inv_mass);
@@ -895,7 +827,8 @@ macro_rules! lanes {
                                     sums[1][l] * s.inv_mass[i],
                                     sums[2][l] * s.inv_inertia[i],
                                 ],
-                            )?;
+                            );
+                            let moved = moved.inspect_err(|_| b.sums.fill([0.0; 4]))?;
                             [s.x[i], s.y[i], s.u[i], s.v[i], s.w[i]] = moved;
                             let v2 = moved[2] * moved[2] + moved[3] * moved[3];
                             max_v2 = $max(splat(v2), max_v2);
@@ -937,11 +870,17 @@ lanes!(
         _mm256_castpd_ps(v),
         lanes
     )),
-    |e: &[u32; 4]| {
-        // SAFETY: `e` is 16 bytes; loadu needs no alignment.
-        let e = unsafe { _mm_loadu_si128(e.as_ptr().cast()) };
-        _mm256_castsi256_pd(_mm256_slli_epi64::<63>(_mm256_cvtepu32_epi64(e)))
-    },
+    __m256d,
+    _mm256_loadu_pd,
+    _mm256_storeu_pd,
+    _mm256_add_pd,
+    // (f_x, f_y, t_i, t_j) → (−f_x, −f_y, t_j, t_j)
+    |row: __m256d| _mm256_xor_pd(
+        _mm256_permute4x64_pd::<0b11_11_01_00>(row),
+        _mm256_setr_pd(-0.0, -0.0, 0.0, 0.0)
+    ),
+    super::transpose_f64,
+    super::transpose_f64,
     _mm256_add_pd,
     _mm256_sub_pd,
     _mm256_mul_pd,
@@ -968,11 +907,17 @@ lanes!(
     _mm256_set1_ps,
     |v: [f32; 8]| _mm256_setr_ps(v[0], v[1], v[2], v[3], v[4], v[5], v[6], v[7]),
     _mm256_permutevar8x32_ps,
-    |e: &[u32; 8]| {
-        // SAFETY: `e` is 32 bytes; loadu needs no alignment.
-        let e = unsafe { _mm256_loadu_si256(e.as_ptr().cast()) };
-        _mm256_castsi256_ps(_mm256_slli_epi32::<31>(e))
-    },
+    __m128,
+    _mm_loadu_ps,
+    _mm_storeu_ps,
+    _mm_add_ps,
+    // (f_x, f_y, t_i, t_j) → (−f_x, −f_y, t_j, t_j)
+    |row: __m128| _mm_xor_ps(
+        _mm_permute_ps::<0b11_11_01_00>(row),
+        _mm_setr_ps(-0.0, -0.0, 0.0, 0.0)
+    ),
+    super::rows_f32,
+    super::columns_f32,
     _mm256_add_ps,
     _mm256_sub_ps,
     _mm256_mul_ps,
@@ -986,3 +931,55 @@ lanes!(
     _mm256_max_ps,
     _mm256_movemask_ps
 );
+
+/// Four vectors of four f64 lanes transposed: value l of vector c becomes
+/// value c of vector l (per-lane values to rows, and back).
+#[inline]
+#[target_feature(enable = "avx2")]
+fn transpose_f64([a, b, c, d]: [__m256d; 4]) -> [__m256d; 4] {
+    let (ab_even, ab_odd) = (_mm256_unpacklo_pd(a, b), _mm256_unpackhi_pd(a, b));
+    let (cd_even, cd_odd) = (_mm256_unpacklo_pd(c, d), _mm256_unpackhi_pd(c, d));
+    [
+        _mm256_permute2f128_pd::<0x20>(ab_even, cd_even),
+        _mm256_permute2f128_pd::<0x20>(ab_odd, cd_odd),
+        _mm256_permute2f128_pd::<0x31>(ab_even, cd_even),
+        _mm256_permute2f128_pd::<0x31>(ab_odd, cd_odd),
+    ]
+}
+
+/// Four vectors of eight f32 lanes transposed within each half: value l of
+/// vector c becomes value c of vector l mod 4, half l / 4.
+#[inline]
+#[target_feature(enable = "avx2")]
+fn transpose_halves_f32([a, b, c, d]: [__m256; 4]) -> [__m256; 4] {
+    let (ab_low, ab_high) = (_mm256_unpacklo_ps(a, b), _mm256_unpackhi_ps(a, b));
+    let (cd_low, cd_high) = (_mm256_unpacklo_ps(c, d), _mm256_unpackhi_ps(c, d));
+    [
+        _mm256_shuffle_ps::<0x44>(ab_low, cd_low),
+        _mm256_shuffle_ps::<0xee>(ab_low, cd_low),
+        _mm256_shuffle_ps::<0x44>(ab_high, cd_high),
+        _mm256_shuffle_ps::<0xee>(ab_high, cd_high),
+    ]
+}
+
+/// Four vectors of eight f32 lanes as eight rows of four: row l holds
+/// value l of each vector.
+#[inline]
+#[target_feature(enable = "avx2")]
+fn rows_f32(columns: [__m256; 4]) -> [__m128; 8] {
+    let t = transpose_halves_f32(columns);
+    let low = t.map(|v| _mm256_castps256_ps128(v));
+    let high = t.map(|v| _mm256_extractf128_ps::<1>(v));
+    [
+        low[0], low[1], low[2], low[3], high[0], high[1], high[2], high[3],
+    ]
+}
+
+/// Eight rows of four f32 as four vectors of eight lanes ([`rows_f32`]
+/// undone).
+#[inline]
+#[target_feature(enable = "avx2")]
+fn columns_f32(rows: [__m128; 8]) -> [__m256; 4] {
+    let pairs: [__m256; 4] = core::array::from_fn(|l| _mm256_set_m128(rows[l + 4], rows[l]));
+    transpose_halves_f32(pairs)
+}

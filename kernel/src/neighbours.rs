@@ -43,8 +43,8 @@ pub struct Neighbours<R: Real, const N: usize, const K: usize> {
     pub(crate) stale: bool,
     /// Rebuilds since the simulation was reset (a diagnostic).
     pub(crate) rebuilds: u64,
-    /// The batched step's per-slot forces and reverse index, rebuilt with
-    /// the slots.
+    /// The batched step's storage (pair list, history in pair order,
+    /// windows, sums), rebuilt with the slots.
     #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
     pub(crate) batch: Batch<R, N, K>,
 }
