@@ -467,9 +467,15 @@ macro_rules! lanes {
             #[inline]
             #[target_feature(enable = "avx2")]
             fn add_row(values: &mut [$R; 4], row: $Row) {
-                let sum = $row_add(load_row(values), row);
+                put_row(values, $row_add(load_row(values), row));
+            }
+
+            /// Stores a row.
+            #[inline]
+            #[target_feature(enable = "avx2")]
+            fn put_row(values: &mut [$R; 4], row: $Row) {
                 // SAFETY: `values` is one row; storeu needs no alignment.
-                unsafe { $row_storeu(values.as_mut_ptr(), sum) }
+                unsafe { $row_storeu(values.as_mut_ptr(), row) }
             }
 
             /// The lanes of a vector.
@@ -647,6 +653,8 @@ macro_rules! lanes {
                 // their laws, so that the core overlaps many batches' square roots
                 // and divisions instead of waiting for each.
                 let batches = b.pairs.min(cap) / L;
+                // The last first grain and its sums.
+                let mut last = (usize::MAX, load_row(&[0.0; 4]));
                 // One buffer for every chunk (zeroing it per chunk cost ~8
                 // instructions per grain-step).
                 let mut geometry = [Geometry {
@@ -746,11 +754,23 @@ macro_rules! lanes {
                         let f_s = $and(f_s, acts);
                         // Rows (f_x, f_y, −r_i f_s, −r_j f_s), added in pair order:
                         // the first three to the first grain, the force negated and
-                        // the fourth to the second.
+                        // the fourth to the second. A first grain's pairs are
+                        // consecutive, and no other pair adds to its sums between
+                        // them (its second-grain pairs all come earlier; a padding
+                        // pair (w, w) adds zeros), so its
+                        // sums stay in a register from one to the next instead of
+                        // a store and a load that waits for it.
                         let rows = $to_rows([fx, fy, neg(mul(ri, f_s)), neg(mul(rj, f_s))]);
                         let i = at(&b.pair_i, q);
                         for (l, row) in rows.into_iter().enumerate() {
-                            add_row(&mut b.sums[i[l]], row);
+                            let base = if i[l] == last.0 {
+                                last.1
+                            } else {
+                                load_row(&b.sums[i[l]])
+                            };
+                            let sum = $row_add(base, row);
+                            put_row(&mut b.sums[i[l]], sum);
+                            last = (i[l], sum);
                             add_row(&mut b.sums[j[l]], $second_row(row));
                         }
                     }
