@@ -614,6 +614,9 @@ macro_rules! lanes {
                 /// (keeps its history).
                 touching: $V,
                 keeps: $V,
+                /// Normal and tangential relative speeds.
+                v_n: $V,
+                v_s: $V,
             }
 
             /// Every listed pair's geometry and law, L pairs at a time, lane by
@@ -665,6 +668,8 @@ macro_rules! lanes {
                     rj: zero,
                     touching: zero,
                     keeps: zero,
+                    v_n: zero,
+                    v_s: zero,
                 }; CHUNK];
                 for chunk in (0..batches).step_by(CHUNK) {
                     let chunk = chunk..batches.min(chunk + CHUNK);
@@ -688,31 +693,8 @@ macro_rules! lanes {
                         let dist = $sqrt(dist2);
                         let coincident = $cmp(dist, zero, _CMP_EQ_OQ);
                         let inv = $div(splat(1.0), dist);
-                        *g = Geometry {
-                            nx: mul(dx, inv),
-                            ny: mul(dy, inv),
-                            overlap: sub(reach, dist),
-                            ri,
-                            rj,
-                            touching: $andnot(apart, $andnot(coincident, all)),
-                            keeps: $andnot(apart, coincident),
-                        };
-                    }
-                    for (t, g) in chunk.zip(&geometry) {
-                        let q = t * L;
-                        let j = at(&b.pair_j, q);
-                        let (start, lanes) = first_window(t);
-                        let own = |a: &[$R; N]| window(a, start, lanes);
+                        let (nx, ny) = (mul(dx, inv), mul(dy, inv));
                         let other = |a: &[$R; N]| gather(a, &j);
-                        let Geometry {
-                            nx,
-                            ny,
-                            overlap,
-                            ri,
-                            rj,
-                            touching,
-                            keeps,
-                        } = *g;
                         let (tx, ty) = (ny, neg(nx));
                         let du = sub(own(u), other(u));
                         let dv = sub(own(v), other(v));
@@ -722,6 +704,33 @@ macro_rules! lanes {
                             add(neg(add(mul(du, tx), mul(dv, ty))), spin),
                             mul(rj, other(w)),
                         );
+                        *g = Geometry {
+                            nx,
+                            ny,
+                            overlap: sub(reach, dist),
+                            ri,
+                            rj,
+                            touching: $andnot(apart, $andnot(coincident, all)),
+                            keeps: $andnot(apart, coincident),
+                            v_n,
+                            v_s,
+                        };
+                    }
+                    for (t, g) in chunk.zip(&geometry) {
+                        let q = t * L;
+                        let j = at(&b.pair_j, q);
+                        let Geometry {
+                            nx,
+                            ny,
+                            overlap,
+                            ri,
+                            rj,
+                            touching,
+                            keeps,
+                            v_n,
+                            v_s,
+                        } = *g;
+                        let (tx, ty) = (ny, neg(nx));
                         let e_n0 = load_at(b.e_n.as_flattened(), q);
                         let e_s0 = load_at(b.e_s.as_flattened(), q);
 
