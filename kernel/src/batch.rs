@@ -601,7 +601,8 @@ macro_rules! lanes {
             /// Batches of pairs whose geometry is found before their laws.
             const CHUNK: usize = 8;
 
-            /// A batch's geometry: what its laws need of it (`State::contact`).
+            /// A batch's geometry and relative speeds: what its laws need of it
+            /// (`State::contact`).
             #[derive(Clone, Copy)]
             struct Geometry {
                 /// Unit normal, r_i + r_j − distance, radii.
@@ -620,8 +621,8 @@ macro_rules! lanes {
             }
 
             /// Every listed pair's geometry and law, L pairs at a time, lane by
-            /// lane as `State::contact` and `ContactLaw::apply`; each pair's force on
-            /// its first grain and its f_s.
+            /// lane as `State::contact` and `ContactLaw::apply`; each pair's force
+            /// and torques added to its grains' sums in pair order.
             #[target_feature(enable = "avx2")]
             fn pair_pass<const N: usize, const K: usize>(s: &mut BatchStep<'_, $R, N, K>) {
                 let splat = $set1;
@@ -652,9 +653,10 @@ macro_rules! lanes {
                     (super::window_start::<N>(first, L), lanes)
                 };
 
-                // Chunks of batches: first their geometry up to the division, then
-                // their laws, so that the core overlaps many batches' square roots
-                // and divisions instead of waiting for each.
+                // Chunks of batches: first their geometry (square root, division)
+                // and relative speeds (the gathers), then their laws and sums, so
+                // that the core overlaps many batches' square roots, divisions and
+                // gathers instead of waiting for each.
                 let batches = b.pairs.min(cap) / L;
                 // The last first grain and its sums.
                 let mut last = (usize::MAX, load_row(&[0.0; 4]));
