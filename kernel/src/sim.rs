@@ -894,6 +894,83 @@ mod tests {
         sim.digest()
     }
 
+    /// A grain of a random cluster: x, y (m), u, v (m/s), spin (rad/s),
+    /// size class (0.4, 0.5 or 0.7 mm) and whether it is fixed.
+    type Loose = (f64, f64, f64, f64, f64, usize, bool);
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig {
+            cases: 48,
+            ..proptest::prelude::ProptestConfig::default()
+        })]
+        /// Random clusters of mixed sizes, some fixed, some overlapping, with
+        /// and without flow: the batched step gives the one-pass step's bits
+        /// step after step, or the same error.
+        #[test]
+        fn random_clusters_step_batched_as_in_one_pass(
+            grains in proptest::collection::vec(
+                (
+                    0.0..0.02f64,
+                    0.0..0.0015f64,
+                    -0.05..0.05f64,
+                    -0.05..0.05f64,
+                    -50.0..50.0f64,
+                    0..3usize,
+                    proptest::bool::weighted(0.15),
+                ),
+                1..60,
+            ),
+            flow: bool,
+        ) {
+            proptest::prop_assert_eq!(cluster::<f64>(&grains, flow, true), cluster::<f64>(&grains, flow, false));
+            proptest::prop_assert_eq!(cluster::<f32>(&grains, flow, true), cluster::<f32>(&grains, flow, false));
+        }
+    }
+
+    /// Steps a random cluster 40 times, batched or one pass: each step's
+    /// outcome and digest, up to the first error.
+    fn cluster<R: Real>(
+        grains: &[Loose],
+        flow: bool,
+        batched: bool,
+    ) -> std::vec::Vec<(Result<(), Error>, u64)> {
+        let mut sim = Sim::<R, 64, 16>::new();
+        let scenario = Scenario::paper();
+        let mut config = scenario.sim_config().unwrap();
+        (config.width, config.y_min) = (0.02, -0.01);
+        sim.reset(&config).unwrap();
+        for &(x, y, u, v, spin, class, fixed) in grains {
+            let spec = GrainSpec {
+                x,
+                y,
+                u,
+                v,
+                spin,
+                diameter: [0.4e-3, 0.5e-3, 0.7e-3][class],
+                fixed,
+                ..GrainSpec::default()
+            };
+            sim.add_grain(&spec).unwrap();
+        }
+        if flow {
+            sim.set_flow(Some(&scenario.flow())).unwrap();
+        }
+        let mut outcomes = std::vec::Vec::new();
+        for _ in 0..40 {
+            let outcome = if batched {
+                sim.step_with::<16, true>()
+            } else {
+                sim.step_with::<0, false>()
+            };
+            let failed = outcome.is_err();
+            outcomes.push((outcome, sim.digest()));
+            if failed {
+                break;
+            }
+        }
+        outcomes
+    }
+
     /// A grain thrown out of the domain fails the batched and the fused
     /// passes alike, in both precisions: the same error, the same state
     /// left behind.
