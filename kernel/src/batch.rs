@@ -645,6 +645,10 @@ macro_rules! lanes {
                     let a = a.as_flattened();
                     core::array::from_fn(|l| a[(q + l) & (cap - 1)] as usize & (N - 1))
                 };
+                // Pair q's grain in `a`.
+                let index = |a: &[[u32; PAIRS]; N], q: usize| {
+                    a.as_flattened()[q & (cap - 1)] as usize & (N - 1)
+                };
                 // Batch t's first grains: its window and their lanes in it.
                 let first_window = |t: usize| {
                     let c = b.window_lanes[t & (N - 1)];
@@ -720,7 +724,6 @@ macro_rules! lanes {
                     }
                     for (t, g) in chunk.zip(&geometry) {
                         let q = t * L;
-                        let j = at(&b.pair_j, q);
                         let Geometry {
                             nx,
                             ny,
@@ -772,17 +775,17 @@ macro_rules! lanes {
                         // sums stay in a register from one to the next instead of
                         // a store and a load that waits for it.
                         let rows = $to_rows([fx, fy, neg(mul(ri, f_s)), neg(mul(rj, f_s))]);
-                        let i = at(&b.pair_i, q);
                         for (l, row) in rows.into_iter().enumerate() {
-                            let base = if i[l] == last.0 {
+                            let (i, j) = (index(&b.pair_i, q + l), index(&b.pair_j, q + l));
+                            let base = if i == last.0 {
                                 last.1
                             } else {
-                                load_row(&b.sums[i[l]])
+                                load_row(&b.sums[i])
                             };
                             let sum = $row_add(base, row);
-                            put_row(&mut b.sums[i[l]], sum);
-                            last = (i[l], sum);
-                            add_row(&mut b.sums[j[l]], $second_row(row));
+                            put_row(&mut b.sums[i], sum);
+                            last = (i, sum);
+                            add_row(&mut b.sums[j], $second_row(row));
                         }
                     }
                 }
