@@ -639,15 +639,13 @@ macro_rules! lanes {
                 let b = &mut *s.batch;
                 let (x, y, u, v, w, r) = (&*s.x, &*s.y, &*s.u, &*s.v, &*s.w, s.r);
                 let cap = N * PAIRS;
-                // Indices of batch q's pairs (< N by construction; masked so that
-                // the compiler sees them in bounds).
-                let at = |a: &[[u32; PAIRS]; N], q: usize| {
-                    let a = a.as_flattened();
-                    core::array::from_fn(|l| a[(q + l) & (cap - 1)] as usize & (N - 1))
-                };
-                // Pair q's grain in `a`.
+                // Pair q's grain in `a` (< N by construction; masked so that the
+                // compiler sees it in bounds), and those of the batch from pair q.
                 let index = |a: &[[u32; PAIRS]; N], q: usize| {
                     a.as_flattened()[q & (cap - 1)] as usize & (N - 1)
+                };
+                let at = |a: &[[u32; PAIRS]; N], q: usize| -> [usize; L] {
+                    core::array::from_fn(|l| index(a, q + l))
                 };
                 // Batch t's first grains: its window and their lanes in it.
                 let first_window = |t: usize| {
@@ -771,9 +769,9 @@ macro_rules! lanes {
                         // the fourth to the second. A first grain's pairs are
                         // consecutive, and no other pair adds to its sums between
                         // them (its second-grain pairs all come earlier; a padding
-                        // pair (w, w) adds zeros), so its
-                        // sums stay in a register from one to the next instead of
-                        // a store and a load that waits for it.
+                        // pair (w, w) adds zeros), so its sums stay in a register
+                        // from one to the next instead of a store and a load that
+                        // waits for it.
                         let rows = $to_rows([fx, fy, neg(mul(ri, f_s)), neg(mul(rj, f_s))]);
                         for (l, row) in rows.into_iter().enumerate() {
                             let (i, j) = (index(&b.pair_i, q + l), index(&b.pair_j, q + l));
