@@ -853,11 +853,27 @@ mod tests {
         }
     }
 
-    fn ring_digest<R: Real>(big_first: bool, batched: bool) -> u64 {
-        let mut sim = Sim::<R, 64, 16>::new();
+    /// An empty 0.02 m wide box of the paper's constants, floor at −0.01 m,
+    /// room for 64 grains of up to 16 neighbours.
+    fn small_box<R: Real>() -> Sim<R, 64, 16> {
+        let mut sim = Sim::new();
         let mut config = Scenario::paper().sim_config().unwrap();
         (config.width, config.y_min) = (0.02, -0.01);
         sim.reset(&config).unwrap();
+        sim
+    }
+
+    /// One step of a [`small_box`], batched or one pass (no buffer).
+    fn step_small_box<R: Real>(sim: &mut Sim<R, 64, 16>, batched: bool) -> Result<(), Error> {
+        if batched {
+            sim.step_with::<16, true>()
+        } else {
+            sim.step_with::<0, false>()
+        }
+    }
+
+    fn ring_digest<R: Real>(big_first: bool, batched: bool) -> u64 {
+        let mut sim = small_box::<R>();
         let big = GrainSpec {
             x: 0.01,
             y: 0.005,
@@ -882,11 +898,7 @@ mod tests {
             sim.add_grain(&big).unwrap();
         }
         for _ in 0..20 {
-            if batched {
-                sim.step_with::<16, true>().unwrap();
-            } else {
-                sim.step_with::<0, false>().unwrap();
-            }
+            step_small_box(&mut sim, batched).unwrap();
         }
         #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
         assert_eq!(sim.nbrs.batch.ready, batched);
@@ -934,11 +946,7 @@ mod tests {
         flow: bool,
         batched: bool,
     ) -> std::vec::Vec<(Result<(), Error>, u64)> {
-        let mut sim = Sim::<R, 64, 16>::new();
-        let scenario = Scenario::paper();
-        let mut config = scenario.sim_config().unwrap();
-        (config.width, config.y_min) = (0.02, -0.01);
-        sim.reset(&config).unwrap();
+        let mut sim = small_box::<R>();
         for &(x, y, u, v, spin, class, fixed) in grains {
             let spec = GrainSpec {
                 x,
@@ -953,15 +961,11 @@ mod tests {
             sim.add_grain(&spec).unwrap();
         }
         if flow {
-            sim.set_flow(Some(&scenario.flow())).unwrap();
+            sim.set_flow(Some(&Scenario::paper().flow())).unwrap();
         }
         let mut outcomes = std::vec::Vec::new();
         for _ in 0..40 {
-            let outcome = if batched {
-                sim.step_with::<16, true>()
-            } else {
-                sim.step_with::<0, false>()
-            };
+            let outcome = step_small_box(&mut sim, batched);
             let failed = outcome.is_err();
             outcomes.push((outcome, sim.digest()));
             if failed {
