@@ -20,7 +20,10 @@
 //!
 //! Pairs are listed by first grain and padded so that each batch's first
 //! grains lie in one window of lanes' worth of grains: their values are a
-//! vector load and a permutation; only the second grains' are gathered.
+//! vector load and a permutation. In f32 the padding also keeps a batch's
+//! second grains within 16 grains of that window's start (two loads, two
+//! permutations and a blend) unless a pair crosses the periodic boundary;
+//! other second grains are gathered.
 //!
 //! While the storage is ready it holds the spring history, in pair order
 //! (vector loads and stores); the slots get it back before the fused pass
@@ -50,6 +53,24 @@ const PAIRS: usize = 4;
 
 /// `pair_k` of a padding pair (w, w), which has no slot.
 const SELF_PAIR: u8 = u8::MAX;
+
+/// [`Batch::second_lanes`] of a batch whose second grains are gathered.
+const FAR: u8 = u8::MAX;
+
+/// Grains in the window of a batch's second grains, from its window start
+/// (0: none, all gathered): 16 for 8 lanes (f32). Grains are numbered
+/// column by column, so a grain's contacts lie a few grains ahead, and
+/// 8 pairs' second grains nearly always lie within 16 grains of their
+/// first grains' window; two vector loads and permutations then replace
+/// eight loads and seven inserts. For 4 lanes (f64) a window would need
+/// as many permutations as the gather needs inserts.
+const fn second_window(lanes: usize) -> usize {
+    if lanes >= 8 {
+        2 * lanes
+    } else {
+        0
+    }
+}
 
 /// The batched step's storage, rebuilt with the neighbour slots; a
 /// [`Pad`] after each array, as in [`crate::grains::Grains`] (arrays of a
@@ -87,6 +108,13 @@ pub(crate) struct Batch<R: Real, const N: usize, const K: usize> {
     /// load and one permutation instead of a gather.
     window_lanes: [[u8; 8]; N],
     _pad11: Pad,
+    /// Per batch of pairs, the 32-bit lanes that pick each pair's second
+    /// grain from the [`second_window`] grains from the batch's window
+    /// start (values 0 to 15: the low three bits pick a lane of a vector,
+    /// the fourth which of two), or [`FAR`] first if they do not lie there
+    /// (then they are gathered).
+    second_lanes: [[u8; 8]; N],
+    _pad12: Pad,
     /// Per grain, its sums during a step: force (x, y), torque, and a
     /// fourth value that is never read. Zero between steps.
     sums: [[R; 4]; N],
@@ -120,6 +148,8 @@ impl<R: Real, const N: usize, const K: usize> Batch<R, N, K> {
             start: [0; N],
             window_lanes: [[0; 8]; N],
             _pad11: PAD,
+            second_lanes: [[FAR; 8]; N],
+            _pad12: PAD,
             sums: [[R::ZERO; 4]; N],
             _pad6: PAD,
             mobile: [R::ZERO; N],
@@ -160,11 +190,13 @@ impl<R: Real, const N: usize, const K: usize> Batch<R, N, K> {
             e_s: self.e_s.as_flattened_mut(),
             len: 0,
             lanes,
+            second: second_window(lanes),
+            last_start: N.saturating_sub(lanes),
         };
         for (m, ((&c, js), springs)) in count.iter().zip(other).zip(spring).take(n).enumerate() {
             let own = usize::from(c).min(K);
-            // A batch's first grains lie in one window of `lanes` grains.
-            if own > 0 && list.window_of_batch().is_some_and(|w| m - w >= lanes) && !list.pad() {
+            // A grain's pairs are consecutive: a new batch starts before them.
+            if own > 0 && list.leaves_windows(m, &js[..own]) && !list.pad() {
                 return;
             }
             self.start[m] = list.len as u32;
@@ -191,10 +223,15 @@ impl<R: Real, const N: usize, const K: usize> Batch<R, N, K> {
     /// first `pairs` pairs, `lanes` per batch: false if a batch's first
     /// grains do not lie in its window.
     fn find_windows(&mut self, pairs: usize, lanes: usize) -> bool {
-        let pair_i = self.pair_i.as_flattened();
+        let (pair_i, pair_j) = (self.pair_i.as_flattened(), self.pair_j.as_flattened());
+        let pairs = pairs.min(pair_i.len()).min(pair_j.len());
         let per_lane = 8 / lanes.max(1);
-        let batches = pair_i[..pairs.min(pair_i.len())].chunks_exact(lanes.max(1));
-        for (batch, control) in batches.zip(&mut self.window_lanes) {
+        let second = second_window(lanes) as u32;
+        let batches = pair_i[..pairs]
+            .chunks_exact(lanes.max(1))
+            .zip(pair_j[..pairs].chunks_exact(lanes.max(1)));
+        let controls = self.window_lanes.iter_mut().zip(&mut self.second_lanes);
+        for ((batch, seconds), (control, second_control)) in batches.zip(controls) {
             let first = window_start::<N>(batch[0], lanes) as u32;
             if batch.iter().any(|&i| i.wrapping_sub(first) >= lanes as u32) {
                 return false;
@@ -202,6 +239,14 @@ impl<R: Real, const N: usize, const K: usize> Batch<R, N, K> {
             for (e, entry) in control.iter_mut().enumerate() {
                 let lane = batch.get(e / per_lane).map_or(0, |&i| i - first);
                 *entry = (lane as usize * per_lane + e % per_lane) as u8;
+            }
+            let near = (first as usize + second as usize) <= N
+                && seconds.iter().all(|&j| j.wrapping_sub(first) < second);
+            *second_control = [FAR; 8];
+            if near {
+                for (entry, &j) in second_control.iter_mut().zip(seconds) {
+                    *entry = (j - first) as u8;
+                }
             }
         }
         true
@@ -256,6 +301,10 @@ struct PairList<'a, R> {
     e_s: &'a mut [R],
     len: usize,
     lanes: usize,
+    /// [`second_window`] of the lanes, and the last window start
+    /// ([`window_start`]).
+    second: usize,
+    last_start: usize,
 }
 
 impl<R: Real> PairList<'_, R> {
@@ -278,6 +327,22 @@ impl<R: Real> PairList<'_, R> {
         let filled = self.len % self.lanes.max(1);
         let first = self.i.get(self.len.wrapping_sub(filled))?;
         (filled > 0).then_some(*first as usize)
+    }
+
+    /// Whether grain m's pairs, with second grains `js`, must start a new
+    /// batch: m lies outside the first grains' window of the batch being
+    /// filled, or one of `js` outside that batch's second window but inside
+    /// the one a batch from m would have (a pair that no window holds,
+    /// across the periodic boundary, joins the batch, whose second grains
+    /// are then gathered).
+    fn leaves_windows(&self, m: usize, js: &[u32]) -> bool {
+        let Some(w) = self.window_of_batch() else {
+            return false;
+        };
+        let holds = |first: usize, j: u32| {
+            (j as usize).wrapping_sub(first.min(self.last_start)) < self.second
+        };
+        m - w >= self.lanes || (self.second > 0 && js.iter().any(|&j| !holds(w, j) && holds(m, j)))
     }
 
     /// Fills the batch being filled with pairs (w, w) of its first grain w:
@@ -364,7 +429,7 @@ pub(crate) use f64x4::batched_step as batched_step_f64;
 /// precision `$R` (raw bits `$bits`), vector `$V` of `$lanes` lanes, and
 /// the precision's intrinsics; rows of a grain's four sums are `$Row`, and
 /// `$to_rows` and `$from_rows` transpose four vectors to a row per lane and
-/// back. `unsafe` appears five times in the macro: the call of a
+/// back; `$to_mask` reads integer lanes as a lane mask. `unsafe` appears five times in the macro: the call of a
 /// `#[target_feature]` function, sound because the build enables AVX2
 /// (`cfg(target_feature = "avx2")`), and the loads and stores of a vector
 /// from and to a `[$R; $lanes]` and of a row from and to a `[$R; 4]`,
@@ -375,7 +440,7 @@ macro_rules! lanes {
         $module:ident, $R:ty, $bits:ty, $V:ty, $lanes:literal,
         $loadu:ident, $storeu:ident, $setzero:ident, $set1:ident, $gather:expr, $permute:expr,
         $Row:ty, $row_loadu:ident, $row_storeu:ident, $row_add:ident, $second_row:expr,
-        $to_rows:expr, $from_rows:expr,
+        $to_rows:expr, $from_rows:expr, $to_mask:ident,
         $add:ident, $sub:ident, $mul:ident, $div:ident, $sqrt:ident,
         $and:ident, $andnot:ident, $xor:ident, $blendv:ident, $cmp:ident,
         $max:ident, $movemask:ident
@@ -389,6 +454,8 @@ macro_rules! lanes {
 
             /// Lanes per vector.
             const L: usize = $lanes;
+            /// Second grains from a window ([`super::second_window`]).
+            const SECOND_WINDOW: bool = super::second_window(L) == 2 * L;
             const _: () = assert!(L == <$R as Real>::LANES);
 
             /// The batched step ([`super::batched_step`]).
@@ -647,12 +714,30 @@ macro_rules! lanes {
                 let at = |a: &[[u32; PAIRS]; N], q: usize| -> [usize; L] {
                     core::array::from_fn(|l| index(a, q + l))
                 };
+                let control =
+                    |c: [u8; 8]| _mm256_cvtepu8_epi32(_mm_cvtsi64_si128(i64::from_le_bytes(c)));
                 // Batch t's first grains: its window and their lanes in it.
                 let first_window = |t: usize| {
-                    let c = b.window_lanes[t & (N - 1)];
-                    let lanes = _mm256_cvtepu8_epi32(_mm_cvtsi64_si128(i64::from_le_bytes(c)));
+                    let lanes = control(b.window_lanes[t & (N - 1)]);
                     let first = b.pair_i.as_flattened()[(t * L) & (cap - 1)];
                     (super::window_start::<N>(first, L), lanes)
+                };
+                // Batch t's second grains' x, y, r, u, v, ω: from its second
+                // window (from `start`), or gathered.
+                let second_grains = |t: usize, start: usize| {
+                    let grains = [x, y, r, u, v, w];
+                    let c = b.second_lanes[t & (N - 1)];
+                    if SECOND_WINDOW && c[0] != super::FAR {
+                        let lanes = control(c);
+                        let high = $to_mask(_mm256_slli_epi32::<28>(lanes));
+                        grains.map(|a| {
+                            let low = window(a, start, lanes);
+                            select(low, window(a, start + L, lanes), high)
+                        })
+                    } else {
+                        let j = at(&b.pair_j, t * L);
+                        grains.map(|a| gather(a, &j))
+                    }
                 };
 
                 // Chunks of batches: first their geometry (square root, division)
@@ -679,18 +764,17 @@ macro_rules! lanes {
                     let chunk = chunk..batches.min(chunk + CHUNK);
                     // Geometry (State::contact).
                     for (t, g) in chunk.clone().zip(&mut geometry) {
-                        let q = t * L;
-                        let j = at(&b.pair_j, q);
                         let (start, lanes) = first_window(t);
                         let own = |a: &[$R; N]| window(a, start, lanes);
-                        let d = sub(gather(x, &j), own(x));
+                        let [x_j, y_j, r_j, u_j, v_j, w_j] = second_grains(t, start);
+                        let d = sub(x_j, own(x));
                         let dx = select(
                             select(d, add(d, width), $cmp(d, neg(half_width), _CMP_LT_OQ)),
                             sub(d, width),
                             $cmp(d, half_width, _CMP_GT_OQ),
                         );
-                        let dy = sub(gather(y, &j), own(y));
-                        let (ri, rj) = (own(r), gather(r, &j));
+                        let dy = sub(y_j, own(y));
+                        let (ri, rj) = (own(r), r_j);
                         let reach = add(ri, rj);
                         let dist2 = add(mul(dx, dx), mul(dy, dy));
                         let apart = $cmp(dist2, mul(reach, reach), _CMP_GE_OQ);
@@ -698,16 +782,12 @@ macro_rules! lanes {
                         let coincident = $cmp(dist, zero, _CMP_EQ_OQ);
                         let inv = $div(splat(1.0), dist);
                         let (nx, ny) = (mul(dx, inv), mul(dy, inv));
-                        let other = |a: &[$R; N]| gather(a, &j);
                         let (tx, ty) = (ny, neg(nx));
-                        let du = sub(own(u), other(u));
-                        let dv = sub(own(v), other(v));
+                        let du = sub(own(u), u_j);
+                        let dv = sub(own(v), v_j);
                         let v_n = add(mul(du, nx), mul(dv, ny));
                         let spin = mul(ri, own(w));
-                        let v_s = add(
-                            add(neg(add(mul(du, tx), mul(dv, ty))), spin),
-                            mul(rj, other(w)),
-                        );
+                        let v_s = add(add(neg(add(mul(du, tx), mul(dv, ty))), spin), mul(rj, w_j));
                         *g = Geometry {
                             nx,
                             ny,
@@ -913,6 +993,7 @@ lanes!(
     ),
     super::transpose_f64,
     super::transpose_f64,
+    _mm256_castsi256_pd,
     _mm256_add_pd,
     _mm256_sub_pd,
     _mm256_mul_pd,
@@ -950,6 +1031,7 @@ lanes!(
     ),
     super::rows_f32,
     super::columns_f32,
+    _mm256_castsi256_ps,
     _mm256_add_ps,
     _mm256_sub_ps,
     _mm256_mul_ps,
@@ -1014,4 +1096,64 @@ fn rows_f32(columns: [__m256; 4]) -> [__m128; 8] {
 fn columns_f32(rows: [__m128; 8]) -> [__m256; 4] {
     let pairs: [__m256; 4] = core::array::from_fn(|l| _mm256_set_m128(rows[l + 4], rows[l]));
     transpose_halves_f32(pairs)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// 40 grains numbered as a bed's, column by column, 13 to a column:
+    /// grain m's pairs are the grain above it (m + 1) and its neighbour in
+    /// the next column (m + 13), and grain 3 touches grain 39 across the
+    /// periodic boundary. In f32 lanes: every listed pair is found at its
+    /// grain's start and slot, each batch's first and second grains are
+    /// picked by its controls (a batch of four grains' pairs would reach
+    /// 16 grains ahead: it ends early), and only the batch across the
+    /// boundary gathers its second grains.
+    #[test]
+    fn second_grains_lie_in_windows_but_across_the_boundary() {
+        const N: usize = 64;
+        const K: usize = 4;
+        let n = 40;
+        let mut batch = std::boxed::Box::new(Batch::<f32, N, K>::new());
+        let (mut count, mut other) = ([0u8; N], [[0u32; K]; N]);
+        for m in 0..n {
+            let js = [m + 1, m + 13].into_iter().filter(|&j| j < n);
+            let js = js.chain((m == 3).then_some(39));
+            for j in js {
+                other[m][usize::from(count[m])] = j as u32;
+                count[m] += 1;
+            }
+        }
+        let spring = [[Spring::<f32>::ZERO; K]; N];
+        batch.index(n, &count, &other, &spring, &[false; N]);
+        assert!(batch.ready);
+        let (pair_i, pair_j) = (batch.pair_i.as_flattened(), batch.pair_j.as_flattened());
+        for m in 0..n {
+            for (k, &j) in other[m][..usize::from(count[m])].iter().enumerate() {
+                let q = batch.start[m] as usize + k;
+                assert_eq!((pair_i[q], pair_j[q]), (m as u32, j));
+            }
+        }
+        let mut far = 0;
+        for t in 0..batch.pairs / 8 {
+            let pairs = t * 8..t * 8 + 8;
+            let start = window_start::<N>(pair_i[t * 8], 8);
+            for (l, q) in pairs.clone().enumerate() {
+                let first = usize::from(batch.window_lanes[t][l]);
+                assert_eq!(pair_i[q] as usize, start + first);
+            }
+            if batch.second_lanes[t][0] == FAR {
+                far += 1;
+                assert!(pairs.clone().any(|q| (pair_i[q], pair_j[q]) == (3, 39)));
+                continue;
+            }
+            for (l, q) in pairs.enumerate() {
+                let second = usize::from(batch.second_lanes[t][l]);
+                assert!(second < second_window(8));
+                assert_eq!(pair_j[q] as usize, start + second);
+            }
+        }
+        assert_eq!(far, 1);
+    }
 }
