@@ -217,7 +217,7 @@ pub struct RunSection {
     pub output: PathBuf,
     /// Grain capacity.
     pub capacity: usize,
-    /// Neighbour skin (diameters).
+    /// Largest neighbour skin (diameters; each rebuild adapts it, down to 0.3 of it).
     pub skin_d: f64,
 }
 

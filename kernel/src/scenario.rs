@@ -32,7 +32,7 @@ pub struct Scenario {
     /// The flow of SPEC §6; its `u_star` is replaced by the one of `tau_star`
     /// and its `depth` is also the top of the domain.
     pub flow: FlowConfig,
-    /// Neighbour skin in units of the largest diameter.
+    /// Largest neighbour skin in units of the largest diameter.
     pub skin: f64,
     /// Seed of every random draw.
     pub seed: u64,

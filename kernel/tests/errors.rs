@@ -41,14 +41,16 @@ fn grain_capacity_overflow_is_an_error() {
 #[test]
 fn neighbour_capacity_overflow_is_an_error_not_a_dropped_contact() {
     let sc = Scenario::paper();
-    let mut s = Box::new(Sim::<f64, 128, 2>::new());
+    let mut s = Box::new(Sim::<f64, 128, 1>::new());
     sc.build(&mut *s).unwrap();
-    let err = s.run(10).unwrap_err();
+    // Up to the first build that lists two neighbours of a grain (the
+    // grains start apart and settle into contact).
+    let err = s.run(3000).unwrap_err();
     assert_eq!(
         err,
         Error::CapacityExceeded {
             what: Capacity::NeighboursPerGrain,
-            capacity: 2
+            capacity: 1
         }
     );
 }
