@@ -35,8 +35,9 @@ const SKIN_FLOOR: f64 = 0.3;
 /// the travel exceeds the skin), at least [`SKIN_FLOOR`] of the `largest`
 /// and at most the `largest` (the floor if the travel is NaN). Results do
 /// not depend on it; it depends only on the grains' state (a run restored
-/// from a checkpoint rebuilds as one that rebuilt at that point). A settled bed at the floor lists ~6 % fewer
-/// pairs than at the largest (README, "Speed of the hot loop").
+/// from a checkpoint rebuilds as one that rebuilt at that point). A
+/// settled bed at the floor lists ~9 % fewer pairs than at the largest
+/// (README, "Speed of the hot loop").
 fn adapted_skin<R: Real>(largest: R, step_travel: R) -> R {
     let floor = largest * R::from_f64(SKIN_FLOOR);
     let wanted = step_travel * R::from_f64(2.0 * SKIN_STEPS);

@@ -977,9 +977,9 @@ mod tests {
         outcomes
     }
 
-    /// Each build sizes the skin from the latest step's fastest grain: the
-    /// floor for a bed at rest, between floor and configured skin for a
-    /// settling one, the configured skin once a grain is fast.
+    /// Each build sizes the skin from the fastest grain's speed: the floor
+    /// for a bed at rest, between floor and configured skin for a settling
+    /// one, the configured skin once a grain is fast.
     #[test]
     fn the_skin_follows_the_fastest_grain() {
         let mut sim = Sim::<f64, 64, 8>::new();
