@@ -849,23 +849,28 @@ macro_rules! lanes {
                         // the fourth to the second. A first grain's pairs are
                         // consecutive, and no other pair adds to its sums between
                         // them (its second-grain pairs all come earlier; a padding
-                        // pair (w, w) adds zeros), so its sums stay in a register
-                        // from one to the next instead of a store and a load that
-                        // waits for it.
+                        // pair (w, w) adds zeros, to the stale copy in memory that
+                        // the store overwrites), so its sums stay in a register
+                        // from one to the next and are stored once, when the next
+                        // first grain comes or the pass ends.
                         let rows = $to_rows([fx, fy, neg(mul(ri, f_s)), neg(mul(rj, f_s))]);
                         for (l, row) in rows.into_iter().enumerate() {
                             let (i, j) = (index(&b.pair_i, q + l), index(&b.pair_j, q + l));
                             let base = if i == last.0 {
                                 last.1
                             } else {
+                                if let Some(sums) = b.sums.get_mut(last.0) {
+                                    put_row(sums, last.1);
+                                }
                                 load_row(&b.sums[i])
                             };
-                            let sum = $row_add(base, row);
-                            put_row(&mut b.sums[i], sum);
-                            last = (i, sum);
+                            last = (i, $row_add(base, row));
                             add_row(&mut b.sums[j], $second_row(row));
                         }
                     }
+                }
+                if let Some(sums) = b.sums.get_mut(last.0) {
+                    put_row(sums, last.1);
                 }
             }
 
