@@ -952,6 +952,9 @@ macro_rules! lanes {
                         }
                         continue;
                     }
+                    // Fixed grains keep their state (a whole group of mobile
+                    // grains, the usual case, needs no blend).
+                    let all_mobile = $movemask(mobile) == (1 << L) - 1;
                     for (a, old, new) in [
                         (&mut *s.x, x0, x),
                         (&mut *s.y, y0, y),
@@ -960,7 +963,14 @@ macro_rules! lanes {
                         (&mut *s.w, w0, w),
                     ] {
                         if let Some(values) = group_mut(a, grp) {
-                            put(values, select(old, new, mobile));
+                            put(
+                                values,
+                                if all_mobile {
+                                    new
+                                } else {
+                                    select(old, new, mobile)
+                                },
+                            );
                         }
                     }
                     let v2 = $and(add(mul(u, u), mul(v, v)), mobile);
