@@ -148,7 +148,7 @@ impl<R: Real, const N: usize, const K: usize> Batch<R, N, K> {
             start: [0; N],
             window_lanes: [[0; 8]; N],
             _pad11: PAD,
-            second_lanes: [[FAR; 8]; N],
+            second_lanes: [[0; 8]; N],
             _pad12: PAD,
             sums: [[R::ZERO; 4]; N],
             _pad6: PAD,
