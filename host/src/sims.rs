@@ -49,6 +49,12 @@ mod tests {
         let sc = Scenario::paper();
         let mut a = boxed_sim::<f64, 64, 8>();
         let mut b = Box::new(Sim::<f64, 64, 8>::new());
+        // Every field, not only the digested state.
+        assert_eq!(format!("{a:?}"), format!("{b:?}"));
+        assert_eq!(
+            format!("{:?}", boxed_sim::<f32, 64, 8>()),
+            format!("{:?}", Sim::<f32, 64, 8>::new())
+        );
         assert_eq!(a.digest(), b.digest());
         assert_eq!(
             sc.digests(&mut *a, 200, 200).unwrap(),
