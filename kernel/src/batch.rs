@@ -429,12 +429,13 @@ pub(crate) use f64x4::batched_step as batched_step_f64;
 /// precision `$R` (raw bits `$bits`), vector `$V` of `$lanes` lanes, and
 /// the precision's intrinsics; rows of a grain's four sums are `$Row`, and
 /// `$to_rows` and `$from_rows` transpose four vectors to a row per lane and
-/// back; `$to_mask` reads integer lanes as a lane mask. `unsafe` appears five times in the macro: the call of a
-/// `#[target_feature]` function, sound because the build enables AVX2
-/// (`cfg(target_feature = "avx2")`), and the loads and stores of a vector
-/// from and to a `[$R; $lanes]` and of a row from and to a `[$R; 4]`,
-/// sound because the array is exactly the vector's or row's size and the
-/// unaligned loads and stores need no alignment.
+/// back; `$to_mask` reads integer lanes as a lane mask. `unsafe` appears
+/// five times in the macro: the call of a `#[target_feature]` function,
+/// sound because the build enables AVX2 (`cfg(target_feature = "avx2")`),
+/// and the loads and stores of a vector from and to a `[$R; $lanes]` and
+/// of a row from and to a `[$R; 4]`, sound because the array is exactly
+/// the vector's or row's size and the unaligned loads and stores need no
+/// alignment.
 macro_rules! lanes {
     (
         $module:ident, $R:ty, $bits:ty, $V:ty, $lanes:literal,
