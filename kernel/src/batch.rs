@@ -182,7 +182,7 @@ impl<R: Real, const N: usize, const K: usize> Batch<R, N, K> {
             *mask = R::from_raw(if fixed { 0 } else { u64::MAX });
         }
         self.mobile[n..].fill(R::ZERO);
-        let mut list = PairList {
+        let mut list = PairList::<R, N> {
             i: self.pair_i.as_flattened_mut(),
             j: self.pair_j.as_flattened_mut(),
             k: self.pair_k.as_flattened_mut(),
@@ -190,8 +190,6 @@ impl<R: Real, const N: usize, const K: usize> Batch<R, N, K> {
             e_s: self.e_s.as_flattened_mut(),
             len: 0,
             lanes,
-            second: second_window(lanes),
-            last_start: N.saturating_sub(lanes),
         };
         for (m, ((&c, js), springs)) in count.iter().zip(other).zip(spring).take(n).enumerate() {
             let own = usize::from(c).min(K);
@@ -226,7 +224,6 @@ impl<R: Real, const N: usize, const K: usize> Batch<R, N, K> {
         let (pair_i, pair_j) = (self.pair_i.as_flattened(), self.pair_j.as_flattened());
         let pairs = pairs.min(pair_i.len()).min(pair_j.len());
         let per_lane = 8 / lanes.max(1);
-        let second = second_window(lanes) as u32;
         let batches = pair_i[..pairs]
             .chunks_exact(lanes.max(1))
             .zip(pair_j[..pairs].chunks_exact(lanes.max(1)));
@@ -240,10 +237,11 @@ impl<R: Real, const N: usize, const K: usize> Batch<R, N, K> {
                 let lane = batch.get(e / per_lane).map_or(0, |&i| i - first);
                 *entry = (lane as usize * per_lane + e % per_lane) as u8;
             }
-            let near = (first as usize + second as usize) <= N
-                && seconds.iter().all(|&j| j.wrapping_sub(first) < second);
             *second_control = [FAR; 8];
-            if near {
+            if seconds
+                .iter()
+                .all(|&j| in_second_window::<N>(first as usize, j, lanes))
+            {
                 for (entry, &j) in second_control.iter_mut().zip(seconds) {
                     *entry = (j - first) as u8;
                 }
@@ -293,7 +291,7 @@ impl<R: Real, const N: usize, const K: usize> Batch<R, N, K> {
 
 /// The pair list being built by [`Batch::index`]: first and second grain,
 /// slot and history per pair, `len` pairs so far, `lanes` per batch.
-struct PairList<'a, R> {
+struct PairList<'a, R, const N: usize> {
     i: &'a mut [u32],
     j: &'a mut [u32],
     k: &'a mut [u8],
@@ -301,13 +299,9 @@ struct PairList<'a, R> {
     e_s: &'a mut [R],
     len: usize,
     lanes: usize,
-    /// [`second_window`] of the lanes, and the last window start
-    /// ([`window_start`]).
-    second: usize,
-    last_start: usize,
 }
 
-impl<R: Real> PairList<'_, R> {
+impl<R: Real, const N: usize> PairList<'_, R, N> {
     /// Appends pair (i, j) of slot k with history h: false if full.
     fn push(&mut self, i: u32, j: u32, k: u8, h: Spring<R>) -> bool {
         let q = self.len;
@@ -340,9 +334,9 @@ impl<R: Real> PairList<'_, R> {
             return false;
         };
         let holds = |first: usize, j: u32| {
-            (j as usize).wrapping_sub(first.min(self.last_start)) < self.second
+            in_second_window::<N>(window_start::<N>(first as u32, self.lanes), j, self.lanes)
         };
-        m - w >= self.lanes || (self.second > 0 && js.iter().any(|&j| !holds(w, j) && holds(m, j)))
+        m - w >= self.lanes || js.iter().any(|&j| !holds(w, j) && holds(m, j))
     }
 
     /// Fills the batch being filled with pairs (w, w) of its first grain w:
@@ -367,6 +361,15 @@ impl<R: Real> PairList<'_, R> {
 #[inline]
 fn window_start<const N: usize>(i: u32, lanes: usize) -> usize {
     (i as usize).min(N.saturating_sub(lanes))
+}
+
+/// Whether second grain j lies in the [`second_window`] of a batch whose
+/// window starts at grain `start` (never for f64, whose window is empty),
+/// that window within the grains' arrays.
+#[inline]
+fn in_second_window<const N: usize>(start: usize, j: u32, lanes: usize) -> bool {
+    let width = second_window(lanes);
+    start + width <= N && (j as usize).wrapping_sub(start) < width
 }
 
 /// Whether capacities suit `lanes` lanes (none: 0): N and K powers of
