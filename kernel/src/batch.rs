@@ -87,6 +87,13 @@ pub(crate) struct Batch<R: Real, const N: usize, const K: usize> {
     _pad2: Pad,
     pair_k: [[u8; PAIRS]; N],
     _pad3: Pad,
+    /// Per pair, its grains' radii (r_i, r_j): copied when the pairs are
+    /// indexed (a radius changes only with the grains, which marks the
+    /// slots stale), so a batch loads them instead of gathering them.
+    r_i: [[R; PAIRS]; N],
+    _pad13: Pad,
+    r_j: [[R; PAIRS]; N],
+    _pad14: Pad,
     /// Pairs up to the last listed one (padding pairs between included),
     /// and pairs in whole batches (a multiple of the lanes).
     listed: usize,
@@ -139,6 +146,10 @@ impl<R: Real, const N: usize, const K: usize> Batch<R, N, K> {
             _pad2: PAD,
             pair_k: [[0; PAIRS]; N],
             _pad3: PAD,
+            r_i: [[R::ZERO; PAIRS]; N],
+            _pad13: PAD,
+            r_j: [[R::ZERO; PAIRS]; N],
+            _pad14: PAD,
             listed: 0,
             pairs: 0,
             e_n: [[R::ZERO; PAIRS]; N],
@@ -159,8 +170,8 @@ impl<R: Real, const N: usize, const K: usize> Batch<R, N, K> {
     }
 
     /// Indexes the listed pairs of the first `n` grains (`count`, `other`,
-    /// `spring`: the neighbour slots; `fixed`): pair list with its history
-    /// and windows, lane masks. Not ready (the fused pass runs) if the
+    /// `spring`: the neighbour slots; radii `r`, `fixed`): pair list with
+    /// its radii, history and windows, lane masks. Not ready (the fused pass runs) if the
     /// precision has no lanes or the capacities do not suit them
     /// ([`lanes_fit`]), or the pairs with padding (`PAIRS` per grain) do
     /// not fit.
@@ -170,6 +181,7 @@ impl<R: Real, const N: usize, const K: usize> Batch<R, N, K> {
         count: &[u8; N],
         other: &[[u32; K]; N],
         spring: &[[Spring<R>; K]; N],
+        r: &[R; N],
         fixed: &[bool; N],
     ) {
         let n = n.min(N);
@@ -186,6 +198,9 @@ impl<R: Real, const N: usize, const K: usize> Batch<R, N, K> {
             i: self.pair_i.as_flattened_mut(),
             j: self.pair_j.as_flattened_mut(),
             k: self.pair_k.as_flattened_mut(),
+            r_i: self.r_i.as_flattened_mut(),
+            r_j: self.r_j.as_flattened_mut(),
+            radius: r,
             e_n: self.e_n.as_flattened_mut(),
             e_s: self.e_s.as_flattened_mut(),
             len: 0,
@@ -290,11 +305,15 @@ impl<R: Real, const N: usize, const K: usize> Batch<R, N, K> {
 }
 
 /// The pair list being built by [`Batch::index`]: first and second grain,
-/// slot and history per pair, `len` pairs so far, `lanes` per batch.
+/// slot, radii (from the grains' `radius`) and history per pair, `len`
+/// pairs so far, `lanes` per batch.
 struct PairList<'a, R, const N: usize> {
     i: &'a mut [u32],
     j: &'a mut [u32],
     k: &'a mut [u8],
+    r_i: &'a mut [R],
+    r_j: &'a mut [R],
+    radius: &'a [R; N],
     e_n: &'a mut [R],
     e_s: &'a mut [R],
     len: usize,
@@ -302,15 +321,22 @@ struct PairList<'a, R, const N: usize> {
 }
 
 impl<R: Real, const N: usize> PairList<'_, R, N> {
-    /// Appends pair (i, j) of slot k with history h: false if full.
+    /// Appends pair (i, j) of slot k with history h: false if full (or a
+    /// grain out of bounds).
     fn push(&mut self, i: u32, j: u32, k: u8, h: Spring<R>) -> bool {
         let q = self.len;
+        let radii = (self.radius.get(i as usize), self.radius.get(j as usize));
+        let (Some(&r_i), Some(&r_j)) = radii else {
+            return false;
+        };
         if q >= self.i.len().min(self.j.len()).min(self.k.len())
+            || q >= self.r_i.len().min(self.r_j.len())
             || q >= self.e_n.len().min(self.e_s.len())
         {
             return false;
         }
         (self.i[q], self.j[q], self.k[q]) = (i, j, k);
+        (self.r_i[q], self.r_j[q]) = (r_i, r_j);
         (self.e_n[q], self.e_s[q]) = (h.e_n, h.e_s);
         self.len += 1;
         true
@@ -383,13 +409,12 @@ pub(crate) const fn lanes_fit(n: usize, k: usize, lanes: usize) -> bool {
 /// pair slots and the batch storage.
 pub struct BatchStep<'a, R: Real, const N: usize, const K: usize> {
     pub(crate) n: usize,
-    /// x, y, u, v, ω (moved).
+    /// x, y, u, v, ω (moved; the radii are in the batch storage).
     pub(crate) x: &'a mut [R; N],
     pub(crate) y: &'a mut [R; N],
     pub(crate) u: &'a mut [R; N],
     pub(crate) v: &'a mut [R; N],
     pub(crate) w: &'a mut [R; N],
-    pub(crate) r: &'a [R; N],
     pub(crate) inv_mass: &'a [R; N],
     pub(crate) inv_inertia: &'a [R; N],
     pub(crate) width: R,
@@ -708,7 +733,7 @@ macro_rules! lanes {
                 let (dt, k_n, k_s) = (splat(law.dt), splat(law.k_n), splat(law.k_s));
                 let (eta_n, eta_s, mu) = (splat(law.eta_n), splat(law.eta_s), splat(law.mu));
                 let b = &mut *s.batch;
-                let (x, y, u, v, w, r) = (&*s.x, &*s.y, &*s.u, &*s.v, &*s.w, s.r);
+                let (x, y, u, v, w) = (&*s.x, &*s.y, &*s.u, &*s.v, &*s.w);
                 let cap = N * PAIRS;
                 // Pair q's grain in `a` (< N by construction; masked so that the
                 // compiler sees it in bounds), and those of the batch from pair q.
@@ -726,10 +751,10 @@ macro_rules! lanes {
                     let first = b.pair_i.as_flattened()[(t * L) & (cap - 1)];
                     (super::window_start::<N>(first, L), lanes)
                 };
-                // Batch t's second grains' x, y, r, u, v, ω: from its second
+                // Batch t's second grains' x, y, u, v, ω: from its second
                 // window (from `start`), or gathered.
                 let second_grains = |t: usize, start: usize| {
-                    let grains = [x, y, r, u, v, w];
+                    let grains = [x, y, u, v, w];
                     let c = b.second_lanes[t & (N - 1)];
                     if SECOND_WINDOW && c[0] != super::FAR {
                         let lanes = control(c);
@@ -770,7 +795,7 @@ macro_rules! lanes {
                     for (t, g) in chunk.clone().zip(&mut geometry) {
                         let (start, lanes) = first_window(t);
                         let own = |a: &[$R; N]| window(a, start, lanes);
-                        let [x_j, y_j, r_j, u_j, v_j, w_j] = second_grains(t, start);
+                        let [x_j, y_j, u_j, v_j, w_j] = second_grains(t, start);
                         let d = sub(x_j, own(x));
                         let dx = select(
                             select(d, add(d, width), $cmp(d, neg(half_width), _CMP_LT_OQ)),
@@ -778,7 +803,8 @@ macro_rules! lanes {
                             $cmp(d, half_width, _CMP_GT_OQ),
                         );
                         let dy = sub(y_j, own(y));
-                        let (ri, rj) = (own(r), r_j);
+                        let ri = load_at(b.r_i.as_flattened(), t * L);
+                        let rj = load_at(b.r_j.as_flattened(), t * L);
                         let reach = add(ri, rj);
                         let dist2 = add(mul(dx, dx), mul(dy, dy));
                         let apart = $cmp(dist2, mul(reach, reach), _CMP_GE_OQ);
@@ -1145,7 +1171,7 @@ mod tests {
             }
         }
         let spring = [[Spring::<f32>::ZERO; K]; N];
-        batch.index(n, &count, &other, &spring, &[false; N]);
+        batch.index(n, &count, &other, &spring, &[0.0; N], &[false; N]);
         assert!(batch.ready);
         let (pair_i, pair_j) = (batch.pair_i.as_flattened(), batch.pair_j.as_flattened());
         for m in 0..n {

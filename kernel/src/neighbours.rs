@@ -227,7 +227,7 @@ impl<R: Real, const N: usize, const K: usize> Neighbours<R, N, K> {
         }
         #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
         self.batch
-            .index(n, &self.count, &self.other, &self.spring, &g.fixed);
+            .index(n, &self.count, &self.other, &self.spring, &g.r, &g.fixed);
         self.travel = R::ZERO;
         self.stale = false;
         self.rebuilds = self.rebuilds.wrapping_add(1);

@@ -528,7 +528,6 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
             u: &mut g.u,
             v: &mut g.v,
             w: &mut g.w,
-            r: &g.r,
             inv_mass: &g.inv_mass,
             inv_inertia: &g.inv_inertia,
             width: self.width,
