@@ -23,7 +23,9 @@
 //! vector load and a permutation. In f32 the padding also keeps a batch's
 //! second grains within 16 grains of that window's start (two loads, two
 //! permutations and a blend) unless a pair crosses the periodic boundary;
-//! other second grains are gathered.
+//! other second grains are gathered. Each pair's radii are copied in pair
+//! order when the pairs are indexed, and only chunks of pairs near the
+//! periodic seam take the periodic image of their separation.
 //!
 //! While the storage is ready it holds the spring history, in pair order
 //! (vector loads and stores); the slots get it back before the fused pass
@@ -38,7 +40,7 @@
 use crate::contact::{ContactLaw, Spring};
 use crate::error::Error;
 use crate::flow::Profile;
-use crate::grains::{Pad, PAD};
+use crate::grains::{Grains, Pad, PAD};
 use crate::real::Real;
 use crate::sim::Mover;
 use core::arch::x86_64::{
@@ -50,6 +52,10 @@ use core::arch::x86_64::{
 /// Listed pairs the storage holds per grain on average (a settled bed has
 /// about 2.3; more: the fused pass runs).
 const PAIRS: usize = 4;
+
+/// Batches of pairs whose geometry is found before their laws (the pair
+/// pass's chunks).
+const CHUNK: usize = 8;
 
 /// `pair_k` of a padding pair (w, w), which has no slot.
 const SELF_PAIR: u8 = u8::MAX;
@@ -122,6 +128,10 @@ pub(crate) struct Batch<R: Real, const N: usize, const K: usize> {
     /// (then they are gathered).
     second_lanes: [[u8; 8]; N],
     _pad12: Pad,
+    /// Per chunk of [`CHUNK`] batches, whether a pair of it may need the
+    /// periodic image of its separation ([`Batch::find_seams`]); the
+    /// others' separations are within half the width and skip it.
+    seam: [bool; N],
     /// Per grain, its sums during a step: force (x, y), torque, and a
     /// fourth value that is never read. Zero between steps.
     sums: [[R; 4]; N],
@@ -161,6 +171,7 @@ impl<R: Real, const N: usize, const K: usize> Batch<R, N, K> {
             _pad11: PAD,
             second_lanes: [[0; 8]; N],
             _pad12: PAD,
+            seam: [false; N],
             sums: [[R::ZERO; 4]; N],
             _pad6: PAD,
             mobile: [R::ZERO; N],
@@ -169,28 +180,29 @@ impl<R: Real, const N: usize, const K: usize> Batch<R, N, K> {
         }
     }
 
-    /// Indexes the listed pairs of the first `n` grains (`count`, `other`,
-    /// `spring`: the neighbour slots; radii `r`, `fixed`): pair list with
-    /// its radii, history and windows, lane masks. Not ready (the fused pass runs) if the
+    /// Indexes the listed pairs of the grains `g` (`count`, `other`,
+    /// `spring`: the neighbour slots): pair list with its radii, history
+    /// and windows, lane masks, and the chunks near the periodic seam of a
+    /// bed `width` wide (`margin`: see [`Batch::find_seams`]). Not ready (the fused pass runs) if the
     /// precision has no lanes or the capacities do not suit them
     /// ([`lanes_fit`]), or the pairs with padding (`PAIRS` per grain) do
     /// not fit.
     pub(crate) fn index(
         &mut self,
-        n: usize,
+        g: &Grains<R, N>,
         count: &[u8; N],
         other: &[[u32; K]; N],
         spring: &[[Spring<R>; K]; N],
-        r: &[R; N],
-        fixed: &[bool; N],
+        width: R,
+        margin: R,
     ) {
-        let n = n.min(N);
+        let n = g.len.min(N);
         self.ready = false;
         let lanes = R::LANES;
         if !lanes_fit(N, K, lanes) {
             return;
         }
-        for (mask, &fixed) in self.mobile.iter_mut().zip(fixed).take(n) {
+        for (mask, &fixed) in self.mobile.iter_mut().zip(&g.fixed).take(n) {
             *mask = R::from_raw(if fixed { 0 } else { u64::MAX });
         }
         self.mobile[n..].fill(R::ZERO);
@@ -200,7 +212,7 @@ impl<R: Real, const N: usize, const K: usize> Batch<R, N, K> {
             k: self.pair_k.as_flattened_mut(),
             r_i: self.r_i.as_flattened_mut(),
             r_j: self.r_j.as_flattened_mut(),
-            radius: r,
+            radius: &g.r,
             e_n: self.e_n.as_flattened_mut(),
             e_s: self.e_s.as_flattened_mut(),
             len: 0,
@@ -228,6 +240,7 @@ impl<R: Real, const N: usize, const K: usize> Batch<R, N, K> {
         if !self.find_windows(pairs, lanes) {
             return;
         }
+        self.find_seams(pairs, lanes, &g.x, width, margin);
         (self.listed, self.pairs) = (listed, pairs);
         self.ready = true;
     }
@@ -263,6 +276,40 @@ impl<R: Real, const N: usize, const K: usize> Batch<R, N, K> {
             }
         }
         true
+    }
+
+    /// Marks each chunk of the first `pairs` pairs ([`CHUNK`] batches of
+    /// `lanes`) that has a grain within `margin` of the periodic seam (x
+    /// below it, or above `width` less it; any x that is not a number).
+    /// With `margin` at least the neighbour cutoff plus the skin, every pair
+    /// whose separation can exceed half the width before the next rebuild
+    /// is in a marked chunk: a listed pair across the seam has both grains
+    /// within the cutoff of it, and a grain moves less than half a skin
+    /// between rebuilds, so only one that starts within that of the seam
+    /// can wrap around it.
+    fn find_seams(&mut self, pairs: usize, lanes: usize, x: &[R; N], width: R, margin: R) {
+        let (pair_i, pair_j) = (self.pair_i.as_flattened(), self.pair_j.as_flattened());
+        let pairs = pairs.min(pair_i.len()).min(pair_j.len());
+        let near = |g: u32| {
+            x.get(g as usize)
+                .is_none_or(|&x| !(x >= margin && x <= width - margin))
+        };
+        let per_chunk = (CHUNK * lanes).max(1);
+        let chunks = pair_i[..pairs]
+            .chunks(per_chunk)
+            .zip(pair_j[..pairs].chunks(per_chunk));
+        self.seam.fill(false);
+        for ((firsts, seconds), seam) in chunks.zip(&mut self.seam) {
+            *seam = firsts.iter().chain(seconds).any(|&g| near(g));
+        }
+    }
+
+    /// Chunks of pairs marked as near the seam, and chunks.
+    #[cfg(test)]
+    pub(crate) fn chunks_near_the_seam(&self) -> (usize, usize) {
+        let chunks = self.pairs.div_ceil(CHUNK * R::LANES.max(1));
+        let marked = self.seam.iter().take(chunks).filter(|&&s| s).count();
+        (marked, chunks)
     }
 
     /// The history of grain i's used slot k while the storage is ready,
@@ -476,7 +523,7 @@ macro_rules! lanes {
     ) => {
         #[allow(unsafe_code)]
         mod $module {
-            use super::{BatchStep, PAIRS};
+            use super::{BatchStep, CHUNK, PAIRS};
             use crate::error::Error;
             use crate::real::Real;
             use core::arch::x86_64::*;
@@ -694,9 +741,6 @@ macro_rules! lanes {
                 }
             }
 
-            /// Batches of pairs whose geometry is found before their laws.
-            const CHUNK: usize = 8;
-
             /// A batch's geometry and relative speeds: what its laws need of it
             /// (`State::contact`).
             #[derive(Clone, Copy)]
@@ -790,18 +834,25 @@ macro_rules! lanes {
                     v_s: zero,
                 }; CHUNK];
                 for chunk in (0..batches).step_by(CHUNK) {
+                    let seam = b.seam[(chunk / CHUNK) & (N - 1)];
                     let chunk = chunk..batches.min(chunk + CHUNK);
                     // Geometry (State::contact).
                     for (t, g) in chunk.clone().zip(&mut geometry) {
                         let (start, lanes) = first_window(t);
                         let own = |a: &[$R; N]| window(a, start, lanes);
                         let [x_j, y_j, u_j, v_j, w_j] = second_grains(t, start);
+                        // The periodic image: d itself (within half the width)
+                        // away from the seam.
                         let d = sub(x_j, own(x));
-                        let dx = select(
-                            select(d, add(d, width), $cmp(d, neg(half_width), _CMP_LT_OQ)),
-                            sub(d, width),
-                            $cmp(d, half_width, _CMP_GT_OQ),
-                        );
+                        let dx = if seam {
+                            select(
+                                select(d, add(d, width), $cmp(d, neg(half_width), _CMP_LT_OQ)),
+                                sub(d, width),
+                                $cmp(d, half_width, _CMP_GT_OQ),
+                            )
+                        } else {
+                            d
+                        };
                         let dy = sub(y_j, own(y));
                         let ri = load_at(b.r_i.as_flattened(), t * L);
                         let rj = load_at(b.r_j.as_flattened(), t * L);
@@ -1171,7 +1222,9 @@ mod tests {
             }
         }
         let spring = [[Spring::<f32>::ZERO; K]; N];
-        batch.index(n, &count, &other, &spring, &[0.0; N], &[false; N]);
+        let mut grains = std::boxed::Box::new(Grains::<f32, N>::new());
+        grains.len = n;
+        batch.index(&grains, &count, &other, &spring, 1.0, 1.0);
         assert!(batch.ready);
         let (pair_i, pair_j) = (batch.pair_i.as_flattened(), batch.pair_j.as_flattened());
         for m in 0..n {

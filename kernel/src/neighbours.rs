@@ -226,8 +226,14 @@ impl<R: Real, const N: usize, const K: usize> Neighbours<R, N, K> {
             self.merge_into_slots(i, &found);
         }
         #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
-        self.batch
-            .index(n, &self.count, &self.other, &self.spring, &g.r, &g.fixed);
+        self.batch.index(
+            g,
+            &self.count,
+            &self.other,
+            &self.spring,
+            width,
+            cutoff + self.skin,
+        );
         self.travel = R::ZERO;
         self.stale = false;
         self.rebuilds = self.rebuilds.wrapping_add(1);

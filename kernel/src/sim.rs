@@ -854,6 +854,53 @@ mod tests {
         }
     }
 
+    /// A bed 24 columns wide drifting across the periodic seam at 1 m/s
+    /// (grains of the last column wrap around between rebuilds), so that
+    /// chunks of pairs away from the seam skip the periodic image and those
+    /// near it do not: the batched step gives the one-pass bits step after
+    /// step, in both precisions. It fails if the chunks near the seam are
+    /// not marked.
+    #[test]
+    fn a_bed_drifting_across_the_seam_steps_batched_as_in_one_pass() {
+        drifts_across_the_seam::<f64>();
+        drifts_across_the_seam::<f32>();
+    }
+
+    fn drifts_across_the_seam<R: Real>() {
+        let mut sc = Scenario::paper();
+        sc.bed.columns = 24;
+        let mut batched = std::boxed::Box::new(Sim::<R, 512, 8>::new());
+        sc.build(&mut batched).unwrap();
+        batched.run(8000).unwrap();
+        for i in 0..batched.len() {
+            if !batched.grains.fixed[i] {
+                batched.grains.u[i] = R::from_f64(1.0);
+            }
+        }
+        let mut one_pass = batched.clone();
+        let mut wraps = 0;
+        for _ in 0..400 {
+            let xs = batched.grains.x;
+            batched.step_with::<8, true>().unwrap();
+            one_pass.step_with::<0, false>().unwrap();
+            assert_eq!(batched.digest(), one_pass.digest());
+            let half = 0.5 * batched.width.to_f64();
+            wraps += (0..batched.len())
+                .filter(|&i| (xs[i] - batched.grains.x[i]).to_f64() > half)
+                .count();
+        }
+        assert!(wraps >= 10, "{wraps} grains wrapped around");
+        assert!(
+            batched.contacts().count() > batched.len(),
+            "a bed in contact"
+        );
+        #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+        {
+            let (marked, chunks) = batched.nbrs.batch.chunks_near_the_seam();
+            assert!(marked > 0 && marked < chunks, "{marked} of {chunks}");
+        }
+    }
+
     /// An empty 0.02 m wide box of the paper's constants, floor at −0.01 m,
     /// room for 64 grains of up to 16 neighbours.
     fn small_box<R: Real>() -> Sim<R, 64, 16> {
