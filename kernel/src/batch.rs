@@ -995,16 +995,24 @@ macro_rules! lanes {
                     let w = add(w0, mul(mul(torque, at(s.inv_inertia)), dt));
                     let x = add(x0, mul(u, dt));
                     let y = add(y0, mul(v, dt));
-                    let over = $cmp(x, width, _CMP_GE_OQ);
-                    let under = $cmp(x, zero, _CMP_LT_OQ);
-                    let wrapped = add(x, width);
-                    let wrapped = $andnot($cmp(wrapped, width, _CMP_GE_OQ), wrapped);
-                    let x = select(select(x, wrapped, under), sub(x, width), over);
+                    let inside =
+                        |x: $V| $and($cmp(x, zero, _CMP_GE_OQ), $cmp(x, width, _CMP_LT_OQ));
+                    let mut in_x = inside(x);
+                    // The periodic wrap, where a grain left [0, L) (x is
+                    // its own wrap inside).
+                    let x = if $movemask(in_x) == (1 << L) - 1 {
+                        x
+                    } else {
+                        let over = $cmp(x, width, _CMP_GE_OQ);
+                        let under = $cmp(x, zero, _CMP_LT_OQ);
+                        let wrapped = add(x, width);
+                        let wrapped = $andnot($cmp(wrapped, width, _CMP_GE_OQ), wrapped);
+                        let x = select(select(x, wrapped, under), sub(x, width), over);
+                        in_x = inside(x);
+                        x
+                    };
                     let ok = $and(
-                        $and(
-                            $cmp($and(w, abs), largest, _CMP_LE_OQ),
-                            $and($cmp(x, zero, _CMP_GE_OQ), $cmp(x, width, _CMP_LT_OQ)),
-                        ),
+                        $and($cmp($and(w, abs), largest, _CMP_LE_OQ), in_x),
                         $and($cmp(y, y_min, _CMP_GE_OQ), $cmp(y, y_max, _CMP_LE_OQ)),
                     );
                     if $movemask($andnot(ok, mobile)) != 0 {
