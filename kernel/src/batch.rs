@@ -183,10 +183,10 @@ impl<R: Real, const N: usize, const K: usize> Batch<R, N, K> {
     /// Indexes the listed pairs of the grains `g` (`count`, `other`,
     /// `spring`: the neighbour slots): pair list with its radii, history
     /// and windows, lane masks, and the chunks near the periodic seam of a
-    /// bed `width` wide (`margin`: see [`Batch::find_seams`]). Not ready (the fused pass runs) if the
-    /// precision has no lanes or the capacities do not suit them
-    /// ([`lanes_fit`]), or the pairs with padding (`PAIRS` per grain) do
-    /// not fit.
+    /// bed `width` wide (`margin`: see [`Batch::find_seams`]). Not ready
+    /// (the fused pass runs) if the precision has no lanes or the
+    /// capacities do not suit them ([`lanes_fit`]), or the pairs with
+    /// padding (`PAIRS` per grain) do not fit.
     pub(crate) fn index(
         &mut self,
         g: &Grains<R, N>,
