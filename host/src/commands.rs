@@ -111,12 +111,12 @@ impl Derived {
             k_s: c.k_s,
             eta_n: c.eta_n,
             eta_s: c.eta_s,
-            dt_integration: sc.dt(),
+            dt_integration: sc.step_dt(),
             explicit_damping_number: explicit_damping_number(
                 &c,
                 &sc.material,
                 sc.bed.max_diameter(),
-                sc.dt(),
+                sc.step_dt(),
             ),
             width: sc.bed.width(),
             max_grains: sc.bed.columns as usize
@@ -409,7 +409,7 @@ pub fn bench_command(
     let (case, beta) = (job.case, job.bed.beta);
     let sc = job.bed.scenario(job.bed.columns());
     if precision == Precision::F32 && !common.quiet {
-        if let Some(w) = crate::config::f32_width_warning(sc.bed.width(), sc.dt()) {
+        if let Some(w) = crate::config::f32_width_warning(sc.bed.width(), sc.step_dt()) {
             eprintln!("warning: {w}");
         }
     }

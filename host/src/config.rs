@@ -290,7 +290,7 @@ impl Default for TimeSection {
     fn default() -> Self {
         let p = Scenario::paper();
         TimeSection {
-            dt: p.rule.dt,
+            dt: p.rule.constants_dt,
             substeps: p.substeps,
             settle: 0.2,
             spin_up: 0.2,
@@ -396,7 +396,7 @@ impl Config {
 
     /// The integration step Δt/substeps (s).
     pub fn dt(&self) -> f64 {
-        self.scenario.dt()
+        self.scenario.step_dt()
     }
 
     /// Integration steps of `seconds` (rounded).
@@ -656,7 +656,7 @@ fn time_rule(file: &ConfigFile) -> Result<TimeStepRule, ConfigError> {
         alpha_m: c.alpha_m,
         alpha_cn: c.alpha_cn,
         beta: c.beta,
-        dt: file.time.dt,
+        constants_dt: file.time.dt,
     })
 }
 
@@ -757,9 +757,9 @@ fn stability(sc: &Scenario, c: &ContactConstants) -> Result<(), ConfigError> {
     let limit = c.stable_dt_limit(sc.material.translational_mass(d_min));
     let n = f64::from(sc.substeps);
     need(
-        sc.dt() <= limit,
+        sc.step_dt() <= limit,
         "time.dt",
-        sc.rule.dt,
+        sc.rule.constants_dt,
         &format!(
             "<= {:.4e} s with substeps = {} (stability bound dt/substeps <= 2 sqrt(m/k_n), SPEC (11))",
             limit * n,
@@ -831,10 +831,11 @@ pub fn warnings(config: &Config, under_flow: bool) -> Vec<String> {
         out.extend(narrow_bed_warning(&sc.bed, &sc.flow));
     }
     if config.precision == Precision::F32 {
-        out.extend(f32_width_warning(sc.bed.width(), sc.dt()));
+        out.extend(f32_width_warning(sc.bed.width(), sc.step_dt()));
     }
     for class in &sc.bed.classes {
-        let n = explicit_damping_number(&config.contact, &sc.material, class.diameter, sc.dt());
+        let n =
+            explicit_damping_number(&config.contact, &sc.material, class.diameter, sc.step_dt());
         if n > DAMPING_NUMBER_CONVERGED {
             let advice = (f64::from(sc.substeps) * n / DAMPING_NUMBER_CONVERGED).ceil();
             out.push(format!(

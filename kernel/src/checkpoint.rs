@@ -148,7 +148,7 @@ fn read_head<R: Real>(r: &mut Reader<'_>) -> Result<Head, Error> {
         *x = r.f64()?;
     }
     let config = SimConfig {
-        dt: f[0],
+        step_dt: f[0],
         material: Material {
             rho: f[1],
             s: f[2],
@@ -219,7 +219,7 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
         let m = &c.material;
         let k = &c.contact;
         for x in [
-            c.dt,
+            c.step_dt,
             m.rho,
             m.s,
             m.c_m,

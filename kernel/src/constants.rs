@@ -142,8 +142,9 @@ pub struct TimeStepRule {
     pub alpha_cn: f64,
     /// β of (18): α_m' = βα_m, α_cn' = βα_cn (paper: 15.8).
     pub beta: f64,
-    /// Time step Δt (s).
-    pub dt: f64,
+    /// The constants' time step Δt (s) from which (10)–(13) derive k_n and
+    /// η_n; the integration step is Δt/substeps ([`crate::SimConfig::step_dt`]).
+    pub constants_dt: f64,
 }
 
 /// Derives (k_n, k_s, η_n, η_s) from the time step for a grain of diameter `d`
@@ -160,15 +161,15 @@ pub fn contact_constants(
     positive("contact.alpha_m", rule.alpha_m)?;
     crate::error::non_negative("contact.alpha_cn", rule.alpha_cn)?;
     positive("contact.beta", rule.beta)?;
-    positive("time.dt", rule.dt)?;
+    positive("time.constants_dt", rule.constants_dt)?;
     positive("grain.diameter", d)?;
     material.validate()?;
     let m = material.translational_mass(d);
     let alpha_m = rule.beta * rule.alpha_m;
     let alpha_cn = rule.beta * rule.alpha_cn;
-    let k_n = 2.0 * PI * PI * m / ((alpha_m * rule.dt) * (alpha_m * rule.dt));
+    let k_n = 2.0 * PI * PI * m / ((alpha_m * rule.constants_dt) * (alpha_m * rule.constants_dt));
     let two_one_plus_nu = 2.0 * (1.0 + material.nu);
-    let eta_n = (alpha_cn / alpha_m) * 2.0 * core::f64::consts::SQRT_2 * PI * m / rule.dt;
+    let eta_n = (alpha_cn / alpha_m) * 2.0 * core::f64::consts::SQRT_2 * PI * m / rule.constants_dt;
     let out = ContactConstants {
         k_n,
         k_s: k_n / two_one_plus_nu,
@@ -194,7 +195,7 @@ mod tests {
             alpha_m: 20.0,
             alpha_cn: 1.0,
             beta: 1.0,
-            dt: 2.0e-4,
+            constants_dt: 2.0e-4,
         };
         let c = contact_constants(&rule, 0.5e-3, &Material::default()).unwrap();
         assert!(close(c.k_n, 0.2543, 5e-4), "k_n = {}", c.k_n);
@@ -214,7 +215,7 @@ mod tests {
             alpha_m: 20.0,
             alpha_cn: 1.3,
             beta: 1.0,
-            dt: 2.0e-5,
+            constants_dt: 2.0e-5,
         };
         let c1 = contact_constants(&base, d, &mat).unwrap();
         let m = mat.translational_mass(d);
@@ -223,7 +224,7 @@ mod tests {
         assert!(close(c1.k_n / c2.k_n, 15.8 * 15.8, 1e-12));
         assert!(close(c1.eta_n, c2.eta_n, 1e-12));
         // α_m = 20 is inside the stability bound (11).
-        assert!(base.dt < c1.stable_dt_limit(m));
+        assert!(base.constants_dt < c1.stable_dt_limit(m));
     }
 
     #[test]
@@ -234,7 +235,7 @@ mod tests {
                 alpha_m: 20.0,
                 alpha_cn: 1.0,
                 beta,
-                dt,
+                constants_dt: dt,
             };
             let c = contact_constants(&rule, 0.5e-3, &mat).unwrap();
             let n = explicit_damping_number(&c, &mat, 0.5e-3, dt);
@@ -251,13 +252,16 @@ mod tests {
             alpha_m: 20.0,
             alpha_cn: 1.0,
             beta: 1.0,
-            dt: -1.0,
+            constants_dt: -1.0,
         };
         match contact_constants(&rule, 0.5e-3, &Material::default()) {
-            Err(Error::InvalidParameter { name, .. }) => assert_eq!(name, "time.dt"),
+            Err(Error::InvalidParameter { name, .. }) => assert_eq!(name, "time.constants_dt"),
             other => panic!("{other:?}"),
         }
-        let rule = TimeStepRule { dt: 1e-5, ..rule };
+        let rule = TimeStepRule {
+            constants_dt: 1e-5,
+            ..rule
+        };
         assert!(contact_constants(&rule, f64::NAN, &Material::default()).is_err());
     }
 }

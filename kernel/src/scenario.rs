@@ -53,7 +53,7 @@ impl Scenario {
                 alpha_m: 20.0,
                 alpha_cn: 1.3,
                 beta: 15.8,
-                dt: 2.0e-5,
+                constants_dt: 2.0e-5,
             },
             explicit_contact: None,
             substeps: 8,
@@ -80,7 +80,7 @@ impl Scenario {
     pub fn sim_config(&self) -> Result<SimConfig, Error> {
         let d = self.bed.max_diameter();
         Ok(SimConfig {
-            dt: self.dt(),
+            step_dt: self.step_dt(),
             material: self.material,
             contact: self.contact()?,
             gravity: [0.0, -G],
@@ -93,8 +93,8 @@ impl Scenario {
     }
 
     /// The integration time step Δt/substeps (s).
-    pub fn dt(&self) -> f64 {
-        self.rule.dt / f64::from(self.substeps.max(1))
+    pub fn step_dt(&self) -> f64 {
+        self.rule.constants_dt / f64::from(self.substeps.max(1))
     }
 
     /// The flow at this scenario's τ*: u* from τ* for the largest grain, hold

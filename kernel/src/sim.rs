@@ -24,8 +24,8 @@ const GEOMETRY_AHEAD: bool = !cfg!(target_os = "none");
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct SimConfig {
-    /// Time step Δt (s).
-    pub dt: f64,
+    /// The integration step (s): Δt/substeps of the constants' time step.
+    pub step_dt: f64,
     /// Fluid and grain material.
     pub material: Material,
     /// Contact springs and dashpots, e.g. from [`crate::contact_constants`].
@@ -48,7 +48,7 @@ pub struct SimConfig {
 impl SimConfig {
     /// Checks every field; the error names the first bad one.
     pub fn validate(&self) -> Result<(), Error> {
-        positive("time.dt", self.dt)?;
+        positive("step_dt", self.step_dt)?;
         self.material.validate()?;
         self.contact.validate()?;
         finite("gravity.x", self.gravity[0])?;
@@ -96,9 +96,9 @@ pub(crate) fn check_grain(c: &SimConfig, spec: &GrainSpec) -> Result<(), Error> 
             .contact
             .stable_dt_limit(c.material.translational_mass(spec.diameter));
         check(
-            c.dt <= limit,
-            "time.dt",
-            c.dt,
+            c.step_dt <= limit,
+            "step_dt",
+            c.step_dt,
             "<= 2 sqrt(m/k_n) of every grain (SPEC (11))",
         )?;
     }
@@ -172,7 +172,7 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
             grains: Grains::new(),
             nbrs: Neighbours::new(),
             config: SimConfig {
-                dt: 0.0,
+                step_dt: 0.0,
                 material: ZERO_MATERIAL,
                 contact: ContactConstants {
                     k_n: 0.0,
@@ -211,7 +211,7 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
         self.grains.len = 0;
         self.nbrs.clear();
         self.nbrs
-            .set_skin(R::from_f64(config.skin), R::from_f64(config.dt));
+            .set_skin(R::from_f64(config.skin), R::from_f64(config.step_dt));
         self.config = *config;
         self.configured = true;
         self.law = ContactLaw {
@@ -220,9 +220,9 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
             eta_n: R::from_f64(config.contact.eta_n),
             eta_s: R::from_f64(config.contact.eta_s),
             mu: R::from_f64(m.mu),
-            dt: R::from_f64(config.dt),
+            dt: R::from_f64(config.step_dt),
         };
-        self.dt = R::from_f64(config.dt);
+        self.dt = R::from_f64(config.step_dt);
         let reduce = (m.s - 1.0) / (m.s + m.c_m);
         self.g_red = [
             R::from_f64(config.gravity[0] * reduce),
@@ -568,7 +568,7 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
 
     /// Simulated time since [`Sim::reset`] (s).
     pub fn time(&self) -> f64 {
-        self.step as f64 * self.config.dt
+        self.step as f64 * self.config.step_dt
     }
 
     /// The configuration in force.

@@ -35,7 +35,7 @@ fn refined(mut s: Scenario) -> Scenario {
 fn paper_constants_jitter() {
     let sc = packing();
     let c = sc.sim_config().unwrap();
-    let number = mbs_kernel::explicit_damping_number(&c.contact, &c.material, 0.5e-3, c.dt);
+    let number = mbs_kernel::explicit_damping_number(&c.contact, &c.material, 0.5e-3, c.step_dt);
     assert!(number > 2.0, "{number}");
     let mut sim = boxed::<f64>();
     sc.build(&mut *sim).unwrap();
@@ -48,7 +48,7 @@ fn paper_constants_jitter() {
     assert!(fastest > 1e-3, "jitter persists: {fastest}");
     // The same constants at Δt/4 (number ≈ 0.55) settle fully: `settle` tests.
     let fine = refined(sc);
-    let n4 = mbs_kernel::explicit_damping_number(&c.contact, &c.material, 0.5e-3, fine.dt());
+    let n4 = mbs_kernel::explicit_damping_number(&c.contact, &c.material, 0.5e-3, fine.step_dt());
     assert!((n4 - number / 4.0).abs() < 1e-12);
 }
 

@@ -79,13 +79,13 @@ fn non_finite_and_out_of_range_inputs_are_named() {
         }
     }
     let bad = SimConfig {
-        dt: f64::NAN,
+        step_dt: f64::NAN,
         ..cfg
     };
     assert!(matches!(
         s.reset(&bad),
         Err(Error::InvalidParameter {
-            name: "time.dt",
+            name: "step_dt",
             ..
         })
     ));
@@ -106,7 +106,7 @@ fn time_step_beyond_the_stability_bound_is_refused() {
         matches!(
             err,
             Error::InvalidParameter {
-                name: "time.dt",
+                name: "step_dt",
                 ..
             }
         ),

@@ -187,7 +187,7 @@ fn settling_velocity<R: Real>(_tol: f64) {
     let tau = w_t * (sg + cm) / ((sg - 1.0) * g);
     assert!((w_t - 0.1642).abs() < 1e-3 && (tau - 0.0320).abs() < 1e-3);
     for t_ms in [5.0, 20.0, 32.0, 60.0, 120.0] {
-        let target = (t_ms * 1e-3 / cfg.dt).round() as u64;
+        let target = (t_ms * 1e-3 / cfg.step_dt).round() as u64;
         s.run(target - s.step_count()).unwrap();
         let w = -s.grain(0).unwrap().v;
         let exact = w_t * (s.time() / tau).tanh();
@@ -209,7 +209,7 @@ fn pocket_pivot<R: Real>(_tol: f64) {
                 alpha_m: 20.0,
                 alpha_cn: 1.3,
                 beta: 1.0,
-                dt: 2e-5,
+                constants_dt: 2e-5,
             },
             D,
             &mat,

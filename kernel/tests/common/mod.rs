@@ -25,7 +25,7 @@ pub fn mass() -> f64 {
 pub fn config(dt: f64, k_n: f64, eta_n: f64, mu: f64) -> SimConfig {
     let two_one_plus_nu: f64 = 2.0 * 1.3;
     SimConfig {
-        dt,
+        step_dt: dt,
         material: Material {
             mu,
             ..Material::default()
