@@ -188,11 +188,14 @@ fn shards_merge_to_the_serial_result_and_threads_change_nothing() {
 fn a_calibration_killed_at_random_moments_finishes_with_the_same_results() {
     let root = tempfile::tempdir().unwrap();
     let reference = root.path().join("reference");
-    calibrate(&reference, &["--stage", "2"]);
+    // Kills at 5–65 % of an uninterrupted calibration's wall time, whatever
+    // the build's speed.
+    let ((), wall) = timed(|| calibrate(&reference, &["--stage", "2"]));
     let out = root.path().join("killed");
     let bin = assert_cmd::cargo::cargo_bin("mbs");
     let mut kills = 0;
-    for delay in random_delays(99, 30, 300).take(5) {
+    let delays = random_fractions(99).map(|f| wall.mul_f64(0.05 + 0.6 * f));
+    for delay in delays.take(5) {
         let mut c = std::process::Command::new(&bin);
         c.args(["--quiet", "calibrate", "--quick", "--stage", "2", "--out"])
             .arg(&out);

@@ -8,7 +8,6 @@ mod common;
 use common::*;
 use predicates::prelude::*;
 use std::path::{Path, PathBuf};
-use std::time::Duration;
 
 fn setup_with(text: &str) -> (tempfile::TempDir, PathBuf) {
     let dir = tempfile::tempdir().unwrap();
@@ -73,13 +72,16 @@ fn stopped_anywhere_and_resumed_gives_the_same_table() {
 
 #[test]
 fn killed_at_random_moments_and_resumed_gives_the_same_table() {
-    // Ten times longer windows: a run lasts long enough to be killed.
-    let (dir, cfg) = setup_with(&SMALL.replace("window = 0.05", "window = 0.5"));
-    let reference = uninterrupted(&cfg, &dir.path().join("reference"));
+    // Forty times longer windows, and kills at 5–45 % of an uninterrupted
+    // run's wall time: a run lasts long enough to be killed whatever the
+    // build's speed.
+    let (dir, cfg) = setup_with(&SMALL.replace("window = 0.05", "window = 2.0"));
+    let (reference, wall) = timed(|| uninterrupted(&cfg, &dir.path().join("reference")));
     let out = dir.path().join("killed");
     let bin = assert_cmd::cargo::cargo_bin("mbs");
     let mut kills = 0;
-    for (round, delay) in random_delays(12345, 20, 400).take(6).enumerate() {
+    let delays = random_fractions(12345).map(|f| wall.mul_f64(0.05 + 0.4 * f));
+    for (round, delay) in delays.take(6).enumerate() {
         let mut c = std::process::Command::new(&bin);
         c.arg("--quiet");
         if round == 0 {
@@ -158,8 +160,8 @@ fn a_damaged_checkpoint_is_refused_and_kept() {
 
 #[test]
 fn ctrl_c_checkpoints_and_says_how_to_resume() {
-    let (dir, cfg) = setup_with(&SMALL.replace("window = 0.05", "window = 0.5"));
-    let reference = uninterrupted(&cfg, &dir.path().join("reference"));
+    let (dir, cfg) = setup_with(&SMALL.replace("window = 0.05", "window = 2.0"));
+    let (reference, wall) = timed(|| uninterrupted(&cfg, &dir.path().join("reference")));
     let out = dir.path().join("interrupted");
     let child = std::process::Command::new(assert_cmd::cargo::cargo_bin("mbs"))
         .args(["--quiet", "run"])
@@ -169,7 +171,8 @@ fn ctrl_c_checkpoints_and_says_how_to_resume() {
         .stderr(std::process::Stdio::piped())
         .spawn()
         .unwrap();
-    std::thread::sleep(Duration::from_millis(300));
+    // A third of the way through: every cell is running.
+    std::thread::sleep(wall / 3);
     let status = std::process::Command::new("kill")
         .args(["-INT", &child.id().to_string()])
         .status()

@@ -50,9 +50,9 @@ pub fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
     p
 }
 
-/// Deterministic "random" delays from a fixed LCG (so a failure reproduces):
-/// `base_ms` plus up to `span_ms`.
-pub fn random_delays(seed: u64, base_ms: u64, span_ms: u64) -> impl Iterator<Item = Duration> {
+/// Deterministic "random" fractions in [0, 1) from a fixed LCG (so a
+/// failure reproduces).
+pub fn random_fractions(seed: u64) -> impl Iterator<Item = f64> {
     std::iter::successors(Some(seed), |s| {
         Some(
             s.wrapping_mul(6364136223846793005)
@@ -60,7 +60,13 @@ pub fn random_delays(seed: u64, base_ms: u64, span_ms: u64) -> impl Iterator<Ite
         )
     })
     .skip(1)
-    .map(move |s| Duration::from_millis(base_ms + (s >> 33) % span_ms))
+    .map(|s| (s >> 11) as f64 / (1u64 << 53) as f64)
+}
+
+/// The value of `f` and the wall time it took.
+pub fn timed<T>(f: impl FnOnce() -> T) -> (T, Duration) {
+    let start = std::time::Instant::now();
+    (f(), start.elapsed())
 }
 
 /// Spawns `command`, SIGKILLs it after `delay` unless it has finished, and
