@@ -33,7 +33,7 @@ const SIZES: [usize; 4] = [64, 1_024, 16_384, 65_536];
 
 /// Largest f32 bed: the 65 472-grain bed is 3.1 m wide, where an f32
 /// position is quantised to 0.24 µm, a quarter of a typical overlap, and the
-/// bed never settles (README, "Speed of the hot loop").
+/// bed never settles (docs/performance.md).
 const F32_MAX_GRAINS: usize = 16_384;
 
 /// β of the paper, and 1.
