@@ -1,11 +1,18 @@
-//! Puts the top-level memory.x on the linker search path and links with
-//! cortex-m-rt's link.x.
+//! Puts the target's memory map on the linker search path as memory.x and
+//! links with cortex-m-rt's link.x: the top-level memory.x for the
+//! Cortex-M4F (mps2-an386), memory-thumbv6m.x for the Cortex-M0 (microbit).
 use std::{env, fs, path::PathBuf};
 
 fn main() {
     let out = PathBuf::from(env::var_os("OUT_DIR").expect("OUT_DIR"));
-    fs::copy("../memory.x", out.join("memory.x")).expect("copy memory.x");
+    let target = env::var("TARGET").expect("TARGET");
+    let memory = if target.starts_with("thumbv6m") {
+        "memory-thumbv6m.x"
+    } else {
+        "../memory.x"
+    };
+    fs::copy(memory, out.join("memory.x")).expect("copy memory.x");
     println!("cargo:rustc-link-search={}", out.display());
     println!("cargo:rustc-link-arg=-Tlink.x");
-    println!("cargo:rerun-if-changed=../memory.x");
+    println!("cargo:rerun-if-changed={memory}");
 }

@@ -1,22 +1,26 @@
-//! Shared by the firmware binaries: run a scenario from static storage,
-//! measure its cost with SysTick, print the digests over semihosting.
+//! Shared by the Cortex-M binaries (M4F and M0): run a scenario from static
+//! storage with [`golden::run`], measure its cost with SysTick and its peak
+//! stack use, print the report over semihosting.
 //!
 //! Cost: SysTick counts the core clock in QEMU's virtual time. Under
 //! `-icount shift=0` QEMU advances virtual time by a fixed amount per guest
 //! instruction, so ticks are proportional to instructions executed. The
 //! ratio is measured on the spot with a loop of known length
-//! ([`instructions_per_tick`]), so the printed figure is instructions per
+//! ([`calibration_ticks`]), so the printed figure is instructions per
 //! grain-step, repeatable run after run.
 #![no_std]
 
 use cortex_m::peripheral::syst::SystClkSource;
 use cortex_m::peripheral::SYST;
 use cortex_m_semihosting::{debug, hprintln};
-use mbs_kernel::{Error, Real, Scenario, Sim};
+use mbs_kernel::{Real, Scenario, Sim};
 
-/// A free-running 24-bit SysTick down-counter.
+/// SysTick, a free-running 24-bit down-counter, extended to a count that
+/// only grows: it must be read at least once every 2^24 ticks (every step
+/// of a bed is, by orders of magnitude).
 pub struct Ticks {
-    syst: SYST,
+    _syst: SYST,
+    last: u32,
     total: u64,
 }
 
@@ -27,46 +31,65 @@ impl Ticks {
         syst.set_reload(0x00ff_ffff);
         syst.clear_current();
         syst.enable_counter();
-        Ticks { syst, total: 0 }
+        Ticks {
+            _syst: syst,
+            last: SYST::get_current(),
+            total: 0,
+        }
     }
+}
 
-    /// Runs `f`, adding its ticks to the total; `f` must take fewer than
-    /// 2^24 ticks (one step of a bed does, by orders of magnitude).
-    pub fn time<T>(&mut self, f: impl FnOnce() -> T) -> (T, u32) {
-        let start = SYST::get_current();
-        let out = f();
-        let end = SYST::get_current();
-        let _ = &self.syst;
-        let ticks = start.wrapping_sub(end) & 0x00ff_ffff;
-        self.total += u64::from(ticks);
-        (out, ticks)
-    }
-
-    /// Ticks accumulated by [`Ticks::time`].
-    pub fn total(&self) -> u64 {
+impl golden::Meter for Ticks {
+    fn now(&mut self) -> u64 {
+        let current = SYST::get_current();
+        self.total += u64::from(self.last.wrapping_sub(current) & 0x00ff_ffff);
+        self.last = current;
         self.total
     }
 }
 
-/// Instructions per SysTick tick, from a loop of `2 × 1_000_000` instructions
-/// (`subs` + `bne` per iteration).
-pub fn instructions_per_tick(ticks: &mut Ticks) -> f64 {
-    const ITERATIONS: u32 = 1_000_000;
-    let ((), t) = ticks.time(|| {
-        let mut n = ITERATIONS;
-        // SAFETY: a register-only countdown loop; no memory is touched.
-        unsafe {
-            core::arch::asm!("1:", "subs {0}, {0}, #1", "bne 1b", inout(reg) n, options(nomem, nostack));
-        }
-        let _ = n;
-    });
-    ticks.total = 0;
-    (2 * ITERATIONS) as f64 / f64::from(t.max(1))
+/// Instructions of [`calibration_ticks`].
+const CALIBRATION: u64 = 2_000_000;
+
+/// SysTick ticks of a loop of [`CALIBRATION`] instructions (`subs` + `bne`
+/// per iteration).
+pub fn calibration_ticks(ticks: &mut Ticks) -> u64 {
+    use golden::Meter;
+    const ITERATIONS: u32 = (CALIBRATION / 2) as u32;
+    let start = ticks.now();
+    let mut n = ITERATIONS;
+    // SAFETY: a register-only countdown loop; no memory is touched.
+    unsafe {
+        core::arch::asm!("1:", "subs {0}, {0}, #1", "bne 1b", inout(reg) n, options(nomem, nostack));
+    }
+    let _ = n;
+    (ticks.now() - start).max(1)
 }
 
-/// Builds the scenario's bed in `sim`, runs `steps` settling and `steps` flow
-/// steps (each timed), prints precision, grains, steps, digests and the
-/// instructions per grain-step, and exits 0; exits 1 on any kernel error.
+/// `a / b` rounded to the nearest integer.
+fn div_round(a: u64, b: u64) -> u64 {
+    (a + b / 2) / b.max(1)
+}
+
+/// Peak stack use and the stack's room, in bytes ([`golden::stack`]):
+/// cortex-m-rt paints the stack, from `_stack_end` (the end of the statics)
+/// up to `_stack_start` (the top of RAM), at reset (`paint-stack`).
+pub fn stack_use() -> (usize, usize) {
+    const _: () = assert!(golden::stack::PAINT == cortex_m_rt::STACK_PAINT_VALUE);
+    extern "C" {
+        static _stack_start: u32;
+        static _stack_end: u32;
+    }
+    let top = core::ptr::addr_of!(_stack_start) as usize;
+    let end = core::ptr::addr_of!(_stack_end) as usize;
+    // SAFETY: the RAM from `_stack_end` to `_stack_start` is the stack,
+    // painted at reset.
+    (unsafe { golden::stack::used(end, top) }, top - end)
+}
+
+/// Runs `steps` settling and `steps` flow steps of `scenario` in `sim`
+/// ([`golden::run`]), prints the report and the instructions per
+/// grain-step and the peak stack use, and exits 0; exits 1 on any kernel error.
 pub fn run<R: Real, const N: usize, const K: usize>(
     sim: &mut Sim<R, N, K>,
     scenario: &Scenario,
@@ -74,25 +97,23 @@ pub fn run<R: Real, const N: usize, const K: usize>(
     syst: SYST,
 ) -> ! {
     let mut ticks = Ticks::start(syst);
-    let per_tick = instructions_per_tick(&mut ticks);
-    match phases(sim, scenario, steps, &mut ticks) {
-        Ok((settled, flow)) => {
-            let grain_steps = (sim.len() as u64 * sim.step_count()) as f64;
-            hprintln!("precision {}", R::NAME);
+    let calibration = calibration_ticks(&mut ticks);
+    match golden::run(sim, scenario, steps, &mut ticks) {
+        Ok(report) => {
+            hprintln!("{}", report);
+            // Integer arithmetic: float formatting takes up to 1 KiB of stack.
+            let tenths_per_tick = div_round(10 * CALIBRATION, calibration);
             hprintln!(
-                "grains {} (capacity {}, neighbour slots {})",
-                sim.len(),
-                N,
-                K
+                "instructions per grain-step {} ({}.{} instructions per SysTick tick)",
+                div_round(
+                    report.cost * CALIBRATION,
+                    calibration * report.grain_steps()
+                ),
+                tenths_per_tick / 10,
+                tenths_per_tick % 10
             );
-            hprintln!("steps {}", sim.step_count());
-            hprintln!("settled {:#018x}", settled);
-            hprintln!("flow {:#018x}", flow);
-            hprintln!(
-                "instructions per grain-step {:.0} ({:.1} instructions per SysTick tick)",
-                ticks.total() as f64 * per_tick / grain_steps,
-                per_tick
-            );
+            let (used, room) = stack_use();
+            hprintln!("stack {} B used of {} B", used, room);
             debug::exit(debug::EXIT_SUCCESS);
         }
         Err(e) => {
@@ -103,22 +124,4 @@ pub fn run<R: Real, const N: usize, const K: usize>(
     loop {
         cortex_m::asm::wfi();
     }
-}
-
-fn phases<R: Real, const N: usize, const K: usize>(
-    sim: &mut Sim<R, N, K>,
-    scenario: &Scenario,
-    steps: u64,
-    ticks: &mut Ticks,
-) -> Result<(u64, u64), Error> {
-    scenario.build(sim)?;
-    for _ in 0..steps {
-        ticks.time(|| sim.step()).0?;
-    }
-    let settled = sim.digest();
-    sim.set_flow(Some(&scenario.flow()))?;
-    for _ in 0..steps {
-        ticks.time(|| sim.step()).0?;
-    }
-    Ok((settled, sim.digest()))
 }

@@ -1,7 +1,7 @@
 //! Runs `Scenario::paper()` (settling, then flow) in static storage and
 //! prints the state digest after each phase over semihosting, then exits 0.
 //! Any kernel error, panic or hard fault exits 1. Compare with
-//! `mbs digest --steps STEPS --precision f32|f64` on the host.
+//! `mbs digest --steps 2000 --precision f32|f64` on the host.
 #![no_std]
 #![no_main]
 
@@ -9,9 +9,6 @@ use cortex_m_rt::{entry, exception, ExceptionFrame};
 use cortex_m_semihosting::debug;
 use mbs_kernel::{Scenario, Sim};
 use panic_semihosting as _;
-
-/// Steps of each phase (the host's `mbs digest --steps` default).
-const STEPS: u64 = 2000;
 
 #[cfg(not(feature = "f64"))]
 type Real = f32;
@@ -27,7 +24,7 @@ fn main() -> ! {
     static mut SIM: Sim<Real, 64, 8> = Sim::new();
     let sim: &'static mut Sim<Real, 64, 8> = SIM;
     let peripherals = cortex_m::Peripherals::take().expect("first and only call");
-    firmware::run(sim, &Scenario::paper(), STEPS, peripherals.SYST)
+    firmware::run(sim, &Scenario::paper(), golden::STEPS, peripherals.SYST)
 }
 
 #[exception]

@@ -1,17 +1,26 @@
-//! The largest f32 bed that fits in the 128 KiB of RAM of `memory.x`:
-//! `Sim<f32, 832, 6>` (148 B per grain) in `.bss`, a 64-column × 12-row bed
-//! of the paper's grains over 64 fixed grains (832 grains), settling then
-//! flow. Compare with `mbs digest largest.toml --steps 1000 --precision f32`.
+//! The largest f32 bed that fits in the board's RAM: the paper's grains,
+//! `COLUMNS` × `ROWS` over `COLUMNS` fixed grains, in `.bss`, settling then
+//! flow (docs/board.md):
+//! - Cortex-M4F, 128 KiB (top-level memory.x): 64 × 12, 832 grains,
+//!   `Sim<f32, 832, 6>`. Host side:
+//!   `mbs digest firmware/largest.toml --steps 1000 --precision f32`.
+//! - Cortex-M0, 16 KiB (memory-thumbv6m.x): 8 × 10, 88 grains,
+//!   `Sim<f32, 88, 6>`. Host side:
+//!   `mbs digest firmware/largest-thumbv6m.toml --steps 1000 --precision f32`.
 #![no_std]
 #![no_main]
 
 use cortex_m_rt::{entry, exception, ExceptionFrame};
 use cortex_m_semihosting::debug;
-use mbs_kernel::{BedSpec, Scenario, Sim};
+use mbs_kernel::Sim;
 use panic_semihosting as _;
 
-/// Grain capacity: (128 KiB − stack and statics) / 148 B.
-const GRAINS: usize = 832;
+/// Columns of the bed (the M4F is the board with the FPU, `eabihf`).
+const COLUMNS: u32 = if cfg!(target_abi = "eabihf") { 64 } else { 7 };
+/// Rows of the bed.
+const ROWS: u32 = if cfg!(target_abi = "eabihf") { 12 } else { 11 };
+/// Grain capacity: the bed's grains.
+const GRAINS: usize = (COLUMNS * (ROWS + 1)) as usize;
 /// Neighbour slots per grain (6 suffice in a settled 2-D bed of equal grains).
 const SLOTS: usize = 6;
 /// Steps of each phase.
@@ -26,11 +35,7 @@ fn main() -> ! {
     static mut SIM: Sim<f32, GRAINS, SLOTS> = Sim::new();
     let sim: &'static mut Sim<f32, GRAINS, SLOTS> = SIM;
     let peripherals = cortex_m::Peripherals::take().expect("first and only call");
-    let scenario = Scenario {
-        bed: BedSpec::uniform(0.5e-3, 64, 12),
-        ..Scenario::paper()
-    };
-    firmware::run(sim, &scenario, STEPS, peripherals.SYST)
+    firmware::run(sim, &golden::bed(COLUMNS, ROWS), STEPS, peripherals.SYST)
 }
 
 #[exception]
