@@ -349,7 +349,7 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
     /// contacts with a compressed spring; false if there is no fixed grain.
     fn label_bed_grains(&mut self) -> bool {
         let n = self.grains.len;
-        let g = &mut self.grains;
+        let (g, nbrs, index) = (&mut self.grains, &self.nbrs, &self.index);
         let mut any = false;
         for i in 0..n {
             g.in_bed[i] = g.fixed[i];
@@ -359,7 +359,8 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
         // changes: at most n sweeps, a few for a bed built bottom-up.
         for _ in 0..n {
             let mut changed = false;
-            for (i, j, h) in self.nbrs.contacts(n) {
+            // The contacts of Sim::contacts (borrowed field by field).
+            for (i, j, h) in nbrs.contacts(n, |i, k| index.spring_at(i, k)) {
                 if h.e_n > R::ZERO && g.in_bed[i] != g.in_bed[j] {
                     g.in_bed[i] = true;
                     g.in_bed[j] = true;

@@ -280,8 +280,8 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
             w.uint(u64::from(g.fixed[i]), 1);
             w.uint(u64::from(g.class[i]), 1);
         }
-        w.uint(self.nbrs.contacts(g.len).count() as u64, 4);
-        for (i, j, s) in self.nbrs.contacts(g.len) {
+        w.uint(self.contacts().count() as u64, 4);
+        for (i, j, s) in self.contacts() {
             w.uint(i as u64, 4);
             w.uint(j as u64, 4);
             w.real(s.e_n);

@@ -65,7 +65,7 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
             }
             h.word(u64::from(g.fixed[i]) | u64::from(g.class[i]) << 8);
         }
-        for (i, j, s) in self.nbrs.contacts(g.len) {
+        for (i, j, s) in self.contacts() {
             h.word(i as u64);
             h.word(j as u64);
             h.real(s.e_n);

@@ -32,8 +32,6 @@
 #[cfg(test)]
 extern crate std;
 
-#[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
-mod batch;
 mod bed;
 mod checkpoint;
 mod constants;
@@ -44,11 +42,12 @@ pub mod flow;
 mod grains;
 mod neighbours;
 mod observe;
-mod pairs;
+mod periodic;
 pub mod random;
 mod real;
 mod scenario;
 mod sim;
+mod step;
 
 pub use bed::{BedInfo, BedSpec, Settled, SizeClass};
 pub use checkpoint::CHECKPOINT_VERSION;

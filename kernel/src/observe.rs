@@ -3,7 +3,7 @@
 
 use crate::constants::A3;
 use crate::grains::MAX_CLASSES;
-use crate::neighbours::periodic;
+use crate::periodic::periodic;
 use crate::real::Real;
 use crate::sim::Sim;
 
@@ -113,7 +113,7 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
         o.max_speed = self.max_speed();
         let c = &self.config.contact;
         let half_width = self.width * R::HALF;
-        for (i, j, h) in self.nbrs.contacts(g.len) {
+        for (i, j, h) in self.contacts() {
             o.contacts += 1;
             let (e_n, e_s) = (h.e_n.to_f64(), h.e_s.to_f64());
             o.spring_energy += e_n * e_n / (2.0 * c.k_n) + e_s * e_s / (2.0 * c.k_s);
