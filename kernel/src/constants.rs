@@ -111,20 +111,27 @@ impl ContactConstants {
 }
 
 /// The explicit-integration damping number of a contact between two mobile
-/// grains of diameter `d`: the largest of η_n Δt (2/m) (normal) and
-/// η_s Δt (2/m + 2(d/2)²/I) (tangential, through both spins), with m the
-/// translational inertia (added mass included) and I = σπd⁵/60.
+/// grains of diameter `d` integrated with the step `step_dt`: the largest
+/// of η_n step_dt (2/m) (normal) and η_s step_dt (2/m + 2(d/2)²/I)
+/// (tangential, through both spins), with m the translational inertia
+/// (added mass included) and I = σπd⁵/60.
 ///
 /// Above 2 the dashpot over-corrects within one step and the contact
 /// oscillates with growing amplitude until Coulomb sliding caps it: beds
-/// jitter instead of coming to rest. With the paper's rule (17) the number is
-/// ≈ 2.19 α_cn for d = d_max whatever Δt and β (it depends on α_cn/α_m
-/// only), and it grows as (d_max/d)³ for the finer grains of a mixed bed.
-pub fn explicit_damping_number(c: &ContactConstants, material: &Material, d: f64, dt: f64) -> f64 {
+/// jitter instead of coming to rest. With the paper's rule (17) and
+/// step_dt = Δt (no substeps) the number is ≈ 2.19 α_cn for d = d_max
+/// whatever Δt and β (it depends on α_cn/α_m only); substeps divide it,
+/// and it grows as (d_max/d)³ for the finer grains of a mixed bed.
+pub fn explicit_damping_number(
+    c: &ContactConstants,
+    material: &Material,
+    d: f64,
+    step_dt: f64,
+) -> f64 {
     let m = material.translational_mass(d);
     let r = 0.5 * d;
-    let normal = c.eta_n * dt * 2.0 / m;
-    let tangential = c.eta_s * dt * (2.0 / m + 2.0 * r * r / material.moment_of_inertia(d));
+    let normal = c.eta_n * step_dt * 2.0 / m;
+    let tangential = c.eta_s * step_dt * (2.0 / m + 2.0 * r * r / material.moment_of_inertia(d));
     if normal > tangential {
         normal
     } else {

@@ -41,8 +41,8 @@ pub struct ContactLaw<R: Real> {
     pub eta_s: R,
     /// μ.
     pub mu: R,
-    /// Δt (s).
-    pub dt: R,
+    /// The integration step (s), [`crate::SimConfig::step_dt`].
+    pub step_dt: R,
 }
 
 impl<R: Real> ContactLaw<R> {
@@ -53,7 +53,7 @@ impl<R: Real> ContactLaw<R> {
         eta_n: R::ZERO,
         eta_s: R::ZERO,
         mu: R::ZERO,
-        dt: R::ZERO,
+        step_dt: R::ZERO,
     };
 
     /// Advances the history of one overlapping contact by one step and returns
@@ -73,7 +73,7 @@ impl<R: Real> ContactLaw<R> {
         let dxi_n = if h.e_n == R::ZERO {
             overlap
         } else {
-            v_n * self.dt
+            v_n * self.step_dt
         };
         h.e_n += self.k_n * dxi_n;
         if h.e_n < R::ZERO {
@@ -81,7 +81,7 @@ impl<R: Real> ContactLaw<R> {
             return None;
         }
         let f_n = h.e_n + self.eta_n * v_n;
-        h.e_s += self.k_s * v_s * self.dt;
+        h.e_s += self.k_s * v_s * self.step_dt;
         let limit = self.mu * h.e_n;
         let f_s = if R::abs(h.e_s) > limit {
             h.e_s = if h.e_s > R::ZERO { limit } else { -limit };
@@ -104,7 +104,7 @@ mod tests {
             eta_n: 0.1,
             eta_s: 0.05,
             mu: 0.5,
-            dt: 1e-4,
+            step_dt: 1e-4,
         }
     }
 
@@ -144,7 +144,7 @@ mod tests {
                 // The contact resists the slip: slip increments Δξ_s = −v Δt on the pushed grain.
                 let (_, f_s) = l.apply(&mut h, 0.0, 0.0, -v).unwrap();
                 h.e_n = normal; // N held constant (gravity)
-                v += (push + f_s) / m * l.dt;
+                v += (push + f_s) / m * l.step_dt;
                 last_fs = f_s;
             }
             if sticks {

@@ -67,7 +67,8 @@ pub enum Error {
         /// Its size.
         capacity: usize,
     },
-    /// A grain's state became infinite or NaN (typically Δt beyond the
+    /// A grain's state became infinite or NaN (typically the integration
+    /// step `step_dt` beyond the
     /// stability bound of SPEC (11)).
     NonFinite {
         /// Step count at which it was detected.
@@ -96,7 +97,7 @@ pub enum Error {
     },
     /// A parameter is outside its allowed range.
     InvalidParameter {
-        /// Parameter name, e.g. `"dt"`.
+        /// Parameter name, e.g. `"step_dt"`.
         name: &'static str,
         /// The offending value.
         value: f64,
@@ -117,7 +118,7 @@ impl fmt::Display for Error {
                 quantity,
             } => write!(
                 f,
-                "non-finite {quantity:?} of grain {grain} at step {step} (is dt within the stability bound?)"
+                "non-finite {quantity:?} of grain {grain} at step {step} (is step_dt within the stability bound?)"
             ),
             Error::LeftDomain { step, grain, y } => {
                 write!(f, "grain {grain} left the domain at step {step} (y = {y:e} m)")

@@ -68,10 +68,10 @@ pub struct Neighbours<R: Real, const N: usize, const K: usize> {
     /// Largest distance any grain may have travelled since the last build.
     pub(crate) travel: R,
     /// Skin (m) of the last build, the configured (largest) skin, and the
-    /// time step Δt.
+    /// integration step.
     pub(crate) skin: R,
     skin_max: R,
-    dt: R,
+    step_dt: R,
     /// Whether the list must be rebuilt before the next use.
     pub(crate) stale: bool,
     /// Rebuilds since the simulation was reset (a diagnostic).
@@ -94,7 +94,7 @@ impl<R: Real, const N: usize, const K: usize> Neighbours<R, N, K> {
             travel: R::ZERO,
             skin: R::ZERO,
             skin_max: R::ZERO,
-            dt: R::ZERO,
+            step_dt: R::ZERO,
             stale: false,
             rebuilds: 0,
             cutoff: R::ZERO,
@@ -109,9 +109,9 @@ impl<R: Real, const N: usize, const K: usize> Neighbours<R, N, K> {
         self.rebuilds = 0;
     }
 
-    /// Sets the largest skin (m) and the time step Δt (s).
-    pub(crate) fn set_skin(&mut self, skin: R, dt: R) {
-        (self.skin, self.skin_max, self.dt) = (skin, skin, dt);
+    /// Sets the largest skin (m) and the integration step (s).
+    pub(crate) fn set_skin(&mut self, skin: R, step_dt: R) {
+        (self.skin, self.skin_max, self.step_dt) = (skin, skin, step_dt);
     }
 
     /// Records one step's largest grain displacement; marks the list stale
@@ -145,7 +145,7 @@ impl<R: Real, const N: usize, const K: usize> Neighbours<R, N, K> {
                 allowed: ">= 3 × (largest diameter + skin)",
             });
         }
-        self.skin = adapted_skin(self.skin_max, R::sqrt(max_v2) * self.dt);
+        self.skin = adapted_skin(self.skin_max, R::sqrt(max_v2) * self.step_dt);
         let cutoff = r_max + r_max + self.skin;
         self.cutoff = cutoff;
         let nx_f = libm::floor((width / cutoff).to_f64());

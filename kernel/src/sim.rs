@@ -119,7 +119,8 @@ pub struct Sim<R: Real, const N: usize, const K: usize> {
     pub(crate) config: SimConfig,
     pub(crate) configured: bool,
     pub(crate) law: ContactLaw<R>,
-    pub(crate) dt: R,
+    /// The integration step, [`SimConfig::step_dt`].
+    pub(crate) step_dt: R,
     /// Reduced gravity g(s − 1)/(s + C_M): weight over inertia, SPEC (2).
     pub(crate) g_red: [R; 2],
     pub(crate) width: R,
@@ -188,7 +189,7 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
             },
             configured: false,
             law: ContactLaw::ZERO,
-            dt: R::ZERO,
+            step_dt: R::ZERO,
             g_red: [R::ZERO; 2],
             width: R::ZERO,
             y_min: R::ZERO,
@@ -220,9 +221,9 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
             eta_n: R::from_f64(config.contact.eta_n),
             eta_s: R::from_f64(config.contact.eta_s),
             mu: R::from_f64(m.mu),
-            dt: R::from_f64(config.step_dt),
+            step_dt: R::from_f64(config.step_dt),
         };
-        self.dt = R::from_f64(config.step_dt);
+        self.step_dt = R::from_f64(config.step_dt);
         let reduce = (m.s - 1.0) / (m.s + m.c_m);
         self.g_red = [
             R::from_f64(config.gravity[0] * reduce),

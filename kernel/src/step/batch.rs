@@ -1,7 +1,8 @@
 //! The batched step: the drag (SPEC (4)–(5), flow on) on every grain, every
 //! listed pair's contact force (SPEC §2 geometry, law (6)–(9)), then every
 //! grain's force sum and motion (SPEC (1)–(3)), all in vector lanes, with
-//! the bits of the fused pass ([`crate::Sim::step`] on every other target).
+//! the bits of the scalar step ([`super::scalar`], which runs on every other
+//! target).
 //!
 //! Pairs are independent until their forces are summed, and the sums fix
 //! the bits. The pair pass finds a vector of pairs' forces, then adds each
@@ -9,9 +10,9 @@
 //! (f_x, f_y, torque) per grain, one vector add per side. Pairs are listed
 //! by first grain, so grain i receives the pairs (m, i), m ascending, whose
 //! second grain it is, then its own pairs (i, j) in slot order: exactly the
-//! fused pass's order (the second grain's force negated: s + (−f) is s − f,
-//! bit for bit; each torque adds its own −r f_s, the product the fused pass
-//! forms). The grain pass then moves each grain. Every lane does the
+//! scalar step's order (the second grain's force negated: s + (−f) is s − f,
+//! bit for bit; each torque adds its own −r f_s, the product the scalar
+//! step forms). The grain pass then moves each grain. Every lane does the
 //! operations of [`State::contact`](super::scalar),
 //! [`crate::contact::ContactLaw::apply`] and the integrator in their
 //! order; branches become selects. A pair that exerts no force adds +0 or
@@ -24,7 +25,7 @@
 //! Lanes exist on x86-64 with AVX2 (`target-cpu=x86-64-v3` or newer, the
 //! host default), for f64 (four per vector) and f32 (eight), with
 //! capacities that are powers of two (every host capacity), so that masked
-//! indices need no bounds checks. Elsewhere the fused pass runs. One macro
+//! indices need no bounds checks. Elsewhere the scalar step runs. One macro
 //! (`lanes!`) writes the step once for both precisions.
 
 use super::index::{lanes, second_window, window_start, PairIndex, CHUNK, FAR, PAIRS};
@@ -53,8 +54,8 @@ pub(crate) struct Params<R: Real> {
 }
 
 /// Runs the batched step if the pair index is ready: the largest squared
-/// speed, or the first grain's error in grain order (as the fused pass).
-/// `None`: run the fused pass.
+/// speed, or the first grain's error in grain order (as the scalar step).
+/// `None`: run the scalar step.
 ///
 /// The vector code exists for `f64` and `f32`; [`Real`] knows nothing of
 /// it. The precision is picked by downcasting the (`'static`) grains,
@@ -295,8 +296,8 @@ macro_rules! lanes {
                 $permute(load_at(a, window), lanes)
             }
 
-            /// `f` of the lanes of `v` selected by `mask`, zero elsewhere (scalar
-            /// calls: the vector holds the same values as the fused pass's).
+            /// `f` of the lanes of `v` selected by `mask`, zero elsewhere (one
+            /// call per lane: the lanes hold the values the scalar step has).
             #[inline]
             #[target_feature(enable = "avx2")]
             fn map_where(v: $V, mask: $V, f: fn($R) -> $R) -> $V {
@@ -423,7 +424,7 @@ macro_rules! lanes {
                 let select = |no: $V, yes: $V, mask: $V| $blendv(no, yes, mask);
                 let (width, half_width) = (splat(s.width), splat(s.width * 0.5));
                 let law = &s.law;
-                let (dt, k_n, k_s) = (splat(law.dt), splat(law.k_n), splat(law.k_s));
+                let (dt, k_n, k_s) = (splat(law.step_dt), splat(law.k_n), splat(law.k_s));
                 let (eta_n, eta_s, mu) = (splat(law.eta_n), splat(law.eta_s), splat(law.mu));
                 let b = &mut *s.batch;
                 let (x, y, u, v, w) = (&*s.x, &*s.y, &*s.u, &*s.v, &*s.w);
@@ -616,7 +617,7 @@ macro_rules! lanes {
                 let (add, sub, mul) = ($add, $sub, $mul);
                 let select = |no: $V, yes: $V, mask: $V| $blendv(no, yes, mask);
                 let m = &s.mover;
-                let (dt, width) = (splat(m.dt), splat(m.width));
+                let (dt, width) = (splat(m.step_dt), splat(m.width));
                 let (gx, gy) = (splat(m.gravity[0]), splat(m.gravity[1]));
                 let (y_min, y_max) = (splat(m.y_min), splat(m.y_max));
                 let largest = splat(<$R>::MAX);
@@ -666,7 +667,7 @@ macro_rules! lanes {
                     );
                     if $movemask($andnot(ok, mobile)) != 0 {
                         // A grain fails: redo the group grain by grain, as the
-                        // fused pass, up to the first failure.
+                        // scalar step, up to the first failure.
                         let sums = [lanes(fx), lanes(fy), lanes(torque)];
                         let mobile = lanes(mobile);
                         for l in 0..L {

@@ -32,7 +32,7 @@ pub(super) const fn lanes<R: Real>() -> usize {
 }
 
 /// Listed pairs the storage holds per grain on average (a settled bed has
-/// about 2.3; more: the fused pass runs).
+/// about 2.3; more: the scalar step runs).
 pub(super) const PAIRS: usize = 4;
 
 /// Batches of pairs whose geometry is found before their laws (the pair
@@ -60,7 +60,7 @@ pub(super) const fn second_window(lanes: usize) -> usize {
     }
 }
 
-/// The batched step's storage, rebuilt with the neighbour slots; a
+/// The batched step's pair index, rebuilt with the neighbour slots; a
 /// [`Pad`] after each array, as in [`crate::grains::Grains`] (arrays of a
 /// power-of-two size would otherwise share cache sets).
 #[derive(Debug, Clone)]
@@ -122,8 +122,8 @@ pub(crate) struct PairIndex<R: Real, const N: usize, const K: usize> {
     /// lane mask of the grain pass.
     pub(super) mobile: [R; N],
     _pad10: Pad,
-    /// The storage matches the current slots (false when they do not fit:
-    /// then the fused pass runs). Every change of the slots marks them
+    /// The index matches the current slots (false when they do not fit:
+    /// then the scalar step runs). Every change of the slots marks them
     /// stale, so a step rebuilds and re-indexes before it reads this.
     pub(crate) ready: bool,
 }
@@ -170,7 +170,7 @@ impl<R: Real, const N: usize, const K: usize> PairIndex<R, N, K> {
     /// Indexes the listed pairs of the grains `g` (the slots of `nbrs`,
     /// just rebuilt): pair list with its radii, history and windows, lane
     /// masks, and the chunks near the periodic seam of a bed `width` wide
-    /// (`margin`: see [`PairIndex::find_seams`]). Not ready (the fused pass
+    /// (`margin`: see [`PairIndex::find_seams`]). Not ready (the scalar step
     /// runs) if the capacities do not suit the lanes ([`lanes_fit`]), or
     /// the pairs with padding (`PAIRS` per grain) do not fit.
     pub(crate) fn index(
@@ -312,7 +312,7 @@ impl<R: Real, const N: usize, const K: usize> PairIndex<R, N, K> {
     }
 
     /// Moves the history back into the slots and stops being ready: the
-    /// fused pass and the rebuild work on the slots.
+    /// scalar step and the rebuild work on the slots.
     pub(crate) fn history_to_slots(&mut self, spring: &mut [[Spring<R>; K]; N]) {
         if !self.ready {
             return;

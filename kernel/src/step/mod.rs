@@ -43,10 +43,10 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
         Ok(())
     }
 
-    /// Advances one step Δt: neighbour refresh, flow bookkeeping, forces,
+    /// Advances one integration step ([`crate::SimConfig::step_dt`]): neighbour refresh, flow bookkeeping, forces,
     /// symplectic Euler (velocities, then positions), checks.
     pub fn step(&mut self) -> Result<(), Error> {
-        // No buffers at all in the straight loop (microcontroller stacks are small).
+        // No buffers at all on microcontrollers (their stacks are small).
         if GEOMETRY_AHEAD {
             self.step_with::<K, true>()
         } else {
@@ -55,7 +55,7 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
     }
 
     /// [`Sim::step`] with the batched step where it has lanes and its index
-    /// is ready (`BATCHED`, [`batch::batched_step`]), else the fused pass
+    /// is ready (`BATCHED`, `batch::batched_step`), else the scalar step
     /// with buffers of `BUFFER` contacts to find the pair geometry one grain
     /// ahead, or none ([`scalar::step`]). All give the same bits.
     fn step_with<const BUFFER: usize, const BATCHED: bool>(&mut self) -> Result<(), Error> {
@@ -101,8 +101,8 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
         };
         match moved {
             Ok(max_v2) => {
-                // The grains moved at most max_v2^½ Δt.
-                self.nbrs.add_travel(R::sqrt(max_v2) * self.dt);
+                // The grains moved at most max_v2^½ step_dt.
+                self.nbrs.add_travel(R::sqrt(max_v2) * self.step_dt);
                 self.step += 1;
                 Ok(())
             }
@@ -133,9 +133,9 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
         self.rebuild()
     }
 
-    /// Zeroes every force and torque. They are zero between steps: the
-    /// motion pass zeroes each grain's once it is integrated, and a failed
-    /// pass calls this.
+    /// Zeroes every force and torque. They are zero between steps: both
+    /// steps zero each grain's once it is integrated, and a failed step
+    /// calls this.
     fn clear_forces(&mut self) {
         let n = self.grains.len;
         let g = &mut self.grains;
@@ -158,7 +158,7 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
     /// The integrator ([`Mover::advance`]) for this step.
     fn mover(&self) -> Mover<R> {
         Mover {
-            dt: self.dt,
+            step_dt: self.step_dt,
             gravity: self.g_red,
             width: self.width,
             y_min: self.y_min,
@@ -174,7 +174,7 @@ mod tests {
     use crate::{GrainSpec, Scenario};
 
     /// The paper's scenario, settling then flow, stepped with the batched
-    /// pass where it has lanes (`BATCHED`) or the fused pass with the pair
+    /// step where it has lanes (`BATCHED`) or the scalar step with the pair
     /// geometry found ahead (`BUFFER` > 0) or not: (settled, flow) digests.
     fn digests<R: Real, const BUFFER: usize, const BATCHED: bool>() -> (u64, u64) {
         let mut sim = Sim::<R, 64, 8>::new();
@@ -204,24 +204,24 @@ mod tests {
         (settled, flow)
     }
 
-    /// The host's loop shapes (batched pair pass in lanes; fused with the
-    /// geometry one grain ahead) and the microcontroller's (fused, in
+    /// The host's loop shapes (batched step in lanes; scalar step with the
+    /// geometry one grain ahead) and the microcontroller's (scalar step, in
     /// order) give the same bits.
     #[test]
-    fn batched_fused_ahead_or_not_give_the_same_bits() {
-        let fused = digests::<f64, 0, false>();
-        assert_eq!(digests::<f64, 8, false>(), fused);
-        assert_eq!(digests::<f64, 8, true>(), fused);
-        let fused = digests::<f32, 0, false>();
-        assert_eq!(digests::<f32, 8, false>(), fused);
-        assert_eq!(digests::<f32, 8, true>(), fused);
+    fn batched_and_scalar_ahead_or_not_give_the_same_bits() {
+        let scalar = digests::<f64, 0, false>();
+        assert_eq!(digests::<f64, 8, false>(), scalar);
+        assert_eq!(digests::<f64, 8, true>(), scalar);
+        let scalar = digests::<f32, 0, false>();
+        assert_eq!(digests::<f32, 8, false>(), scalar);
+        assert_eq!(digests::<f32, 8, true>(), scalar);
     }
 
     /// A grain in many pairs (a large grain ringed by 14 small ones, as
     /// first or as second grain of its pairs, so that one batch adds to its
-    /// sums in many lanes): the batched step gives the fused pass's bits.
+    /// sums in many lanes): the batched step gives the scalar step's bits.
     #[test]
-    fn a_grain_in_many_pairs_is_batched_with_the_fused_bits() {
+    fn a_grain_in_many_pairs_is_batched_with_the_scalar_bits() {
         for big_first in [true, false] {
             let ring = |batched: bool| ring_digest::<f64>(big_first, batched);
             assert_eq!(ring(true), ring(false));
@@ -233,11 +233,11 @@ mod tests {
     /// A bed 24 columns wide drifting across the periodic seam at 1 m/s
     /// (grains of the last column wrap around between rebuilds), so that
     /// chunks of pairs away from the seam skip the periodic image and those
-    /// near it do not: the batched step gives the one-pass bits step after
+    /// near it do not: the batched step gives the scalar step's bits step after
     /// step, in both precisions. It fails if the chunks near the seam are
     /// not marked.
     #[test]
-    fn a_bed_drifting_across_the_seam_steps_batched_as_in_one_pass() {
+    fn a_bed_drifting_across_the_seam_steps_batched_as_scalar() {
         drifts_across_the_seam::<f64>();
         drifts_across_the_seam::<f32>();
     }
@@ -253,13 +253,13 @@ mod tests {
                 batched.grains.u[i] = R::from_f64(1.0);
             }
         }
-        let mut one_pass = batched.clone();
+        let mut scalar = batched.clone();
         let mut wraps = 0;
         for _ in 0..400 {
             let xs = batched.grains.x;
             batched.step_with::<8, true>().unwrap();
-            one_pass.step_with::<0, false>().unwrap();
-            assert_eq!(batched.digest(), one_pass.digest());
+            scalar.step_with::<0, false>().unwrap();
+            assert_eq!(batched.digest(), scalar.digest());
             let half = 0.5 * batched.width.to_f64();
             wraps += (0..batched.len())
                 .filter(|&i| (xs[i] - batched.grains.x[i]).to_f64() > half)
@@ -287,7 +287,7 @@ mod tests {
         sim
     }
 
-    /// One step of a [`small_box`], batched or one pass (no buffer).
+    /// One step of a [`small_box`], batched or scalar (no buffer).
     fn step_small_box<R: Real>(sim: &mut Sim<R, 64, 16>, batched: bool) -> Result<(), Error> {
         if batched {
             sim.step_with::<16, true>()
@@ -340,10 +340,10 @@ mod tests {
             ..proptest::prelude::ProptestConfig::default()
         })]
         /// Random clusters of mixed sizes, some fixed, some overlapping, with
-        /// and without flow: the batched step gives the one-pass step's bits
+        /// and without flow: the batched step gives the scalar step's bits
         /// step after step, or the same error.
         #[test]
-        fn random_clusters_step_batched_as_in_one_pass(
+        fn random_clusters_step_batched_as_scalar(
             grains in proptest::collection::vec(
                 (
                     0.0..0.02f64,
@@ -363,7 +363,7 @@ mod tests {
         }
     }
 
-    /// Steps a random cluster 40 times, batched or one pass: each step's
+    /// Steps a random cluster 40 times, batched or scalar: each step's
     /// outcome and digest, up to the first error.
     fn cluster<R: Real>(
         grains: &[Loose],
@@ -423,11 +423,11 @@ mod tests {
         assert_eq!(sim.nbrs.skin, largest);
     }
 
-    /// A grain thrown out of the domain fails the batched and the fused
-    /// passes alike, in both precisions: the same error, the same state
+    /// A grain thrown out of the domain fails the batched and the scalar
+    /// steps alike, in both precisions: the same error, the same state
     /// left behind.
     #[test]
-    fn batched_and_fused_fail_alike() {
+    fn batched_and_scalar_fail_alike() {
         fails_alike::<f64>();
         fails_alike::<f32>();
     }

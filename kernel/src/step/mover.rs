@@ -10,7 +10,8 @@ use crate::real::Real;
 /// wrap in x and the non-finite and out-of-domain checks.
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct Mover<R: Real> {
-    pub(crate) dt: R,
+    /// The integration step.
+    pub(crate) step_dt: R,
     /// Reduced gravity, SPEC (2).
     pub(crate) gravity: [R; 2],
     pub(crate) width: R,
@@ -27,7 +28,7 @@ impl<R: Real> Mover<R> {
     #[inline]
     pub(crate) fn advance(&self, i: usize, state: [R; 5], accel: [R; 3]) -> Result<[R; 5], Error> {
         let [x, y, u, v, w] = state;
-        let dt = self.dt;
+        let dt = self.step_dt;
         let u = u + (accel[0] + self.gravity[0]) * dt;
         let v = v + (accel[1] + self.gravity[1]) * dt;
         let w = w + accel[2] * dt;
@@ -43,7 +44,7 @@ impl<R: Real> Mover<R> {
         }
         // One test on the common path: every value finite and inside the domain.
         // The domain test also rejects a non-finite u or v (x, y then become
-        // ±∞ or NaN, Δt > 0) and a non-finite y; ω needs its own test.
+        // ±∞ or NaN, step_dt > 0) and a non-finite y; ω needs its own test.
         if R::is_finite(w) && x >= R::ZERO && x < self.width && y >= self.y_min && y <= self.y_max {
             Ok([x, y, u, v, w])
         } else {

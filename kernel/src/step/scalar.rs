@@ -1,7 +1,7 @@
 //! The scalar step: portable, one grain at a time. The contact forces
 //! (6)–(9) of every overlapping listed pair, then symplectic Euler
-//! (1)–(3), in one pass over the grains ([`step`]); the drag (4)–(5)
-//! before it, flow on ([`add_drag`]).
+//! (1)–(3), grain after grain ([`step`]); the drag (4)–(5) before it, flow
+//! on ([`add_drag`]).
 //!
 //! A pair's geometry (distance, normal, relative velocities) depends only on
 //! the start-of-step state (SPEC §2), so it may be computed ahead of the
@@ -17,15 +17,16 @@ use crate::neighbours::Neighbours;
 use crate::periodic::periodic;
 use crate::real::Real;
 
-/// Contact forces (6)–(9) of every overlapping listed pair, then symplectic
-/// Euler (1)–(3), in one pass over the grains.
+/// The scalar step: contact forces (6)–(9) of every overlapping listed
+/// pair, then symplectic Euler (1)–(3), grain after grain; the largest
+/// squared speed reached, or the first failing grain's error.
 ///
 /// Pairs are visited in the fixed order (i ascending, j ascending); the
 /// history of separated pairs is dropped. Grain i appears only in pairs
 /// (m ≤ i, ·), so its force is complete once its own pairs are added and
 /// it is integrated at once, while its data is in cache: the same
-/// operations in the same order as a contact pass followed by an
-/// integration pass, so the bits do not depend on the fusion.
+/// operations in the same order as a contact pass over all pairs followed
+/// by an integration pass over all grains, so the bits are theirs.
 ///
 /// Each pair's geometry (distance, normal, relative velocities) depends
 /// only on the start-of-step state. With buffers (`BUFFER` > 0,
@@ -122,7 +123,7 @@ pub(crate) fn add_drag<R: Real, const N: usize>(
     }
 }
 
-/// Splits the first `n` grains into what a force-and-motion pass moves
+/// Splits the first `n` grains into what the scalar step moves
 /// ([`Motion`]), what its pair sums use ([`Forces`]), and which are fixed.
 fn split<R: Real, const N: usize>(
     g: &mut Grains<R, N>,
@@ -149,7 +150,7 @@ fn split<R: Real, const N: usize>(
     (motion, forces, &g.fixed[..n])
 }
 
-/// The grains' state during a force-and-motion pass, and the largest
+/// The grains' state during the scalar step, and the largest
 /// squared speed reached.
 struct Motion<'a, R: Real> {
     x: &'a mut [R],
