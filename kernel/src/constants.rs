@@ -1,5 +1,5 @@
 //! Material constants and the contact constants derived from the time step,
-//! SPEC §5, paper eqs. (10)–(13), (17), (18).
+//! docs/model.md §5, eqs. (10)–(13), (17), (18).
 //!
 //! All values are SI. The paper prints its worked example in a gram-based
 //! system, so its k_n = 2.54e2 and η_n = 4.58e-1 are 1000× the SI values
@@ -8,12 +8,12 @@
 use crate::error::{check, positive, Error};
 use core::f64::consts::PI;
 
-/// A2 = π/4: projected-area coefficient of a sphere (SPEC §1).
+/// A2 = π/4: projected-area coefficient of a sphere (docs/model.md §1).
 pub const A2: f64 = PI / 4.0;
-/// A3 = π/6: volume coefficient of a sphere (SPEC §1).
+/// A3 = π/6: volume coefficient of a sphere (docs/model.md §1).
 pub const A3: f64 = PI / 6.0;
 
-/// Fluid and grain material (SPEC §1 defaults in [`Material::default`]).
+/// Fluid and grain material (docs/model.md §1 defaults in [`Material::default`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Material {
@@ -65,23 +65,24 @@ impl Material {
         )
     }
 
-    /// Translational inertia including added mass, m = ρ(s + C_M)A3 d³ (SPEC (1)–(2), §5).
+    /// Translational inertia including added mass, m = ρ(s + C_M)A3 d³
+    /// (docs/model.md (1)–(2), §5).
     pub fn translational_mass(&self, d: f64) -> f64 {
         self.rho * (self.s + self.c_m) * A3 * d * d * d
     }
 
-    /// Moment of inertia of the sphere, σπd⁵/60 (SPEC (3)); no added mass.
+    /// Moment of inertia of the sphere, σπd⁵/60 (docs/model.md (3)); no added mass.
     pub fn moment_of_inertia(&self, d: f64) -> f64 {
         self.rho * self.s * PI * d * d * d * d * d / 60.0
     }
 
-    /// Submerged weight ρ(s − 1)A3 d³ g (SPEC (2)).
+    /// Submerged weight ρ(s − 1)A3 d³ g (docs/model.md (2)).
     pub fn submerged_weight(&self, d: f64, g: f64) -> f64 {
         self.rho * (self.s - 1.0) * A3 * d * d * d * g
     }
 }
 
-/// Spring and dashpot constants of the contact law (SPEC (6)–(9)), SI units.
+/// Spring and dashpot constants of the contact law (docs/model.md (6)–(9)), SI units.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct ContactConstants {
@@ -104,7 +105,8 @@ impl ContactConstants {
         crate::error::non_negative("contact.eta_s", self.eta_s)
     }
 
-    /// The classical stability bound of SPEC (11): Δt ≤ 2√(m/k_n).
+    /// The classical stability bound of docs/model.md (11) on the integration
+    /// step: step_dt ≤ 2√(m/k_n).
     pub fn stable_dt_limit(&self, mass: f64) -> f64 {
         2.0 * libm::sqrt(mass / self.k_n)
     }
@@ -155,7 +157,7 @@ pub struct TimeStepRule {
 }
 
 /// Derives (k_n, k_s, η_n, η_s) from the time step for a grain of diameter `d`
-/// (the largest grain for mixed sizes), SPEC eqs. (10), (12), (13), (17), (18):
+/// (the largest grain for mixed sizes), docs/model.md (10), (12), (13), (17), (18):
 ///
 /// m = ρ(s + C_M)A3 d³,  α_m' = βα_m,  α_cn' = βα_cn,
 /// k_n = 2π² m/(α_m' Δt)²,  k_s = k_n/(2(1+ν)),
@@ -195,7 +197,7 @@ mod tests {
         ((a - b) / b).abs() < rel
     }
 
-    /// SPEC §5 worked example: Δt = 2.0e-4 s, d = 0.5 mm, α_m = 20, α_cn = 1.
+    /// docs/model.md §5 worked example: Δt = 2.0e-4 s, d = 0.5 mm, α_m = 20, α_cn = 1.
     #[test]
     fn paper_worked_example_in_si() {
         let rule = TimeStepRule {

@@ -1,7 +1,7 @@
-//! The contact law, SPEC eqs. (6)–(9): normal and tangential springs with
+//! The contact law, docs/model.md (6)–(9): normal and tangential springs with
 //! per-pair history, dashpots, no tension, Coulomb sliding.
 //!
-//! Geometry and signs (SPEC §2): n = (cos α, sin α) points from grain i to
+//! Geometry and signs (docs/model.md §2): n = (cos α, sin α) points from grain i to
 //! grain j and t = (sin α, −cos α). The force on i is −f_n n + f_s t, on j its
 //! negative; the counter-clockwise torque on each grain is −(d/2) f_s.
 //! Relative displacements during a step:
@@ -121,7 +121,7 @@ mod tests {
         assert_eq!(h, Spring::default());
     }
 
-    /// SPEC §11 Coulomb check: a grain of mass m pressed by a normal spring
+    /// docs/model.md §11 Coulomb check: a grain of mass m pressed by a normal spring
     /// force N and pushed tangentially by F sticks (comes to rest at
     /// ξ = F/k_s) while F < μN, and slides with f_s = μN once F > μN.
     #[test]

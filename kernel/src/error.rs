@@ -68,8 +68,7 @@ pub enum Error {
         capacity: usize,
     },
     /// A grain's state became infinite or NaN (typically the integration
-    /// step `step_dt` beyond the
-    /// stability bound of SPEC (11)).
+    /// step `step_dt` beyond the stability bound, docs/model.md (11)).
     NonFinite {
         /// Step count at which it was detected.
         step: u64,

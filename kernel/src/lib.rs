@@ -5,7 +5,7 @@
 //! simulator"): sand grains in a vertical 2-D slice, spring–dashpot contacts
 //! with friction, drag from a prescribed log-law flow with Monte Carlo
 //! turbulence, a randomly packed bed over fixed grains, periodic in x.
-//! `SPEC` below means `shared/SPEC.md`, which lists the paper's equations.
+//! `docs/model.md` lists the paper's equations, with the paper's numbers.
 //!
 //! - `#![no_std]`, no allocator: storage is inline with compile-time
 //!   capacities (`N` grains, `K` neighbour slots per grain). No `unsafe`
@@ -15,7 +15,7 @@
 //!   transcendental, no fused multiply-add, keyed random streams, canonical
 //!   bits in the [digest](Sim::digest). Generic over `f32` and `f64`.
 //!
-//! | SPEC | what | where |
+//! | docs/model.md | what | where |
 //! |---|---|---|
 //! | (1)–(3) | equations of motion, symplectic Euler | [`Sim::step`] |
 //! | (4)–(5) | drag | [`flow::Profile::drag`] |

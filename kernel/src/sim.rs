@@ -37,7 +37,7 @@ pub struct SimConfig {
     /// Largest neighbour-list skin (m); each rebuild sizes the skin from the
     /// fastest grain, down to 0.3 of it. Results do not depend on it; speed does.
     pub skin: f64,
-    /// Seed of every random draw (SPEC §7: all randomness from one seed).
+    /// Seed of every random draw (docs/model.md §7: all randomness from one seed).
     pub seed: u64,
 }
 
@@ -95,7 +95,7 @@ pub(crate) fn check_grain(c: &SimConfig, spec: &GrainSpec) -> Result<(), Error> 
             c.step_dt <= limit,
             "step_dt",
             c.step_dt,
-            "<= 2 sqrt(m/k_n) of every grain (SPEC (11))",
+            "<= 2 sqrt(m/k_n) of every grain (stability bound, docs/model.md (11); step_dt = constants_dt/substeps)",
         )?;
     }
     Ok(())
@@ -121,7 +121,7 @@ pub struct Sim<R: Real, const N: usize, const K: usize> {
     pub(crate) law: ContactLaw<R>,
     /// The integration step, [`SimConfig::step_dt`].
     pub(crate) step_dt: R,
-    /// Reduced gravity g(s − 1)/(s + C_M): weight over inertia, SPEC (2).
+    /// Reduced gravity g(s − 1)/(s + C_M): weight over inertia, docs/model.md (2).
     pub(crate) g_red: [R; 2],
     pub(crate) width: R,
     pub(crate) y_min: R,
@@ -131,7 +131,7 @@ pub struct Sim<R: Real, const N: usize, const K: usize> {
     pub(crate) profile: Profile<R>,
     /// Step at which the flow was switched on: hold periods count from here.
     pub(crate) flow_epoch: u64,
-    /// Mean bed level (SPEC §6), absolute height (m).
+    /// Mean bed level (docs/model.md §6), absolute height (m).
     pub(crate) bed_level: R,
     pub(crate) step: u64,
 }
@@ -384,7 +384,7 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
     }
 
     /// The turbulent fluctuation (u, v) (m/s) grain `i` currently feels
-    /// (SPEC (15)): its held draws times the rms at its height, zero where
+    /// (docs/model.md (15)): its held draws times the rms at its height, zero where
     /// U = 0, for fixed grains, or without flow or turbulence.
     pub fn fluctuation(&self, i: usize) -> Option<(f64, f64)> {
         if i >= self.grains.len {
@@ -400,7 +400,7 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
         Some((u.to_f64(), v.to_f64()))
     }
 
-    /// Mean bed level y = 0 of the flow (SPEC §6), absolute (m): the mean
+    /// Mean bed level y = 0 of the flow (docs/model.md §6), absolute (m): the mean
     /// centre height of the surface grains, found per window of
     /// `FlowConfig::bed_level_window` largest diameters so that it does not
     /// depend on the width of the periodic bed (README, "Bed width").

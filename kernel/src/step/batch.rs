@@ -1,6 +1,6 @@
-//! The batched step: the drag (SPEC (4)–(5), flow on) on every grain, every
-//! listed pair's contact force (SPEC §2 geometry, law (6)–(9)), then every
-//! grain's force sum and motion (SPEC (1)–(3)), all in vector lanes, with
+//! The batched step: the drag (docs/model.md (4)–(5), flow on) on every grain, every
+//! listed pair's contact force (docs/model.md §2 geometry, law (6)–(9)), then every
+//! grain's force sum and motion (docs/model.md (1)–(3)), all in vector lanes, with
 //! the bits of the scalar step ([`super::scalar`], which runs on every other
 //! target).
 //!

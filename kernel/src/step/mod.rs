@@ -1,4 +1,4 @@
-//! The step (SPEC §2: equations of motion (1)–(3), symplectic Euler):
+//! The step (docs/model.md §2: equations of motion (1)–(3), symplectic Euler):
 //! [`Sim::step`] refreshes the neighbour slots, does the flow's
 //! bookkeeping (mean bed level, fluctuation draws), then moves every grain
 //! by one of two paths that give the same bits:
@@ -43,8 +43,9 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
         Ok(())
     }
 
-    /// Advances one integration step ([`crate::SimConfig::step_dt`]): neighbour refresh, flow bookkeeping, forces,
-    /// symplectic Euler (velocities, then positions), checks.
+    /// Advances one integration step ([`crate::SimConfig::step_dt`]):
+    /// neighbour refresh, flow bookkeeping, forces, symplectic Euler
+    /// (velocities, then positions), checks.
     pub fn step(&mut self) -> Result<(), Error> {
         // No buffers at all on microcontrollers (their stacks are small).
         if GEOMETRY_AHEAD {
@@ -144,7 +145,7 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
         g.torque[..n].fill(R::ZERO);
     }
 
-    /// Redraws every grain's held fluctuation (SPEC (15)) for hold `period`.
+    /// Redraws every grain's held fluctuation (docs/model.md (15)) for hold `period`.
     fn draw_fluctuations(&mut self, period: u64) {
         let seed = self.config.seed;
         let g = &mut self.grains;

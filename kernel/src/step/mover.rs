@@ -1,18 +1,18 @@
 //! The integrator both step paths share: symplectic Euler for one mobile
-//! grain (SPEC (1)–(3)), velocities first, then positions from the new
+//! grain (docs/model.md (1)–(3)), velocities first, then positions from the new
 //! velocities, with the periodic wrap in x and the checks that every value
 //! is finite and inside the domain.
 
 use crate::error::{Error, Quantity};
 use crate::real::Real;
 
-/// Symplectic Euler for one mobile grain (SPEC (1)–(3)) with the periodic
+/// Symplectic Euler for one mobile grain (docs/model.md (1)–(3)) with the periodic
 /// wrap in x and the non-finite and out-of-domain checks.
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct Mover<R: Real> {
     /// The integration step.
     pub(crate) step_dt: R,
-    /// Reduced gravity, SPEC (2).
+    /// Reduced gravity, docs/model.md (2).
     pub(crate) gravity: [R; 2],
     pub(crate) width: R,
     pub(crate) y_min: R,

@@ -4,7 +4,7 @@
 //! on ([`add_drag`]).
 //!
 //! A pair's geometry (distance, normal, relative velocities) depends only on
-//! the start-of-step state (SPEC §2), so it may be computed ahead of the
+//! the start-of-step state (docs/model.md §2), so it may be computed ahead of the
 //! laws, which must run in the fixed order (their sums are order-dependent
 //! in floating point). [`Touching`] holds one grain's contacts found ahead.
 
@@ -100,7 +100,7 @@ pub(crate) fn step<R: Real, const N: usize, const K: usize, const BUFFER: usize>
 }
 
 /// Drag (4)–(5) on every mobile grain of `g`, heights from the mean bed
-/// level `bed_level` (SPEC §6).
+/// level `bed_level` (docs/model.md §6).
 pub(crate) fn add_drag<R: Real, const N: usize>(
     g: &mut Grains<R, N>,
     profile: &Profile<R>,
@@ -300,7 +300,7 @@ struct Contact<R: Real> {
     overlap: R,
     /// Normal approach speed (v_i − v_j)·n.
     v_n: R,
-    /// Tangential slip speed (SPEC §2).
+    /// Tangential slip speed (docs/model.md §2).
     v_s: R,
 }
 
