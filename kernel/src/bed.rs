@@ -17,6 +17,16 @@ pub struct SizeClass {
 }
 
 /// How to build the initial bed (docs/model.md §7).
+///
+/// ```
+/// use mbs_kernel::BedSpec;
+///
+/// let bed = BedSpec::uniform(0.5e-3, 40, 10);
+/// bed.validate()?;
+/// assert_eq!(bed.fixed_per_column(), 1);
+/// assert!((bed.width() - 40.0 * 1.05 * 0.5e-3).abs() < 1e-15);
+/// # Ok::<(), mbs_kernel::Error>(())
+/// ```
 #[derive(Debug, Clone, PartialEq)]
 pub struct BedSpec {
     /// Lattice columns nld ≥ 3.
@@ -91,7 +101,7 @@ impl BedSpec {
         self.spacing * self.max_diameter()
     }
 
-    /// Fixed grains per lattice column: ⌈d_max/d_min⌉ **[choice]**, so that
+    /// Fixed grains per lattice column: ⌈d_max/d_min⌉ **\[choice\]**, so that
     /// the fixed layer of a mixed bed is as tight for the finest grains as a
     /// single-size layer is for its grains (1 for a single size).
     pub fn fixed_per_column(&self) -> usize {
@@ -160,7 +170,7 @@ impl BedSpec {
     }
 }
 
-/// A standard normal deviate truncated to ±2 by redrawing **[choice]**: an
+/// A standard normal deviate truncated to ±2 by redrawing **\[choice\]**: an
 /// untruncated tail opens gaps in the fixed layer wide enough for a grain to
 /// fall through it in wide beds.
 fn fixed_height(rng: &mut Stream) -> f64 {
@@ -293,7 +303,7 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
         })
     }
 
-    /// Recomputes the mean bed level (docs/model.md §6, [choice]): the paper's
+    /// Recomputes the mean bed level (docs/model.md §6, \[choice\]): the paper's
     /// definition applied in windows of the paper's width, so that the level
     /// does not depend on the width of the periodic bed.
     /// - The grains of the bed are those connected to a fixed grain through

@@ -142,6 +142,17 @@ pub fn explicit_damping_number(
 }
 
 /// The inputs of the paper's parameter choice: α_m, α_cn, β and Δt.
+///
+/// ```
+/// use mbs_kernel::{contact_constants, Material, Scenario};
+///
+/// let rule = Scenario::paper().rule;
+/// let material = Material::default();
+/// let c = contact_constants(&rule, 0.5e-3, &material)?;
+/// // α_m = 20 steps per spring period: Δt is within the bound (11).
+/// assert!(rule.constants_dt < c.stable_dt_limit(material.translational_mass(0.5e-3)));
+/// # Ok::<(), mbs_kernel::Error>(())
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct TimeStepRule {
@@ -162,6 +173,17 @@ pub struct TimeStepRule {
 /// m = ρ(s + C_M)A3 d³,  α_m' = βα_m,  α_cn' = βα_cn,
 /// k_n = 2π² m/(α_m' Δt)²,  k_s = k_n/(2(1+ν)),
 /// η_n = (α_cn'/α_m')·2√2·π·m/Δt,  η_s = η_n/√(2(1+ν)).
+///
+/// ```
+/// use mbs_kernel::{contact_constants, Material, TimeStepRule};
+///
+/// // The paper's worked example (docs/model.md §5): Δt = 2.0e-4 s, d = 0.5 mm.
+/// let rule = TimeStepRule { alpha_m: 20.0, alpha_cn: 1.0, beta: 1.0, constants_dt: 2.0e-4 };
+/// let c = contact_constants(&rule, 0.5e-3, &Material::default())?;
+/// assert!((c.k_n - 0.2543).abs() < 2e-4); // N/m; the paper prints 2.54e2 in g/s²
+/// assert!((c.eta_n - 4.580e-4).abs() < 1e-6); // N·s/m
+/// # Ok::<(), mbs_kernel::Error>(())
+/// ```
 pub fn contact_constants(
     rule: &TimeStepRule,
     d: f64,

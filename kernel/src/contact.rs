@@ -29,6 +29,20 @@ impl<R: Real> Spring<R> {
 }
 
 /// The constants of the contact law in the working precision.
+///
+/// ```
+/// use mbs_kernel::contact::{ContactLaw, Spring};
+///
+/// let law = ContactLaw { k_n: 100.0, k_s: 40.0, eta_n: 0.1, eta_s: 0.05, mu: 0.5, step_dt: 1e-4 };
+/// let mut history = Spring::ZERO;
+/// // A new contact overlapping by 10 µm, approaching at 0.2 m/s: the
+/// // normal spring takes the overlap, the dashpot the speed (6).
+/// let forces = law.apply(&mut history, 1e-5, 0.2, 0.0);
+/// assert_eq!(forces, Some((100.0 * 1e-5 + 0.1 * 0.2, 0.0)));
+/// // Pulled apart: tension breaks it (8), its history is dropped.
+/// assert_eq!(law.apply(&mut history, 1e-6, -1.0, 0.0), None);
+/// assert_eq!(history, Spring::ZERO);
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ContactLaw<R: Real> {
     /// k_n (N/m).
@@ -61,7 +75,7 @@ impl<R: Real> ContactLaw<R> {
     /// which case the history is reset to zero.
     ///
     /// - (6) e_n += k_n Δξ_n, f_n = e_n + η_n v_n, with v_n = Δξ_n/Δt the
-    ///   normal approach speed. **[choice]** On the first step of a contact
+    ///   normal approach speed. **\[choice\]** On the first step of a contact
     ///   (history zero) Δξ_n is the overlap itself, the part of the step's
     ///   approach after touching, so e_n = k_n·overlap for a central impact.
     /// - (7) e_s += k_s Δξ_s, f_s = e_s + η_s v_s.

@@ -57,6 +57,18 @@ pub enum CheckpointFault {
 }
 
 /// An error returned by the kernel.
+///
+/// ```
+/// use mbs_kernel::{Error, Scenario, Sim};
+///
+/// let mut config = Scenario::paper().sim_config()?;
+/// config.step_dt = -1.0;
+/// let mut sim = Sim::<f64, 8, 4>::new();
+/// let error = sim.reset(&config).unwrap_err();
+/// assert!(matches!(error, Error::InvalidParameter { name: "step_dt", .. }));
+/// assert_eq!(error.to_string(), "step_dt = -1: must be finite and > 0");
+/// # Ok::<(), mbs_kernel::Error>(())
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Error {

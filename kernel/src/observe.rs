@@ -31,7 +31,7 @@ pub struct Observation {
     /// Largest mobile-grain speed (m/s).
     pub max_speed: f64,
     /// Σ V_i u_p,i / L per size class (m²/s): q_B of a class is this over its
-    /// diameter (docs/model.md §8, [choice]: the slice is one grain thick).
+    /// diameter (docs/model.md §8, \[choice\]: the slice is one grain thick).
     pub volume_flux: [f64; MAX_CLASSES],
 }
 

@@ -22,6 +22,19 @@ mod sealed {
 
 /// A floating-point scalar usable by the kernel: `f32` or `f64` (sealed, so
 /// an all-zero [`crate::Sim`] is always a valid value).
+///
+/// ```
+/// use mbs_kernel::Real;
+///
+/// // Generic code calls the associated functions (libm inside).
+/// fn hypot<R: Real>(x: R, y: R) -> R {
+///     R::sqrt(x * x + y * y)
+/// }
+/// assert_eq!(hypot(3.0f64, 4.0), 5.0);
+/// assert_eq!(hypot(3.0f32, 4.0), 5.0);
+/// // The digest hashes −0.0 as +0.0.
+/// assert_eq!(f64::canonical_bits(-0.0), f64::canonical_bits(0.0));
+/// ```
 pub trait Real:
     sealed::Sealed
     + Copy

@@ -13,6 +13,18 @@ use crate::sim::{Sim, SimConfig};
 pub const G: f64 = 9.81;
 
 /// Everything needed to build, settle and drive a bed.
+///
+/// ```
+/// use mbs_kernel::{Scenario, Sim};
+///
+/// let scenario = Scenario::paper();
+/// assert_eq!(scenario.step_dt(), 2.0e-5 / 8.0);
+/// // The golden-digest run in miniature (100 steps settling, 100 under
+/// // the flow): two runs, the same bits.
+/// let (mut a, mut b) = (Sim::<f32, 64, 8>::new(), Sim::<f32, 64, 8>::new());
+/// assert_eq!(scenario.digests(&mut a, 100, 100)?, scenario.digests(&mut b, 100, 100)?);
+/// # Ok::<(), mbs_kernel::Error>(())
+/// ```
 #[derive(Debug, Clone, PartialEq)]
 pub struct Scenario {
     /// Fluid and grain material.

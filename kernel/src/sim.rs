@@ -17,6 +17,17 @@ use crate::step::index::PairIndex;
 use crate::step::no_lanes::PairIndex;
 
 /// Everything a simulation needs besides its grains and its flow (SI units).
+///
+/// ```
+/// use mbs_kernel::Scenario;
+///
+/// let scenario = Scenario::paper();
+/// let config = scenario.sim_config()?;
+/// config.validate()?;
+/// // The integration step: the constants' Δt over 8 substeps.
+/// assert_eq!(config.step_dt, scenario.rule.constants_dt / 8.0);
+/// # Ok::<(), mbs_kernel::Error>(())
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct SimConfig {
@@ -110,6 +121,20 @@ pub(crate) fn check_grain(c: &SimConfig, spec: &GrainSpec) -> Result<(), Error> 
 /// (`Box::new_zeroed`) without building it on the stack: **every field of
 /// `Sim` is a number, a `bool`, or a struct or array of those, so the all-zero
 /// bit pattern is a valid value equal to `Sim::new()`.** Keep it that way.
+///
+/// ```
+/// use mbs_kernel::{GrainSpec, Scenario, Sim};
+///
+/// // One grain in an empty box of the paper's constants: it falls.
+/// let mut sim = Sim::<f64, 8, 4>::new();
+/// sim.reset(&Scenario::paper().sim_config()?)?;
+/// let grain = GrainSpec { x: 1e-3, y: 1e-3, diameter: 0.5e-3, ..GrainSpec::default() };
+/// let i = sim.add_grain(&grain)?;
+/// sim.run(100)?;
+/// assert_eq!(sim.step_count(), 100);
+/// assert!(sim.grain(i).is_some_and(|g| g.y < 1e-3 && g.v < 0.0));
+/// # Ok::<(), mbs_kernel::Error>(())
+/// ```
 #[derive(Debug, Clone)]
 pub struct Sim<R: Real, const N: usize, const K: usize> {
     pub(crate) grains: Grains<R, N>,

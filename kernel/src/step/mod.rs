@@ -3,9 +3,9 @@
 //! bookkeeping (mean bed level, fluctuation draws), then moves every grain
 //! by one of two paths that give the same bits:
 //!
-//! - the **batched step** ([`batch`], x86-64 with AVX2): the drag, every
+//! - the **batched step** (`batch`, x86-64 with AVX2): the drag, every
 //!   listed pair's force and every grain's motion in vector lanes, over
-//!   the pairs of its [pair index](index) (a field of [`Sim`]);
+//!   the pairs of its pair index (`index`, a field of [`Sim`]);
 //! - the **scalar step** ([`scalar`], every target, and wherever the pairs
 //!   do not fit the index): one grain at a time.
 //!

@@ -30,7 +30,7 @@ use crate::real::Real;
 ///
 /// Each pair's geometry (distance, normal, relative velocities) depends
 /// only on the start-of-step state. With buffers (`BUFFER` > 0,
-/// [`GEOMETRY_AHEAD`]), grain i + 1's is found ([`Touching::find`])
+/// [`super::GEOMETRY_AHEAD`]), grain i + 1's is found ([`Touching::find`])
 /// before grain i's laws and motion, so that an out-of-order core works
 /// on the next grain's square roots and divisions while it finishes
 /// grain i; without, just before grain i's laws. The laws and sums run
