@@ -15,6 +15,10 @@
 //! hashed into one bucket per grain, so any bed height fits; a bucket shared by two
 //! cells only costs extra distance checks. History moves from the old slots to
 //! the new ones by merging the two sorted lists, so no contact is lost.
+//!
+//! The batched step's pair index, built from these slots, is not kept here:
+//! it is a field of [`crate::Sim`] (`step::index`), which lends the slots
+//! the history it holds ([`Neighbours::contacts`]).
 
 use crate::contact::Spring;
 use crate::error::{Capacity, Error};
