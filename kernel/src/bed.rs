@@ -1,4 +1,4 @@
-//! The initial bed (SPEC §7) and the mean bed level (SPEC §6).
+//! The initial bed (docs/model.md §7) and the mean bed level (docs/model.md §6).
 
 use crate::error::{check, positive, Capacity, Error};
 use crate::grains::{GrainSpec, MAX_CLASSES};
@@ -16,19 +16,29 @@ pub struct SizeClass {
     pub fraction: f64,
 }
 
-/// How to build the initial bed (SPEC §7).
+/// How to build the initial bed (docs/model.md §7).
+///
+/// ```
+/// use mbs_kernel::BedSpec;
+///
+/// let bed = BedSpec::uniform(0.5e-3, 40, 10);
+/// bed.validate()?;
+/// assert_eq!(bed.fixed_per_column(), 1);
+/// assert!((bed.width() - 40.0 * 1.05 * 0.5e-3).abs() < 1e-15);
+/// # Ok::<(), mbs_kernel::Error>(())
+/// ```
 #[derive(Debug, Clone, PartialEq)]
 pub struct BedSpec {
     /// Lattice columns nld ≥ 3.
     pub columns: u32,
     /// Lattice rows nvd ≥ 1.
     pub rows: u32,
-    /// Lattice spacing in units of the largest diameter (SPEC: 1.05–1.10).
+    /// Lattice spacing in units of the largest diameter (docs/model.md §7: 1.05–1.10).
     pub spacing: f64,
     /// Probability that a lattice site is left empty, in [0, 1).
     pub vacancy: f64,
     /// Standard deviation of the fixed grains' heights in units of the
-    /// largest diameter (SPEC: 1/3).
+    /// largest diameter (docs/model.md §7: 1/3).
     pub fixed_spread: f64,
     /// Size classes of the mobile grains (1 to [`MAX_CLASSES`]).
     pub classes: heapless::Vec<SizeClass, MAX_CLASSES>,
@@ -60,7 +70,7 @@ pub struct Settled {
 }
 
 impl BedSpec {
-    /// A single-size bed of diameter `d` with the SPEC's spacing 1.05, no
+    /// A single-size bed of diameter `d` with the spacing 1.05 of docs/model.md §7, no
     /// vacancies and fixed-height spread d/3.
     pub fn uniform(d: f64, columns: u32, rows: u32) -> Self {
         let mut classes = heapless::Vec::<SizeClass, MAX_CLASSES>::new();
@@ -91,7 +101,7 @@ impl BedSpec {
         self.spacing * self.max_diameter()
     }
 
-    /// Fixed grains per lattice column: ⌈d_max/d_min⌉ **[choice]**, so that
+    /// Fixed grains per lattice column: ⌈d_max/d_min⌉ **\[choice\]**, so that
     /// the fixed layer of a mixed bed is as tight for the finest grains as a
     /// single-size layer is for its grains (1 for a single size).
     pub fn fixed_per_column(&self) -> usize {
@@ -125,7 +135,7 @@ impl BedSpec {
             self.spacing.is_finite() && self.spacing > 1.0 && self.spacing <= 2.0,
             "bed.spacing",
             self.spacing,
-            "in (1, 2] (SPEC: 1.05-1.10)",
+            "in (1, 2] (docs/model.md §7: 1.05-1.10)",
         )?;
         check(
             self.vacancy.is_finite() && (0.0..1.0).contains(&self.vacancy),
@@ -160,7 +170,7 @@ impl BedSpec {
     }
 }
 
-/// A standard normal deviate truncated to ±2 by redrawing **[choice]**: an
+/// A standard normal deviate truncated to ±2 by redrawing **\[choice\]**: an
 /// untruncated tail opens gaps in the fixed layer wide enough for a grain to
 /// fall through it in wide beds.
 fn fixed_height(rng: &mut Stream) -> f64 {
@@ -174,7 +184,7 @@ fn fixed_height(rng: &mut Stream) -> f64 {
 }
 
 impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
-    /// Resets the simulation with `config` and builds the initial bed of SPEC §7
+    /// Resets the simulation with `config` and builds the initial bed of docs/model.md §7
     /// from `config.seed`:
     /// 1. fixed grains of the largest diameter evenly spaced across L,
     ///    [`BedSpec::fixed_per_column`] per column, heights Gaussian with mean 0
@@ -274,7 +284,7 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
     }
 
     /// Steps until every mobile grain moves slower than `speed_tol` (m/s),
-    /// checked every 100 steps, or until `max_steps` (SPEC §7 step 3).
+    /// checked every 100 steps, or until `max_steps` (docs/model.md §7 step 3).
     pub fn settle(&mut self, max_steps: u64, speed_tol: f64) -> Result<Settled, Error> {
         let start = self.step;
         while self.step - start < max_steps {
@@ -293,7 +303,7 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
         })
     }
 
-    /// Recomputes the mean bed level (SPEC §6, [choice]): the paper's
+    /// Recomputes the mean bed level (docs/model.md §6, \[choice\]): the paper's
     /// definition applied in windows of the paper's width, so that the level
     /// does not depend on the width of the periodic bed.
     /// - The grains of the bed are those connected to a fixed grain through
@@ -305,7 +315,7 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
     ///   within d_max below the window's highest bed-grain centre.
     /// - The level is the mean centre height of all surface grains.
     ///
-    /// Over the whole width (SPEC §6 as written) the highest bed grain is an
+    /// Over the whole width (docs/model.md §6 as written) the highest bed grain is an
     /// extreme value that rises with the number of columns and lifted the
     /// zero of the log law above the surface of wide beds: q* fell 1.7× per
     /// doubling of the width. Per window it converges (README, "Bed width").
@@ -349,7 +359,7 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
     /// contacts with a compressed spring; false if there is no fixed grain.
     fn label_bed_grains(&mut self) -> bool {
         let n = self.grains.len;
-        let g = &mut self.grains;
+        let (g, nbrs, index) = (&mut self.grains, &self.nbrs, &self.index);
         let mut any = false;
         for i in 0..n {
             g.in_bed[i] = g.fixed[i];
@@ -359,7 +369,8 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
         // changes: at most n sweeps, a few for a bed built bottom-up.
         for _ in 0..n {
             let mut changed = false;
-            for (i, j, h) in self.nbrs.contacts(n) {
+            // The contacts of Sim::contacts (borrowed field by field).
+            for (i, j, h) in nbrs.contacts(n, |i, k| index.spring_at(i, k)) {
                 if h.e_n > R::ZERO && g.in_bed[i] != g.in_bed[j] {
                     g.in_bed[i] = true;
                     g.in_bed[j] = true;

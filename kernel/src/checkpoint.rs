@@ -7,7 +7,7 @@
 //! | field | bytes |
 //! |---|---|
 //! | magic `MBSK`, version u16, precision bytes u8 (4/8), 0 u8 | 8 |
-//! | `SimConfig`: dt, ρ, s, C_M, C_D, μ, ν, k_n, k_s, η_n, η_s, g_x, g_y, L, y_min, y_max, skin (f64), seed (u64) | 144 |
+//! | `SimConfig`: step_dt, ρ, s, C_M, C_D, μ, ν, k_n, k_s, η_n, η_s, g_x, g_y, L, y_min, y_max, skin (f64), seed (u64) | 144 |
 //! | flow on (u8); `FlowConfig`: u*, κ, h, ε0, k_s, d (f64), turbulence (u8), hold, bed-level interval (u32), bed-level window (f64) | 66 |
 //! | flow epoch, step (u64), bed level (R) | 16 + R |
 //! | grains n (u32); per grain x, y, u, v, ω, d/2, z_u, z_v, 1/m, 1/I, drag factor (R), fixed, class (u8) | 4 + n (11R + 2) |
@@ -280,8 +280,8 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
             w.uint(u64::from(g.fixed[i]), 1);
             w.uint(u64::from(g.class[i]), 1);
         }
-        w.uint(self.nbrs.contacts(g.len).count() as u64, 4);
-        for (i, j, s) in self.nbrs.contacts(g.len) {
+        w.uint(self.contacts().count() as u64, 4);
+        for (i, j, s) in self.contacts() {
             w.uint(i as u64, 4);
             w.uint(j as u64, 4);
             w.real(s.e_n);

@@ -1,5 +1,5 @@
 //! Material constants and the contact constants derived from the time step,
-//! SPEC §5, paper eqs. (10)–(13), (17), (18).
+//! docs/model.md §5, eqs. (10)–(13), (17), (18).
 //!
 //! All values are SI. The paper prints its worked example in a gram-based
 //! system, so its k_n = 2.54e2 and η_n = 4.58e-1 are 1000× the SI values
@@ -8,12 +8,12 @@
 use crate::error::{check, positive, Error};
 use core::f64::consts::PI;
 
-/// A2 = π/4: projected-area coefficient of a sphere (SPEC §1).
+/// A2 = π/4: projected-area coefficient of a sphere (docs/model.md §1).
 pub const A2: f64 = PI / 4.0;
-/// A3 = π/6: volume coefficient of a sphere (SPEC §1).
+/// A3 = π/6: volume coefficient of a sphere (docs/model.md §1).
 pub const A3: f64 = PI / 6.0;
 
-/// Fluid and grain material (SPEC §1 defaults in [`Material::default`]).
+/// Fluid and grain material (docs/model.md §1 defaults in [`Material::default`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Material {
@@ -65,23 +65,24 @@ impl Material {
         )
     }
 
-    /// Translational inertia including added mass, m = ρ(s + C_M)A3 d³ (SPEC (1)–(2), §5).
+    /// Translational inertia including added mass, m = ρ(s + C_M)A3 d³
+    /// (docs/model.md (1)–(2), §5).
     pub fn translational_mass(&self, d: f64) -> f64 {
         self.rho * (self.s + self.c_m) * A3 * d * d * d
     }
 
-    /// Moment of inertia of the sphere, σπd⁵/60 (SPEC (3)); no added mass.
+    /// Moment of inertia of the sphere, σπd⁵/60 (docs/model.md (3)); no added mass.
     pub fn moment_of_inertia(&self, d: f64) -> f64 {
         self.rho * self.s * PI * d * d * d * d * d / 60.0
     }
 
-    /// Submerged weight ρ(s − 1)A3 d³ g (SPEC (2)).
+    /// Submerged weight ρ(s − 1)A3 d³ g (docs/model.md (2)).
     pub fn submerged_weight(&self, d: f64, g: f64) -> f64 {
         self.rho * (self.s - 1.0) * A3 * d * d * d * g
     }
 }
 
-/// Spring and dashpot constants of the contact law (SPEC (6)–(9)), SI units.
+/// Spring and dashpot constants of the contact law (docs/model.md (6)–(9)), SI units.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct ContactConstants {
@@ -104,27 +105,35 @@ impl ContactConstants {
         crate::error::non_negative("contact.eta_s", self.eta_s)
     }
 
-    /// The classical stability bound of SPEC (11): Δt ≤ 2√(m/k_n).
+    /// The classical stability bound of docs/model.md (11) on the integration
+    /// step: step_dt ≤ 2√(m/k_n).
     pub fn stable_dt_limit(&self, mass: f64) -> f64 {
         2.0 * libm::sqrt(mass / self.k_n)
     }
 }
 
 /// The explicit-integration damping number of a contact between two mobile
-/// grains of diameter `d`: the largest of η_n Δt (2/m) (normal) and
-/// η_s Δt (2/m + 2(d/2)²/I) (tangential, through both spins), with m the
-/// translational inertia (added mass included) and I = σπd⁵/60.
+/// grains of diameter `d` integrated with the step `step_dt`: the largest
+/// of η_n step_dt (2/m) (normal) and η_s step_dt (2/m + 2(d/2)²/I)
+/// (tangential, through both spins), with m the translational inertia
+/// (added mass included) and I = σπd⁵/60.
 ///
 /// Above 2 the dashpot over-corrects within one step and the contact
 /// oscillates with growing amplitude until Coulomb sliding caps it: beds
-/// jitter instead of coming to rest. With the paper's rule (17) the number is
-/// ≈ 2.19 α_cn for d = d_max whatever Δt and β (it depends on α_cn/α_m
-/// only), and it grows as (d_max/d)³ for the finer grains of a mixed bed.
-pub fn explicit_damping_number(c: &ContactConstants, material: &Material, d: f64, dt: f64) -> f64 {
+/// jitter instead of coming to rest. With the paper's rule (17) and
+/// step_dt = Δt (no substeps) the number is ≈ 2.19 α_cn for d = d_max
+/// whatever Δt and β (it depends on α_cn/α_m only); substeps divide it,
+/// and it grows as (d_max/d)³ for the finer grains of a mixed bed.
+pub fn explicit_damping_number(
+    c: &ContactConstants,
+    material: &Material,
+    d: f64,
+    step_dt: f64,
+) -> f64 {
     let m = material.translational_mass(d);
     let r = 0.5 * d;
-    let normal = c.eta_n * dt * 2.0 / m;
-    let tangential = c.eta_s * dt * (2.0 / m + 2.0 * r * r / material.moment_of_inertia(d));
+    let normal = c.eta_n * step_dt * 2.0 / m;
+    let tangential = c.eta_s * step_dt * (2.0 / m + 2.0 * r * r / material.moment_of_inertia(d));
     if normal > tangential {
         normal
     } else {
@@ -133,6 +142,17 @@ pub fn explicit_damping_number(c: &ContactConstants, material: &Material, d: f64
 }
 
 /// The inputs of the paper's parameter choice: α_m, α_cn, β and Δt.
+///
+/// ```
+/// use mbs_kernel::{contact_constants, Material, Scenario};
+///
+/// let rule = Scenario::paper().rule;
+/// let material = Material::default();
+/// let c = contact_constants(&rule, 0.5e-3, &material)?;
+/// // α_m = 20 steps per spring period: Δt is within the bound (11).
+/// assert!(rule.constants_dt < c.stable_dt_limit(material.translational_mass(0.5e-3)));
+/// # Ok::<(), mbs_kernel::Error>(())
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct TimeStepRule {
@@ -148,11 +168,22 @@ pub struct TimeStepRule {
 }
 
 /// Derives (k_n, k_s, η_n, η_s) from the time step for a grain of diameter `d`
-/// (the largest grain for mixed sizes), SPEC eqs. (10), (12), (13), (17), (18):
+/// (the largest grain for mixed sizes), docs/model.md (10), (12), (13), (17), (18):
 ///
 /// m = ρ(s + C_M)A3 d³,  α_m' = βα_m,  α_cn' = βα_cn,
 /// k_n = 2π² m/(α_m' Δt)²,  k_s = k_n/(2(1+ν)),
 /// η_n = (α_cn'/α_m')·2√2·π·m/Δt,  η_s = η_n/√(2(1+ν)).
+///
+/// ```
+/// use mbs_kernel::{contact_constants, Material, TimeStepRule};
+///
+/// // The paper's worked example (docs/model.md §5): Δt = 2.0e-4 s, d = 0.5 mm.
+/// let rule = TimeStepRule { alpha_m: 20.0, alpha_cn: 1.0, beta: 1.0, constants_dt: 2.0e-4 };
+/// let c = contact_constants(&rule, 0.5e-3, &Material::default())?;
+/// assert!((c.k_n - 0.2543).abs() < 2e-4); // N/m; the paper prints 2.54e2 in g/s²
+/// assert!((c.eta_n - 4.580e-4).abs() < 1e-6); // N·s/m
+/// # Ok::<(), mbs_kernel::Error>(())
+/// ```
 pub fn contact_constants(
     rule: &TimeStepRule,
     d: f64,
@@ -188,7 +219,7 @@ mod tests {
         ((a - b) / b).abs() < rel
     }
 
-    /// SPEC §5 worked example: Δt = 2.0e-4 s, d = 0.5 mm, α_m = 20, α_cn = 1.
+    /// docs/model.md §5 worked example: Δt = 2.0e-4 s, d = 0.5 mm, α_m = 20, α_cn = 1.
     #[test]
     fn paper_worked_example_in_si() {
         let rule = TimeStepRule {

@@ -1,7 +1,7 @@
-//! The contact law, SPEC eqs. (6)–(9): normal and tangential springs with
+//! The contact law, docs/model.md (6)–(9): normal and tangential springs with
 //! per-pair history, dashpots, no tension, Coulomb sliding.
 //!
-//! Geometry and signs (SPEC §2): n = (cos α, sin α) points from grain i to
+//! Geometry and signs (docs/model.md §2): n = (cos α, sin α) points from grain i to
 //! grain j and t = (sin α, −cos α). The force on i is −f_n n + f_s t, on j its
 //! negative; the counter-clockwise torque on each grain is −(d/2) f_s.
 //! Relative displacements during a step:
@@ -29,6 +29,20 @@ impl<R: Real> Spring<R> {
 }
 
 /// The constants of the contact law in the working precision.
+///
+/// ```
+/// use mbs_kernel::contact::{ContactLaw, Spring};
+///
+/// let law = ContactLaw { k_n: 100.0, k_s: 40.0, eta_n: 0.1, eta_s: 0.05, mu: 0.5, step_dt: 1e-4 };
+/// let mut history = Spring::ZERO;
+/// // A new contact overlapping by 10 µm, approaching at 0.2 m/s: the
+/// // normal spring takes the overlap, the dashpot the speed (6).
+/// let forces = law.apply(&mut history, 1e-5, 0.2, 0.0);
+/// assert_eq!(forces, Some((100.0 * 1e-5 + 0.1 * 0.2, 0.0)));
+/// // Pulled apart: tension breaks it (8), its history is dropped.
+/// assert_eq!(law.apply(&mut history, 1e-6, -1.0, 0.0), None);
+/// assert_eq!(history, Spring::ZERO);
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ContactLaw<R: Real> {
     /// k_n (N/m).
@@ -41,8 +55,8 @@ pub struct ContactLaw<R: Real> {
     pub eta_s: R,
     /// μ.
     pub mu: R,
-    /// Δt (s).
-    pub dt: R,
+    /// The integration step (s), [`crate::SimConfig::step_dt`].
+    pub step_dt: R,
 }
 
 impl<R: Real> ContactLaw<R> {
@@ -53,7 +67,7 @@ impl<R: Real> ContactLaw<R> {
         eta_n: R::ZERO,
         eta_s: R::ZERO,
         mu: R::ZERO,
-        dt: R::ZERO,
+        step_dt: R::ZERO,
     };
 
     /// Advances the history of one overlapping contact by one step and returns
@@ -61,7 +75,7 @@ impl<R: Real> ContactLaw<R> {
     /// which case the history is reset to zero.
     ///
     /// - (6) e_n += k_n Δξ_n, f_n = e_n + η_n v_n, with v_n = Δξ_n/Δt the
-    ///   normal approach speed. **[choice]** On the first step of a contact
+    ///   normal approach speed. **\[choice\]** On the first step of a contact
     ///   (history zero) Δξ_n is the overlap itself, the part of the step's
     ///   approach after touching, so e_n = k_n·overlap for a central impact.
     /// - (7) e_s += k_s Δξ_s, f_s = e_s + η_s v_s.
@@ -73,7 +87,7 @@ impl<R: Real> ContactLaw<R> {
         let dxi_n = if h.e_n == R::ZERO {
             overlap
         } else {
-            v_n * self.dt
+            v_n * self.step_dt
         };
         h.e_n += self.k_n * dxi_n;
         if h.e_n < R::ZERO {
@@ -81,7 +95,7 @@ impl<R: Real> ContactLaw<R> {
             return None;
         }
         let f_n = h.e_n + self.eta_n * v_n;
-        h.e_s += self.k_s * v_s * self.dt;
+        h.e_s += self.k_s * v_s * self.step_dt;
         let limit = self.mu * h.e_n;
         let f_s = if R::abs(h.e_s) > limit {
             h.e_s = if h.e_s > R::ZERO { limit } else { -limit };
@@ -104,7 +118,7 @@ mod tests {
             eta_n: 0.1,
             eta_s: 0.05,
             mu: 0.5,
-            dt: 1e-4,
+            step_dt: 1e-4,
         }
     }
 
@@ -121,7 +135,7 @@ mod tests {
         assert_eq!(h, Spring::default());
     }
 
-    /// SPEC §11 Coulomb check: a grain of mass m pressed by a normal spring
+    /// docs/model.md §11 Coulomb check: a grain of mass m pressed by a normal spring
     /// force N and pushed tangentially by F sticks (comes to rest at
     /// ξ = F/k_s) while F < μN, and slides with f_s = μN once F > μN.
     #[test]
@@ -144,7 +158,7 @@ mod tests {
                 // The contact resists the slip: slip increments Δξ_s = −v Δt on the pushed grain.
                 let (_, f_s) = l.apply(&mut h, 0.0, 0.0, -v).unwrap();
                 h.e_n = normal; // N held constant (gravity)
-                v += (push + f_s) / m * l.dt;
+                v += (push + f_s) / m * l.step_dt;
                 last_fs = f_s;
             }
             if sticks {

@@ -6,6 +6,19 @@ use crate::real::Real;
 use crate::sim::Sim;
 
 /// FNV-1a, 64-bit.
+///
+/// ```
+/// use mbs_kernel::Fnv1a;
+///
+/// // The offset basis, and the published test vector of "a".
+/// assert_eq!(Fnv1a::of(b""), 0xcbf2_9ce4_8422_2325);
+/// assert_eq!(Fnv1a::of(b"a"), 0xaf63_dc4c_8601_ec8c);
+/// // Floats by their canonical bits: −0.0 as +0.0.
+/// let (mut a, mut b) = (Fnv1a::default(), Fnv1a::default());
+/// a.real(-0.0f64);
+/// b.real(0.0f64);
+/// assert_eq!(a.finish(), b.finish());
+/// ```
 #[derive(Debug, Clone, Copy)]
 pub struct Fnv1a(u64);
 
@@ -52,6 +65,18 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
     /// diameter, fixed, class, held fluctuation draws), the contacts in
     /// (i, j) order with their spring history, the generator state (seed and
     /// flow epoch; draws are keyed by these) and the bed level.
+    ///
+    /// ```
+    /// use mbs_kernel::{Scenario, Sim};
+    ///
+    /// let mut a = Sim::<f64, 64, 8>::new();
+    /// Scenario::paper().build(&mut a)?;
+    /// let mut b = a.clone();
+    /// assert_eq!(a.digest(), b.digest());
+    /// b.step()?;
+    /// assert_ne!(a.digest(), b.digest());
+    /// # Ok::<(), mbs_kernel::Error>(())
+    /// ```
     pub fn digest(&self) -> u64 {
         let mut h = Fnv1a::default();
         let g = &self.grains;
@@ -65,7 +90,7 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
             }
             h.word(u64::from(g.fixed[i]) | u64::from(g.class[i]) << 8);
         }
-        for (i, j, s) in self.nbrs.contacts(g.len) {
+        for (i, j, s) in self.contacts() {
             h.word(i as u64);
             h.word(j as u64);
             h.real(s.e_n);

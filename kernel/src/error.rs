@@ -57,6 +57,18 @@ pub enum CheckpointFault {
 }
 
 /// An error returned by the kernel.
+///
+/// ```
+/// use mbs_kernel::{Error, Scenario, Sim};
+///
+/// let mut config = Scenario::paper().sim_config()?;
+/// config.step_dt = -1.0;
+/// let mut sim = Sim::<f64, 8, 4>::new();
+/// let error = sim.reset(&config).unwrap_err();
+/// assert!(matches!(error, Error::InvalidParameter { name: "step_dt", .. }));
+/// assert_eq!(error.to_string(), "step_dt = -1: must be finite and > 0");
+/// # Ok::<(), mbs_kernel::Error>(())
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Error {
@@ -67,8 +79,8 @@ pub enum Error {
         /// Its size.
         capacity: usize,
     },
-    /// A grain's state became infinite or NaN (typically Δt beyond the
-    /// stability bound of SPEC (11)).
+    /// A grain's state became infinite or NaN (typically the integration
+    /// step `step_dt` beyond the stability bound, docs/model.md (11)).
     NonFinite {
         /// Step count at which it was detected.
         step: u64,
@@ -96,7 +108,7 @@ pub enum Error {
     },
     /// A parameter is outside its allowed range.
     InvalidParameter {
-        /// Parameter name, e.g. `"dt"`.
+        /// Parameter name, e.g. `"step_dt"`.
         name: &'static str,
         /// The offending value.
         value: f64,
@@ -117,7 +129,7 @@ impl fmt::Display for Error {
                 quantity,
             } => write!(
                 f,
-                "non-finite {quantity:?} of grain {grain} at step {step} (is dt within the stability bound?)"
+                "non-finite {quantity:?} of grain {grain} at step {step} (is step_dt within the stability bound?)"
             ),
             Error::LeftDomain { step, grain, y } => {
                 write!(f, "grain {grain} left the domain at step {step} (y = {y:e} m)")

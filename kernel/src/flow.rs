@@ -1,14 +1,26 @@
-//! The prescribed flow (SPEC §6) and the drag it exerts (SPEC §3):
+//! The prescribed flow (docs/model.md §6) and the drag it exerts (docs/model.md §3):
 //! log-law mean velocity (14), Nezu turbulence intensities (15), sheltering
 //! (16) and the drag force (4)–(5). The fluid is not solved.
 //!
-//! Heights `y` here are measured from the mean bed level (SPEC §6).
+//! Heights `y` here are measured from the mean bed level (docs/model.md §6).
 
 use crate::error::{check, non_negative, positive, Error};
 use crate::random::{Stream, TURBULENCE_STREAM};
 use crate::real::Real;
 
-/// User-facing flow parameters (SI units). Defaults are SPEC §1.
+/// User-facing flow parameters (SI units). Defaults are those of docs/model.md §1.
+///
+/// ```
+/// use mbs_kernel::{shear_velocity, FlowConfig};
+///
+/// // τ* = 0.2 on 0.5 mm sand: u* ≈ 4.0 cm/s.
+/// let u_star = shear_velocity(0.2, 2.65, 9.81, 0.5e-3);
+/// assert!((u_star - 0.0402).abs() < 1e-4);
+/// let flow = FlowConfig::new(u_star, 0.5e-3);
+/// flow.validate()?;
+/// assert_eq!((flow.kappa, flow.eps0, flow.hold_steps), (0.4, 0.4, 100));
+/// # Ok::<(), mbs_kernel::Error>(())
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct FlowConfig {
@@ -20,7 +32,7 @@ pub struct FlowConfig {
     pub depth: f64,
     /// Sheltering coefficient at bed level ε0 (16); 1 disables sheltering.
     pub eps0: f64,
-    /// Equivalent roughness k_s (m); SPEC: k_s = d.
+    /// Equivalent roughness k_s (m); docs/model.md §1: k_s = d.
     pub roughness: f64,
     /// Grain diameter d of the zero-level shift y + 0.25d in (14), (16) (m).
     pub reference_diameter: f64,
@@ -28,16 +40,16 @@ pub struct FlowConfig {
     pub turbulence: bool,
     /// Steps a fluctuation is held before it is redrawn (paper: 100).
     pub hold_steps: u32,
-    /// Steps between recomputations of the mean bed level (SPEC §6, [choice] 100).
+    /// Steps between recomputations of the mean bed level (docs/model.md §6, \[choice\] 100).
     pub bed_level_interval: u32,
     /// Width of the windows in which the mean bed level is found, in largest
-    /// diameters (SPEC §6 applied per window, [choice] 5: the paper's bed,
+    /// diameters (docs/model.md §6 applied per window, \[choice\] 5: the paper's bed,
     /// nld = 5, is one window). See [`crate::Sim::bed_level`].
     pub bed_level_window: f64,
 }
 
 impl FlowConfig {
-    /// SPEC §1 defaults for grains of diameter `d` at shear velocity `u_star`.
+    /// The defaults of docs/model.md §1 for grains of diameter `d` at shear velocity `u_star`.
     pub fn new(u_star: f64, d: f64) -> Self {
         FlowConfig {
             u_star,
@@ -87,12 +99,25 @@ impl FlowConfig {
     }
 }
 
-/// u* from the Shields number: τ* = u*²/((s − 1)gd) (SPEC §6).
+/// u* from the Shields number: τ* = u*²/((s − 1)gd) (docs/model.md §6).
 pub fn shear_velocity(tau_star: f64, s: f64, g: f64, d: f64) -> f64 {
     libm::sqrt(tau_star * (s - 1.0) * g * d)
 }
 
 /// The flow profile in the working precision, evaluated per grain per step.
+///
+/// ```
+/// use mbs_kernel::{flow::Profile, FlowConfig};
+///
+/// let d = 0.5e-3;
+/// let profile = Profile::<f64>::new(&FlowConfig::new(0.04, d));
+/// // (14): no flow below the zero level, faster higher up.
+/// assert_eq!(profile.mean_velocity(-d), 0.0);
+/// assert!(profile.mean_velocity(2.0 * d) > profile.mean_velocity(d));
+/// // (16): sheltered at the bed (ε0 = 0.4), exposed well above it.
+/// assert_eq!(profile.sheltering(-d), 0.4);
+/// assert!(profile.sheltering(10.0 * d) > 0.99);
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Profile<R: Real> {
     /// u*/κ.
@@ -159,7 +184,7 @@ impl<R: Real> Profile<R> {
     }
 
     /// (16): ε = ε0 + (1 − ε0)[1 − exp(−((y + 0.25d)/k_s)²)]; ε = ε0 below the
-    /// zero level y + 0.25d ≤ 0 **[choice]**: (16) is even in y + 0.25d and
+    /// zero level y + 0.25d ≤ 0 **\[choice\]**: (16) is even in y + 0.25d and
     /// would otherwise expose deeply buried grains.
     #[inline]
     pub fn sheltering(&self, y: R) -> R {
@@ -173,7 +198,7 @@ impl<R: Real> Profile<R> {
 
     /// The fluctuation (u, v) of held standard-normal draws (z_u, z_v) at
     /// height `y` where the mean velocity is `mean`: (15) scaled draws, zero
-    /// where U = 0 or without turbulence (SPEC §6).
+    /// where U = 0 or without turbulence (docs/model.md §6).
     #[inline]
     pub fn fluctuation(&self, mean: R, y: R, z_u: R, z_v: R) -> (R, R) {
         if self.turbulence && mean > R::ZERO {
@@ -186,7 +211,7 @@ impl<R: Real> Profile<R> {
 
     /// Drag force (4)–(5) on a grain at height `y` with velocity (u_p, v_p) and
     /// standard-normal fluctuation draws (z_u, z_v); `coef` = ½ρC_D A2 d².
-    /// Fluctuations apply only where U > 0 (SPEC §6).
+    /// Fluctuations apply only where U > 0 (docs/model.md §6).
     #[inline]
     pub fn drag(&self, coef: R, y: R, u_p: R, v_p: R, z_u: R, z_v: R) -> (R, R) {
         let mean = self.mean_velocity(y);
@@ -199,7 +224,7 @@ impl<R: Real> Profile<R> {
 }
 
 /// The standard-normal pair (z_u, z_v) of grain `id` in hold period `period`
-/// (SPEC (15), [choice]: per grain, independent u and v, held for
+/// (docs/model.md (15), \[choice\]: per grain, independent u and v, held for
 /// `hold_steps`). Keyed, so it does not depend on draw order.
 pub fn fluctuation_draw(seed: u64, period: u64, id: u32) -> (f64, f64) {
     Stream::new(seed, TURBULENCE_STREAM, period, id as u64).gaussian_pair()

@@ -6,7 +6,7 @@
 
 use crate::real::Real;
 
-/// Size classes the observables separate (SPEC §8, per size class q*).
+/// Size classes the observables separate (docs/model.md §8, per size class q*).
 pub const MAX_CLASSES: usize = 4;
 
 /// A grain in SI units (`f64`): what the caller adds with
@@ -26,7 +26,7 @@ pub struct GrainSpec {
     pub spin: f64,
     /// Diameter d (m).
     pub diameter: f64,
-    /// A fixed grain never moves and feels no drag (SPEC §4, §7).
+    /// A fixed grain never moves and feels no drag (docs/model.md §4, §7).
     pub fixed: bool,
     /// Size class index, < [`MAX_CLASSES`].
     pub class: u8,
@@ -80,10 +80,10 @@ pub struct Grains<R: Real, const N: usize> {
     /// 1/(σπd⁵/60); 0 for fixed grains.
     pub(crate) inv_inertia: [R; N],
     _pad11: Pad,
-    /// ½ρC_D A2 d² (SPEC (5) without ε and |w|).
+    /// ½ρC_D A2 d² (docs/model.md (5) without ε and |w|).
     pub(crate) drag_coef: [R; N],
     _pad12: Pad,
-    /// Held standard-normal fluctuation draws (SPEC (15)).
+    /// Held standard-normal fluctuation draws (docs/model.md (15)).
     pub(crate) z_u: [R; N],
     _pad13: Pad,
     pub(crate) z_v: [R; N],

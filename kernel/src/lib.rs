@@ -5,26 +5,93 @@
 //! simulator"): sand grains in a vertical 2-D slice, spring–dashpot contacts
 //! with friction, drag from a prescribed log-law flow with Monte Carlo
 //! turbulence, a randomly packed bed over fixed grains, periodic in x.
-//! `SPEC` below means `shared/SPEC.md`, which lists the paper's equations.
+//! `docs/model.md` lists the paper's equations, with the paper's numbers.
+//!
+//! ```
+//! use mbs_kernel::{Scenario, Sim};
+//!
+//! // The paper's case, on a lattice of 5 columns of 2 grains (the paper
+//! // has 10 rows) over 5 fixed grains.
+//! let mut scenario = Scenario::paper();
+//! scenario.bed.rows = 2;
+//! // Room for 16 grains of up to 8 neighbours each, in f64.
+//! let mut sim = Sim::<f64, 16, 8>::new();
+//! let bed = scenario.build(&mut sim)?;
+//! assert_eq!((bed.fixed, bed.mobile), (5, 10));
+//! // The lattice falls onto the fixed grains (10 000 steps, 25 ms).
+//! sim.run(10_000)?;
+//! assert!(sim.observe().contacts >= 10);
+//! // Switch the flow on (τ* = 0.2) and step on.
+//! sim.set_flow(Some(&scenario.flow()))?;
+//! sim.run(400)?;
+//! // The digest of the whole state: a copy restored from a checkpoint
+//! // has the same bits.
+//! let mut bytes = Vec::new();
+//! sim.checkpoint(|chunk| bytes.extend_from_slice(chunk));
+//! let mut copy = Sim::<f64, 16, 8>::new();
+//! copy.restore(&bytes)?;
+//! assert_eq!(copy.digest(), sim.digest());
+//! # Ok::<(), mbs_kernel::Error>(())
+//! ```
 //!
 //! - `#![no_std]`, no allocator: storage is inline with compile-time
-//!   capacities (`N` grains, `K` neighbour slots per grain). No `unsafe`
-//!   outside the x86-64 vector lanes (`batch`: three audited lines).
+//!   capacities (`N` grains, `K` neighbour slots per grain), and an all-zero
+//!   [`Sim`] is a valid empty one ([`Sim::new`]). No `unsafe` outside the
+//!   x86-64 vector lanes: five audited `unsafe` blocks, in the one macro
+//!   that writes the batched step for both precisions (`step/batch.rs`).
 //! - Never panics: every failure is an [`Error`].
 //! - Bit-reproducible: fixed iteration orders, `libm` for every
 //!   transcendental, no fused multiply-add, keyed random streams, canonical
-//!   bits in the [digest](Sim::digest). Generic over `f32` and `f64`.
+//!   bits in the [digest](Sim::digest). Generic over `f32` and `f64`
+//!   ([`Real`]).
 //!
-//! | SPEC | what | where |
+//! | docs/model.md | what | where |
 //! |---|---|---|
 //! | (1)–(3) | equations of motion, symplectic Euler | [`Sim::step`] |
 //! | (4)–(5) | drag | [`flow::Profile::drag`] |
 //! | (6)–(9) | contact law with history | [`contact::ContactLaw::apply`] |
 //! | (10)–(13), (17), (18) | constants from Δt | [`contact_constants`] |
+//! | (11) | stability bound of the integration step | [`ContactConstants::stable_dt_limit`] |
 //! | (14)–(16) | log law, turbulence, sheltering | [`flow::Profile`] |
 //! | §6 | mean bed level | [`Sim::bed_level`] |
 //! | §7 | initial bed | [`Sim::build_bed`], [`Sim::settle`] |
 //! | §8 | observables | [`Sim::observe`] |
+//!
+//! ## Layers
+//!
+//! Each module uses only modules of the layers above it and leaves of its
+//! own layer: there is no import cycle.
+//!
+//! 1. **Numbers** (leaves): `real` ([`Real`]: `f32` or `f64`, numbers
+//!    only), `error` ([`Error`]), [`random`] (keyed random streams),
+//!    `periodic` (the minimum image across the periodic boundary).
+//! 2. **Model laws**: `constants` (material, and the contact constants from
+//!    Δt: [`contact_constants`]), [`contact`] (the contact law (6)–(9) and
+//!    its spring history), [`flow`] (the flow profile (14)–(16) and the
+//!    drag (4)–(5)).
+//! 3. **Storage**: `grains` (the grains, a structure of arrays),
+//!    `neighbours` (each grain's neighbour slots with their spring history,
+//!    and the cell-list search that fills them).
+//! 4. **Step**: `step::mover` (symplectic Euler (1)–(3) with the domain
+//!    checks, shared by both paths), `step::scalar` (the **scalar step**:
+//!    portable, one grain at a time), `step::batch` and `step::index` (the
+//!    **batched step** in x86-64 AVX2 vector lanes, and its pair index;
+//!    `step::no_lanes` stands in for the index elsewhere). Both paths give
+//!    the same bits.
+//! 5. **Sim** (`sim`): [`Sim`], its state and configuration ([`SimConfig`]),
+//!    adding grains, switching the flow, reading the state. Other modules
+//!    add `impl Sim` blocks, one topic each: `step` ([`Sim::step`],
+//!    [`Sim::run`]: the dispatch to the two paths), `bed` (the initial bed,
+//!    settling, the mean bed level), `observe` ([`Observation`]),
+//!    `checkpoint` ([`Sim::checkpoint`], [`Sim::restore`]) and `digest`
+//!    ([`Sim::digest`]).
+//! 6. **Scenario** (`scenario`): [`Scenario`], a complete run set-up (the
+//!    paper's by default) from which the host, the golden tests and the
+//!    firmware all build their simulations.
+//!
+//! The pair index of the batched step is a field of [`Sim`], not of the
+//! neighbour storage: while it is ready it holds the spring history, and
+//! the slots get it back before the scalar step or a rebuild reads them.
 #![no_std]
 #![deny(unsafe_code)]
 #![deny(missing_docs)]
@@ -32,8 +99,6 @@
 #[cfg(test)]
 extern crate std;
 
-#[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
-mod batch;
 mod bed;
 mod checkpoint;
 mod constants;
@@ -44,11 +109,12 @@ pub mod flow;
 mod grains;
 mod neighbours;
 mod observe;
-mod pairs;
+mod periodic;
 pub mod random;
 mod real;
 mod scenario;
 mod sim;
+mod step;
 
 pub use bed::{BedInfo, BedSpec, Settled, SizeClass};
 pub use checkpoint::CHECKPOINT_VERSION;

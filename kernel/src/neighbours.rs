@@ -15,12 +15,15 @@
 //! hashed into one bucket per grain, so any bed height fits; a bucket shared by two
 //! cells only costs extra distance checks. History moves from the old slots to
 //! the new ones by merging the two sorted lists, so no contact is lost.
+//!
+//! The batched step's pair index, built from these slots, is not kept here:
+//! it is a field of [`crate::Sim`] (`step::index`), which lends the slots
+//! the history it holds ([`Neighbours::contacts`]).
 
-#[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
-use crate::batch::Batch;
 use crate::contact::Spring;
 use crate::error::{Capacity, Error};
 use crate::grains::Grains;
+use crate::periodic::periodic;
 use crate::real::Real;
 
 /// Steps of the fastest grain's travel that a build's skin leaves room for
@@ -69,18 +72,16 @@ pub struct Neighbours<R: Real, const N: usize, const K: usize> {
     /// Largest distance any grain may have travelled since the last build.
     pub(crate) travel: R,
     /// Skin (m) of the last build, the configured (largest) skin, and the
-    /// time step Δt.
+    /// integration step.
     pub(crate) skin: R,
     skin_max: R,
-    dt: R,
+    step_dt: R,
     /// Whether the list must be rebuilt before the next use.
     pub(crate) stale: bool,
     /// Rebuilds since the simulation was reset (a diagnostic).
     pub(crate) rebuilds: u64,
-    /// The batched step's storage (pair list, history in pair order,
-    /// windows, sums), rebuilt with the slots.
-    #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
-    pub(crate) batch: Batch<R, N, K>,
+    /// Largest cut-off of the last build: largest diameter + skin.
+    pub(crate) cutoff: R,
 }
 
 impl<R: Real, const N: usize, const K: usize> Neighbours<R, N, K> {
@@ -97,29 +98,24 @@ impl<R: Real, const N: usize, const K: usize> Neighbours<R, N, K> {
             travel: R::ZERO,
             skin: R::ZERO,
             skin_max: R::ZERO,
-            dt: R::ZERO,
+            step_dt: R::ZERO,
             stale: false,
             rebuilds: 0,
-            #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
-            batch: Batch::new(),
+            cutoff: R::ZERO,
         }
     }
 
     /// Forgets every pair and its history.
     pub(crate) fn clear(&mut self) {
         self.count = [0; N];
-        #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
-        {
-            self.batch.ready = false;
-        }
         self.travel = R::ZERO;
         self.stale = true;
         self.rebuilds = 0;
     }
 
-    /// Sets the largest skin (m) and the time step Δt (s).
-    pub(crate) fn set_skin(&mut self, skin: R, dt: R) {
-        (self.skin, self.skin_max, self.dt) = (skin, skin, dt);
+    /// Sets the largest skin (m) and the integration step (s).
+    pub(crate) fn set_skin(&mut self, skin: R, step_dt: R) {
+        (self.skin, self.skin_max, self.step_dt) = (skin, skin, step_dt);
     }
 
     /// Records one step's largest grain displacement; marks the list stale
@@ -132,19 +128,11 @@ impl<R: Real, const N: usize, const K: usize> Neighbours<R, N, K> {
         }
     }
 
-    /// Rebuilds the slots if stale.
-    pub(crate) fn refresh(&mut self, g: &Grains<R, N>, width: R, y_min: R) -> Result<(), Error> {
-        if self.stale {
-            self.rebuild(g, width, y_min)?;
-        }
-        Ok(())
-    }
-
     /// Bins the grains into cells and rebuilds every grain's slots, carrying
     /// the history of pairs present in both lists. Fixed–fixed pairs are
-    /// never listed (they exert no force).
+    /// never listed (they exert no force). The slots must hold the history
+    /// (the batched step's pair index gives it back first).
     pub(crate) fn rebuild(&mut self, g: &Grains<R, N>, width: R, y_min: R) -> Result<(), Error> {
-        self.history_to_slots();
         let n = g.len.min(N);
         let (mut r_max, mut max_v2) = (R::ZERO, R::ZERO);
         for ((&r, &u), &v) in g.r[..n].iter().zip(&g.u[..n]).zip(&g.v[..n]) {
@@ -161,8 +149,9 @@ impl<R: Real, const N: usize, const K: usize> Neighbours<R, N, K> {
                 allowed: ">= 3 × (largest diameter + skin)",
             });
         }
-        self.skin = adapted_skin(self.skin_max, R::sqrt(max_v2) * self.dt);
+        self.skin = adapted_skin(self.skin_max, R::sqrt(max_v2) * self.step_dt);
         let cutoff = r_max + r_max + self.skin;
+        self.cutoff = cutoff;
         let nx_f = libm::floor((width / cutoff).to_f64());
         let nx = if nx_f > 65_536.0 {
             65_536u32
@@ -225,15 +214,6 @@ impl<R: Real, const N: usize, const K: usize> Neighbours<R, N, K> {
             }
             self.merge_into_slots(i, &found);
         }
-        #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
-        self.batch.index(
-            g,
-            &self.count,
-            &self.other,
-            &self.spring,
-            width,
-            cutoff + self.skin,
-        );
         self.travel = R::ZERO;
         self.stale = false;
         self.rebuilds = self.rebuilds.wrapping_add(1);
@@ -261,34 +241,30 @@ impl<R: Real, const N: usize, const K: usize> Neighbours<R, N, K> {
         self.count[i] = found.len().min(K) as u8;
     }
 
-    /// Moves the spring history from the batched step's storage, where it
-    /// lives while that is ready, back into the slots (the fused pass and
-    /// the rebuild work on the slots).
-    pub(crate) fn history_to_slots(&mut self) {
-        #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
-        self.batch.history_to_slots(&mut self.spring);
-    }
-
-    /// The history of grain i's used slot k, wherever it lives.
+    /// The history of grain i's used slot k, wherever it lives: `lent`
+    /// gives it while the batched step's pair index holds it, else the slot.
     #[inline]
-    fn spring_at(&self, i: usize, k: usize) -> Spring<R> {
-        #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
-        if let Some(h) = self.batch.spring_at(i, k) {
-            return h;
-        }
-        self.spring[i][k]
+    fn spring_at(
+        &self,
+        i: usize,
+        k: usize,
+        lent: impl Fn(usize, usize) -> Option<Spring<R>>,
+    ) -> Spring<R> {
+        lent(i, k).unwrap_or(self.spring[i][k])
     }
 
     /// The pairs (i, j, history) with non-zero spring history among the first
-    /// `n` grains, in (i, j) order: the contacts.
-    pub(crate) fn contacts(
-        &self,
+    /// `n` grains, in (i, j) order: the contacts (`lent`: see
+    /// [`Neighbours::spring_at`]).
+    pub(crate) fn contacts<'a>(
+        &'a self,
         n: usize,
-    ) -> impl Iterator<Item = (usize, usize, Spring<R>)> + '_ {
+        lent: impl Fn(usize, usize) -> Option<Spring<R>> + Copy + 'a,
+    ) -> impl Iterator<Item = (usize, usize, Spring<R>)> + 'a {
         (0..n.min(N)).flat_map(move |i| {
             let count = usize::from(self.count[i]).min(K);
             (0..count).filter_map(move |k| {
-                let (j, h) = (self.other[i][k] as usize, self.spring_at(i, k));
+                let (j, h) = (self.other[i][k] as usize, self.spring_at(i, k, lent));
                 let active = h.e_n != R::ZERO || h.e_s != R::ZERO;
                 (active && j < n).then_some((i, j, h))
             })
@@ -310,13 +286,19 @@ impl<R: Real, const N: usize, const K: usize> Neighbours<R, N, K> {
         }
     }
 
-    /// The history of pair (i, j), if listed.
-    pub(crate) fn history(&self, i: usize, j: usize) -> Option<Spring<R>> {
+    /// The history of pair (i, j), if listed (`lent`: see
+    /// [`Neighbours::spring_at`]).
+    pub(crate) fn history(
+        &self,
+        i: usize,
+        j: usize,
+        lent: impl Fn(usize, usize) -> Option<Spring<R>>,
+    ) -> Option<Spring<R>> {
         let (a, b) = if i < j { (i, j) } else { (j, i) };
         let count = usize::from(*self.count.get(a)?).min(K);
         let slots = self.other.get(a)?;
         let k = slots[..count].iter().position(|&o| o as usize == b)?;
-        Some(self.spring_at(a, k))
+        Some(self.spring_at(a, k, lent))
     }
 }
 
@@ -340,18 +322,6 @@ fn bucket_count(n: usize, capacity: usize) -> usize {
 #[inline]
 fn bucket(cx: u32, cy: u32, nx: u32, buckets: usize) -> usize {
     ((cy as u64 * nx as u64 + cx as u64) & (buckets as u64 - 1)) as usize
-}
-
-/// Minimum-image separation in the periodic x direction.
-#[inline]
-pub(crate) fn periodic<R: Real>(dx: R, width: R, half_width: R) -> R {
-    if dx > half_width {
-        dx - width
-    } else if dx < -half_width {
-        dx + width
-    } else {
-        dx
-    }
 }
 
 #[cfg(test)]

@@ -1,9 +1,9 @@
-//! Observables (SPEC §8): centre of gravity y_gc, energies, overlaps,
+//! Observables (docs/model.md §8): centre of gravity y_gc, energies, overlaps,
 //! contacts, and the bed-load transport rate q_B, in total and per size class.
 
 use crate::constants::A3;
 use crate::grains::MAX_CLASSES;
-use crate::neighbours::periodic;
+use crate::periodic::periodic;
 use crate::real::Real;
 use crate::sim::Sim;
 
@@ -31,7 +31,7 @@ pub struct Observation {
     /// Largest mobile-grain speed (m/s).
     pub max_speed: f64,
     /// Σ V_i u_p,i / L per size class (m²/s): q_B of a class is this over its
-    /// diameter (SPEC §8, [choice]: the slice is one grain thick).
+    /// diameter (docs/model.md §8, \[choice\]: the slice is one grain thick).
     pub volume_flux: [f64; MAX_CLASSES],
 }
 
@@ -53,7 +53,7 @@ impl Observation {
     }
 }
 
-/// q* = q_B/√((s − 1)g d³) (SPEC §8).
+/// q* = q_B/√((s − 1)g d³) (docs/model.md §8).
 pub fn q_star(q_b: f64, d: f64, s: f64, g: f64) -> f64 {
     q_b / libm::sqrt((s - 1.0) * g * d * d * d)
 }
@@ -71,7 +71,7 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
         libm::sqrt(v2.to_f64())
     }
 
-    /// Computes every observable of SPEC §8 at the current state.
+    /// Computes every observable of docs/model.md §8 at the current state.
     pub fn observe(&self) -> Observation {
         let g = &self.grains;
         let m = &self.config.material;
@@ -113,7 +113,7 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
         o.max_speed = self.max_speed();
         let c = &self.config.contact;
         let half_width = self.width * R::HALF;
-        for (i, j, h) in self.nbrs.contacts(g.len) {
+        for (i, j, h) in self.contacts() {
             o.contacts += 1;
             let (e_n, e_s) = (h.e_n.to_f64(), h.e_s.to_f64());
             o.spring_energy += e_n * e_n / (2.0 * c.k_n) + e_s * e_s / (2.0 * c.k_s);

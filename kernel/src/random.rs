@@ -6,9 +6,9 @@
 use rand_core::{Rng, SeedableRng};
 use rand_xoshiro::Xoshiro256PlusPlus;
 
-/// Stream tag of the initial bed builder (SPEC §7).
+/// Stream tag of the initial bed builder (docs/model.md §7).
 pub const BED_STREAM: u64 = 0xBED0_0000_0000_0001;
-/// Stream tag of the turbulent fluctuations (SPEC (15)).
+/// Stream tag of the turbulent fluctuations (docs/model.md (15)).
 pub const TURBULENCE_STREAM: u64 = 0x7B_0000_0000_0002;
 
 /// SplitMix64 finaliser: a bijective 64-bit mixer.

@@ -22,6 +22,19 @@ mod sealed {
 
 /// A floating-point scalar usable by the kernel: `f32` or `f64` (sealed, so
 /// an all-zero [`crate::Sim`] is always a valid value).
+///
+/// ```
+/// use mbs_kernel::Real;
+///
+/// // Generic code calls the associated functions (libm inside).
+/// fn hypot<R: Real>(x: R, y: R) -> R {
+///     R::sqrt(x * x + y * y)
+/// }
+/// assert_eq!(hypot(3.0f64, 4.0), 5.0);
+/// assert_eq!(hypot(3.0f32, 4.0), 5.0);
+/// // The digest hashes −0.0 as +0.0.
+/// assert_eq!(f64::canonical_bits(-0.0), f64::canonical_bits(0.0));
+/// ```
 pub trait Real:
     sealed::Sealed
     + Copy
@@ -70,23 +83,6 @@ pub trait Real:
     fn to_raw(self) -> u64;
     /// The value of raw IEEE bits (the low `BYTES` bytes).
     fn from_raw(bits: u64) -> Self;
-    /// The batched step's lanes per vector for this precision on this
-    /// target, 0 for none ([`crate::batch`]).
-    #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
-    #[doc(hidden)]
-    const LANES: usize = 0;
-    /// The batched step in vector lanes ([`crate::batch`]): the largest
-    /// squared speed or the error; `None` (nothing done) where this
-    /// precision has no lanes on this target.
-    #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
-    #[doc(hidden)]
-    #[inline]
-    fn batched_step<const N: usize, const K: usize>(
-        step: &mut crate::batch::BatchStep<'_, Self, N, K>,
-    ) -> Option<Result<Self, crate::Error>> {
-        let _ = step;
-        None
-    }
     /// The larger of two values (the first if they compare equal or unordered).
     #[inline]
     fn max(a: Self, b: Self) -> Self {
@@ -107,145 +103,105 @@ pub trait Real:
     }
 }
 
-impl Real for f64 {
-    #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
-    const LANES: usize = 4;
-    #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
-    #[inline]
-    fn batched_step<const N: usize, const K: usize>(
-        step: &mut crate::batch::BatchStep<'_, Self, N, K>,
-    ) -> Option<Result<Self, crate::Error>> {
-        Some(crate::batch::batched_step_f64(step))
+/// e^x in `f32`: micromath's with the `micromath` feature, else libm's.
+#[inline]
+fn expf(x: f32) -> f32 {
+    #[cfg(feature = "micromath")]
+    {
+        micromath::F32Ext::exp(x)
     }
-    const ZERO: Self = 0.0;
-    const ONE: Self = 1.0;
-    const HALF: Self = 0.5;
-    const NAME: &'static str = "f64";
-    const BYTES: usize = 8;
-    #[inline]
-    fn to_raw(self) -> u64 {
-        self.to_bits()
-    }
-    #[inline]
-    fn from_raw(bits: u64) -> Self {
-        f64::from_bits(bits)
-    }
-    #[inline]
-    fn from_f64(x: f64) -> Self {
-        x
-    }
-    #[inline]
-    fn to_f64(self) -> f64 {
-        self
-    }
-    #[inline]
-    fn sqrt(x: Self) -> Self {
-        libm::sqrt(x)
-    }
-    #[inline]
-    fn exp(x: Self) -> Self {
-        libm::exp(x)
-    }
-    #[inline]
-    fn ln(x: Self) -> Self {
-        libm::log(x)
-    }
-    #[inline]
-    fn abs(x: Self) -> Self {
-        libm::fabs(x)
-    }
-    #[inline]
-    fn is_finite(x: Self) -> bool {
-        x.is_finite()
-    }
-    #[inline]
-    fn canonical_bits(x: Self) -> u64 {
-        if x == 0.0 {
-            0
-        } else if x.is_nan() {
-            0x7ff8_0000_0000_0000
-        } else {
-            x.to_bits()
-        }
+    #[cfg(not(feature = "micromath"))]
+    {
+        libm::expf(x)
     }
 }
 
-impl Real for f32 {
-    #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
-    const LANES: usize = 8;
-    #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
-    #[inline]
-    fn batched_step<const N: usize, const K: usize>(
-        step: &mut crate::batch::BatchStep<'_, Self, N, K>,
-    ) -> Option<Result<Self, crate::Error>> {
-        Some(crate::batch::batched_step_f32(step))
+/// ln x in `f32`: micromath's with the `micromath` feature, else libm's.
+#[inline]
+fn logf(x: f32) -> f32 {
+    #[cfg(feature = "micromath")]
+    {
+        micromath::F32Ext::ln(x)
     }
-    const ZERO: Self = 0.0;
-    const ONE: Self = 1.0;
-    const HALF: Self = 0.5;
-    const NAME: &'static str = "f32";
-    const BYTES: usize = 4;
-    #[inline]
-    fn to_raw(self) -> u64 {
-        u64::from(self.to_bits())
-    }
-    #[inline]
-    fn from_raw(bits: u64) -> Self {
-        f32::from_bits(bits as u32)
-    }
-    #[inline]
-    fn from_f64(x: f64) -> Self {
-        x as f32
-    }
-    #[inline]
-    fn to_f64(self) -> f64 {
-        self as f64
-    }
-    #[inline]
-    fn sqrt(x: Self) -> Self {
-        libm::sqrtf(x)
-    }
-    #[inline]
-    fn exp(x: Self) -> Self {
-        #[cfg(feature = "micromath")]
-        {
-            micromath::F32Ext::exp(x)
-        }
-        #[cfg(not(feature = "micromath"))]
-        {
-            libm::expf(x)
-        }
-    }
-    #[inline]
-    fn ln(x: Self) -> Self {
-        #[cfg(feature = "micromath")]
-        {
-            micromath::F32Ext::ln(x)
-        }
-        #[cfg(not(feature = "micromath"))]
-        {
-            libm::logf(x)
-        }
-    }
-    #[inline]
-    fn abs(x: Self) -> Self {
-        libm::fabsf(x)
-    }
-    #[inline]
-    fn is_finite(x: Self) -> bool {
-        x.is_finite()
-    }
-    #[inline]
-    fn canonical_bits(x: Self) -> u64 {
-        if x == 0.0 {
-            0
-        } else if x.is_nan() {
-            0x7fc0_0000
-        } else {
-            x.to_bits() as u64
-        }
+    #[cfg(not(feature = "micromath"))]
+    {
+        libm::logf(x)
     }
 }
+
+/// [`Real`] for one IEEE type `$R`: its raw-bits type `$Bits`, the one
+/// NaN pattern it hashes every NaN as, and the functions behind `sqrt`,
+/// `exp`, `ln` and `abs`.
+macro_rules! real {
+    ($R:ident, $Bits:ident, $nan:literal, $sqrt:path, $exp:path, $ln:path, $abs:path) => {
+        impl Real for $R {
+            const ZERO: Self = 0.0;
+            const ONE: Self = 1.0;
+            const HALF: Self = 0.5;
+            const NAME: &'static str = stringify!($R);
+            const BYTES: usize = core::mem::size_of::<$R>();
+            #[inline]
+            fn to_raw(self) -> u64 {
+                u64::from(self.to_bits())
+            }
+            #[inline]
+            fn from_raw(bits: u64) -> Self {
+                // The low BYTES bytes: a no-op for f64.
+                $R::from_bits(bits as $Bits)
+            }
+            #[inline]
+            fn from_f64(x: f64) -> Self {
+                // Round to nearest: a no-op for f64.
+                x as $R
+            }
+            #[inline]
+            fn to_f64(self) -> f64 {
+                f64::from(self)
+            }
+            #[inline]
+            fn sqrt(x: Self) -> Self {
+                $sqrt(x)
+            }
+            #[inline]
+            fn exp(x: Self) -> Self {
+                $exp(x)
+            }
+            #[inline]
+            fn ln(x: Self) -> Self {
+                $ln(x)
+            }
+            #[inline]
+            fn abs(x: Self) -> Self {
+                $abs(x)
+            }
+            #[inline]
+            fn is_finite(x: Self) -> bool {
+                x.is_finite()
+            }
+            #[inline]
+            fn canonical_bits(x: Self) -> u64 {
+                if x == 0.0 {
+                    0
+                } else if x.is_nan() {
+                    $nan
+                } else {
+                    x.to_raw()
+                }
+            }
+        }
+    };
+}
+
+real!(
+    f64,
+    u64,
+    0x7ff8_0000_0000_0000,
+    libm::sqrt,
+    libm::exp,
+    libm::log,
+    libm::fabs
+);
+real!(f32, u32, 0x7fc0_0000, libm::sqrtf, expf, logf, libm::fabsf);
 
 #[cfg(test)]
 mod tests {

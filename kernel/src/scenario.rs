@@ -13,11 +13,23 @@ use crate::sim::{Sim, SimConfig};
 pub const G: f64 = 9.81;
 
 /// Everything needed to build, settle and drive a bed.
+///
+/// ```
+/// use mbs_kernel::{Scenario, Sim};
+///
+/// let scenario = Scenario::paper();
+/// assert_eq!(scenario.step_dt(), 2.0e-5 / 8.0);
+/// // The golden-digest run in miniature (100 steps settling, 100 under
+/// // the flow): two runs, the same bits.
+/// let (mut a, mut b) = (Sim::<f32, 64, 8>::new(), Sim::<f32, 64, 8>::new());
+/// assert_eq!(scenario.digests(&mut a, 100, 100)?, scenario.digests(&mut b, 100, 100)?);
+/// # Ok::<(), mbs_kernel::Error>(())
+/// ```
 #[derive(Debug, Clone, PartialEq)]
 pub struct Scenario {
     /// Fluid and grain material.
     pub material: Material,
-    /// α_m, α_cn, β and the Δt the contact constants derive from (SPEC §5).
+    /// α_m, α_cn, β and the Δt the contact constants derive from (docs/model.md §5).
     pub rule: TimeStepRule,
     /// Contact constants given explicitly instead of derived from `rule`.
     pub explicit_contact: Option<ContactConstants>,
@@ -25,11 +37,11 @@ pub struct Scenario {
     /// keeps every constant derived from Δt. Flow hold and bed-level
     /// intervals are counted in steps of Δt, so they keep their duration.
     pub substeps: u32,
-    /// The initial bed (SPEC §7).
+    /// The initial bed (docs/model.md §7).
     pub bed: BedSpec,
     /// Shields number τ* of the flow phase.
     pub tau_star: f64,
-    /// The flow of SPEC §6; its `u_star` is replaced by the one of `tau_star`
+    /// The flow of docs/model.md §6; its `u_star` is replaced by the one of `tau_star`
     /// and its `depth` is also the top of the domain.
     pub flow: FlowConfig,
     /// Largest neighbour skin in units of the largest diameter.
@@ -39,7 +51,7 @@ pub struct Scenario {
 }
 
 impl Scenario {
-    /// The paper's case (SPEC §9): d = 0.5 mm, nld = 5, nvd = 10, spacing
+    /// The paper's case (docs/model.md §9): d = 0.5 mm, nld = 5, nvd = 10, spacing
     /// 1.05 d, Δt = 2.0e-5 s, α_m = 20, α_cn = 1.3, β = 15.8, τ* = 0.2,
     /// integrated with 8 substeps: at Δt itself the tangential dashpot of
     /// rule (17) is beyond the explicit damping limit
@@ -66,7 +78,7 @@ impl Scenario {
     }
 
     /// The contact constants: the explicit ones, else derived from Δt for the
-    /// largest grain (SPEC §5).
+    /// largest grain (docs/model.md §5).
     pub fn contact(&self) -> Result<ContactConstants, Error> {
         match self.explicit_contact {
             Some(c) => c.validate().map(|()| c),

@@ -1,5 +1,5 @@
-//! The initial bed (SPEC §7), settling, the mean bed level (SPEC §6),
-//! transport under flow (SPEC §8) and determinism of whole runs.
+//! The initial bed (docs/model.md §7), settling, the mean bed level (docs/model.md §6),
+//! transport under flow (docs/model.md §8) and determinism of whole runs.
 
 mod common;
 
@@ -11,7 +11,7 @@ fn boxed<R: Real>() -> Box<Bed<R>> {
     Box::new(Bed::<R>::new())
 }
 
-/// The packing case of SPEC §9.1 (α_cn = 1, β = 1).
+/// The packing case of docs/model.md §9.1 (α_cn = 1, β = 1).
 fn packing() -> Scenario {
     let mut s = Scenario::paper();
     s.rule.alpha_cn = 1.0;
@@ -75,7 +75,7 @@ fn builds_and_settles<R: Real>(_tol: f64) {
     );
     // Mean bed level: per window of w diameters, the bed grains within one
     // diameter of the window's top; the mean over all windows' such grains.
-    // A window as wide as the bed is SPEC §6 as written. Every grain of a
+    // A window as wide as the bed is docs/model.md §6 as written. Every grain of a
     // settled bed rests on contacts, so every grain is a bed grain.
     let d = 0.5e-3;
     for (window, windows) in [(5.0, 1usize), (1e6, 1), (2.0, 2), (1.0, 5)] {
@@ -133,7 +133,7 @@ both_precisions!(flow, transport_under_flow);
 
 #[test]
 fn vacancies_and_mixed_sizes_follow_the_spec() {
-    // Constants are set for the largest grain (SPEC §5), so the explicit
+    // Constants are set for the largest grain (docs/model.md §5), so the explicit
     // damping number of the fine grains grows as (d_max/d)³: Δt/8 keeps the
     // 0.7 mm grains inside the limit (see `explicit_damping_number`).
     let mut sc = packing();

@@ -26,32 +26,32 @@ fn resume_is_bit_identical<R: Real>() {
     // Stops before the flow, right after it starts, inside a hold period
     // (800 steps at 8 substeps), on a bed-level update and after several.
     for (settle, flow) in [(700, 0), (1500, 1), (1500, 333), (1500, 800), (1500, 1999)] {
-        let mut straight = Box::new(Big::<R>::new());
-        run(&mut *straight, settle, flow);
-        let saved = bytes(&*straight);
+        let mut uninterrupted = Box::new(Big::<R>::new());
+        run(&mut *uninterrupted, settle, flow);
+        let saved = bytes(&*uninterrupted);
         let mut resumed = Box::new(Other::<R>::new());
         resumed.restore(&saved).unwrap();
         assert_eq!(
             resumed.digest(),
-            straight.digest(),
+            uninterrupted.digest(),
             "restored state ({settle}, {flow})"
         );
         assert_eq!(bytes(&*resumed), saved, "checkpoint of the restored state");
         if flow == 0 {
             let sc = Scenario::paper();
-            straight.run(300).unwrap();
+            uninterrupted.run(300).unwrap();
             resumed.run(300).unwrap();
-            straight.set_flow(Some(&sc.flow())).unwrap();
+            uninterrupted.set_flow(Some(&sc.flow())).unwrap();
             resumed.set_flow(Some(&sc.flow())).unwrap();
         }
-        straight.run(1200).unwrap();
+        uninterrupted.run(1200).unwrap();
         resumed.run(1200).unwrap();
         assert_eq!(
             resumed.digest(),
-            straight.digest(),
+            uninterrupted.digest(),
             "continued ({settle}, {flow})"
         );
-        assert_eq!(resumed.step_count(), straight.step_count());
+        assert_eq!(resumed.step_count(), uninterrupted.step_count());
     }
 }
 

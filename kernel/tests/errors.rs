@@ -99,7 +99,7 @@ fn non_finite_and_out_of_range_inputs_are_named() {
 #[test]
 fn time_step_beyond_the_stability_bound_is_refused() {
     let k_n = 1.0;
-    let limit = 2.0 * (mass() / k_n).sqrt(); // SPEC (11)
+    let limit = 2.0 * (mass() / k_n).sqrt(); // docs/model.md (11)
     let mut s = small::<f64>(&config(1.01 * limit, k_n, 0.0, 0.5));
     let err = s.add_grain(&mobile(0.0, 0.0, 0.0, 0.0)).unwrap_err();
     assert!(

@@ -1,4 +1,4 @@
-//! The exact checks of SPEC §11, each for f32 and f64 (the argument of each
+//! The exact checks of docs/model.md §11, each for f32 and f64 (the argument of each
 //! body is a precision-appropriate relative tolerance for exact identities).
 
 mod common;

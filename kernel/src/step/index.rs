@@ -1,0 +1,499 @@
+//! The batched step's pair index ([`PairIndex`]): the listed pairs of the
+//! neighbour slots in the order and layout the vector lanes read, rebuilt
+//! with the slots.
+//!
+//! Pairs are listed by first grain and padded so that each batch's first
+//! grains lie in one window of lanes' worth of grains: their values are a
+//! vector load and a permutation. In f32 the padding also keeps a batch's
+//! second grains within 16 grains of that window's start (two loads, two
+//! permutations and a blend) unless a pair crosses the periodic boundary;
+//! other second grains are gathered. Each pair's radii are copied in pair
+//! order when the pairs are indexed, and only chunks of pairs near the
+//! periodic seam take the periodic image of their separation.
+//!
+//! While the index is ready it holds the spring history, in pair order
+//! (vector loads and stores); the slots get it back before the scalar step
+//! or a rebuild reads them ([`PairIndex::history_to_slots`]).
+//!
+//! Lanes need capacities that are powers of two (every host capacity), so
+//! that masked indices need no bounds checks ([`lanes_fit`]).
+
+use crate::contact::Spring;
+use crate::grains::{Grains, Pad, PAD};
+use crate::neighbours::Neighbours;
+use crate::real::Real;
+
+/// Bytes of one vector (AVX2: 256 bits).
+const VECTOR_BYTES: usize = 32;
+
+/// Lanes per vector in precision `R`: 4 for f64, 8 for f32.
+pub(super) const fn lanes<R: Real>() -> usize {
+    VECTOR_BYTES / R::BYTES
+}
+
+/// Listed pairs the storage holds per grain on average (a settled bed has
+/// about 2.3; more: the scalar step runs).
+pub(super) const PAIRS: usize = 4;
+
+/// Batches of pairs whose geometry is found before their laws (the pair
+/// pass's chunks).
+pub(super) const CHUNK: usize = 8;
+
+/// `pair_k` of a padding pair (w, w), which has no slot.
+const SELF_PAIR: u8 = u8::MAX;
+
+/// [`PairIndex::second_lanes`] of a batch whose second grains are gathered.
+pub(super) const FAR: u8 = u8::MAX;
+
+/// Grains in the window of a batch's second grains, from its window start
+/// (0: none, all gathered): 16 for 8 lanes (f32). Grains are numbered
+/// column by column, so a grain's contacts lie a few grains ahead, and
+/// 8 pairs' second grains nearly always lie within 16 grains of their
+/// first grains' window; two vector loads and permutations then replace
+/// eight loads and seven inserts. For 4 lanes (f64) a window would need
+/// as many permutations as the gather needs inserts.
+pub(super) const fn second_window(lanes: usize) -> usize {
+    if lanes >= 8 {
+        2 * lanes
+    } else {
+        0
+    }
+}
+
+/// The batched step's pair index, rebuilt with the neighbour slots; a
+/// [`Pad`] after each array, as in [`crate::grains::Grains`] (arrays of a
+/// power-of-two size would otherwise share cache sets).
+#[derive(Debug, Clone)]
+#[repr(C)]
+pub(crate) struct PairIndex<R: Real, const N: usize, const K: usize> {
+    /// Listed pairs, padded with pairs (w, w) ([`SELF_PAIR`]) so that each
+    /// batch's first grains lie in one window and the last batch is whole,
+    /// first and second grain, and slot k.
+    pub(super) pair_i: [[u32; PAIRS]; N],
+    _pad1: Pad,
+    pub(super) pair_j: [[u32; PAIRS]; N],
+    _pad2: Pad,
+    pair_k: [[u8; PAIRS]; N],
+    _pad3: Pad,
+    /// Per pair, its grains' radii (r_i, r_j): copied when the pairs are
+    /// indexed (a radius changes only with the grains, which marks the
+    /// slots stale), so a batch loads them instead of gathering them.
+    pub(super) r_i: [[R; PAIRS]; N],
+    _pad13: Pad,
+    pub(super) r_j: [[R; PAIRS]; N],
+    _pad14: Pad,
+    /// Pairs up to the last listed one (padding pairs between included),
+    /// and pairs in whole batches (a multiple of the lanes).
+    listed: usize,
+    pub(super) pairs: usize,
+    /// Per pair, its spring history (e_n, e_s) while the storage is ready:
+    /// the slots' copy is stale until [`PairIndex::history_to_slots`].
+    pub(super) e_n: [[R; PAIRS]; N],
+    _pad4: Pad,
+    pub(super) e_s: [[R; PAIRS]; N],
+    _pad5: Pad,
+    /// Per grain, its first pair: pairs (i, slot k) are listed at
+    /// `start[i] + k`.
+    start: [u32; N],
+    /// Per batch of pairs, the 32-bit lanes (one byte each) that pick each
+    /// pair's first grain from the batch's window (a permutation control):
+    /// the window is the lanes' worth of grains from the batch's first
+    /// grain ([`window_start`]; pairs are listed by first grain, and padded
+    /// so that each batch's lie in one window), and their values are one
+    /// load and one permutation instead of a gather.
+    pub(super) window_lanes: [[u8; 8]; N],
+    _pad11: Pad,
+    /// Per batch of pairs, the 32-bit lanes that pick each pair's second
+    /// grain from the [`second_window`] grains from the batch's window
+    /// start (values 0 to 15: the low three bits pick a lane of a vector,
+    /// the fourth which of two), or [`FAR`] first if they do not lie there
+    /// (then they are gathered).
+    pub(super) second_lanes: [[u8; 8]; N],
+    _pad12: Pad,
+    /// Per chunk of [`CHUNK`] batches, whether a pair of it may need the
+    /// periodic image of its separation ([`PairIndex::find_seams`]); the
+    /// others' separations are within half the width and skip it.
+    pub(super) seam: [bool; N],
+    /// Per grain, its sums during a step: force (x, y), torque, and a
+    /// fourth value that is never read. Zero between steps.
+    pub(super) sums: [[R; 4]; N],
+    _pad6: Pad,
+    /// Per grain, all-ones bits if it moves (is not fixed), else zero: the
+    /// lane mask of the grain pass.
+    pub(super) mobile: [R; N],
+    _pad10: Pad,
+    /// The index matches the current slots (false when they do not fit:
+    /// then the scalar step runs). Every change of the slots marks them
+    /// stale, so a step rebuilds and re-indexes before it reads this.
+    pub(crate) ready: bool,
+}
+
+impl<R: Real, const N: usize, const K: usize> PairIndex<R, N, K> {
+    /// Empty (all-zero bits).
+    pub(crate) const fn new() -> Self {
+        PairIndex {
+            pair_i: [[0; PAIRS]; N],
+            _pad1: PAD,
+            pair_j: [[0; PAIRS]; N],
+            _pad2: PAD,
+            pair_k: [[0; PAIRS]; N],
+            _pad3: PAD,
+            r_i: [[R::ZERO; PAIRS]; N],
+            _pad13: PAD,
+            r_j: [[R::ZERO; PAIRS]; N],
+            _pad14: PAD,
+            listed: 0,
+            pairs: 0,
+            e_n: [[R::ZERO; PAIRS]; N],
+            _pad4: PAD,
+            e_s: [[R::ZERO; PAIRS]; N],
+            _pad5: PAD,
+            start: [0; N],
+            window_lanes: [[0; 8]; N],
+            _pad11: PAD,
+            second_lanes: [[0; 8]; N],
+            _pad12: PAD,
+            seam: [false; N],
+            sums: [[R::ZERO; 4]; N],
+            _pad6: PAD,
+            mobile: [R::ZERO; N],
+            _pad10: PAD,
+            ready: false,
+        }
+    }
+
+    /// Forgets the pairs: not ready until the next [`PairIndex::index`].
+    pub(crate) fn clear(&mut self) {
+        self.ready = false;
+    }
+
+    /// Indexes the listed pairs of the grains `g` (the slots of `nbrs`,
+    /// just rebuilt): pair list with its radii, history and windows, lane
+    /// masks, and the chunks near the periodic seam of a bed `width` wide
+    /// (`margin`: see [`PairIndex::find_seams`]). Not ready (the scalar step
+    /// runs) if the capacities do not suit the lanes ([`lanes_fit`]), or
+    /// the pairs with padding (`PAIRS` per grain) do not fit.
+    pub(crate) fn index(
+        &mut self,
+        g: &Grains<R, N>,
+        nbrs: &Neighbours<R, N, K>,
+        width: R,
+        margin: R,
+    ) {
+        let (count, other, spring) = (&nbrs.count, &nbrs.other, &nbrs.spring);
+        let n = g.len.min(N);
+        self.ready = false;
+        let lanes = lanes::<R>();
+        if !lanes_fit(N, K, lanes) {
+            return;
+        }
+        for (mask, &fixed) in self.mobile.iter_mut().zip(&g.fixed).take(n) {
+            *mask = R::from_raw(if fixed { 0 } else { u64::MAX });
+        }
+        self.mobile[n..].fill(R::ZERO);
+        let mut list = PairList::<R, N> {
+            i: self.pair_i.as_flattened_mut(),
+            j: self.pair_j.as_flattened_mut(),
+            k: self.pair_k.as_flattened_mut(),
+            r_i: self.r_i.as_flattened_mut(),
+            r_j: self.r_j.as_flattened_mut(),
+            radius: &g.r,
+            e_n: self.e_n.as_flattened_mut(),
+            e_s: self.e_s.as_flattened_mut(),
+            len: 0,
+            lanes,
+        };
+        for (m, ((&c, js), springs)) in count.iter().zip(other).zip(spring).take(n).enumerate() {
+            let own = usize::from(c).min(K);
+            // A grain's pairs are consecutive: a new batch starts before them.
+            if own > 0 && list.leaves_windows(m, &js[..own]) && !list.pad() {
+                return;
+            }
+            self.start[m] = list.len as u32;
+            for (k, (&j, h)) in js.iter().zip(springs).take(own).enumerate() {
+                if j as usize >= n || j as usize <= m || !list.push(m as u32, j, k as u8, *h) {
+                    return;
+                }
+            }
+        }
+        // A whole last batch.
+        let listed = list.len;
+        if !list.pad() {
+            return;
+        }
+        let pairs = list.len;
+        if !self.find_windows(pairs, lanes) {
+            return;
+        }
+        self.find_seams(pairs, lanes, &g.x, width, margin);
+        (self.listed, self.pairs) = (listed, pairs);
+        self.ready = true;
+    }
+
+    /// Finds each batch's window controls ([`PairIndex::window_lanes`]) for the
+    /// first `pairs` pairs, `lanes` per batch: false if a batch's first
+    /// grains do not lie in its window.
+    fn find_windows(&mut self, pairs: usize, lanes: usize) -> bool {
+        let (pair_i, pair_j) = (self.pair_i.as_flattened(), self.pair_j.as_flattened());
+        let pairs = pairs.min(pair_i.len()).min(pair_j.len());
+        let per_lane = 8 / lanes.max(1);
+        let batches = pair_i[..pairs]
+            .chunks_exact(lanes.max(1))
+            .zip(pair_j[..pairs].chunks_exact(lanes.max(1)));
+        let controls = self.window_lanes.iter_mut().zip(&mut self.second_lanes);
+        for ((batch, seconds), (control, second_control)) in batches.zip(controls) {
+            let first = window_start::<N>(batch[0], lanes) as u32;
+            if batch.iter().any(|&i| i.wrapping_sub(first) >= lanes as u32) {
+                return false;
+            }
+            for (e, entry) in control.iter_mut().enumerate() {
+                let lane = batch.get(e / per_lane).map_or(0, |&i| i - first);
+                *entry = (lane as usize * per_lane + e % per_lane) as u8;
+            }
+            *second_control = [FAR; 8];
+            if seconds
+                .iter()
+                .all(|&j| in_second_window::<N>(first as usize, j, lanes))
+            {
+                for (entry, &j) in second_control.iter_mut().zip(seconds) {
+                    *entry = (j - first) as u8;
+                }
+            }
+        }
+        true
+    }
+
+    /// Marks each chunk of the first `pairs` pairs ([`CHUNK`] batches of
+    /// `lanes`) that has a grain within `margin` of the periodic seam (x
+    /// below it, or above `width` less it; any x that is not a number).
+    /// With `margin` at least the neighbour cutoff plus the skin, every pair
+    /// whose separation can exceed half the width before the next rebuild
+    /// is in a marked chunk: a listed pair across the seam has both grains
+    /// within the cutoff of it, and a grain moves less than half a skin
+    /// between rebuilds, so only one that starts within that of the seam
+    /// can wrap around it.
+    fn find_seams(&mut self, pairs: usize, lanes: usize, x: &[R; N], width: R, margin: R) {
+        let (pair_i, pair_j) = (self.pair_i.as_flattened(), self.pair_j.as_flattened());
+        let pairs = pairs.min(pair_i.len()).min(pair_j.len());
+        let near = |g: u32| {
+            x.get(g as usize)
+                .is_none_or(|&x| !(x >= margin && x <= width - margin))
+        };
+        let per_chunk = (CHUNK * lanes).max(1);
+        let chunks = pair_i[..pairs]
+            .chunks(per_chunk)
+            .zip(pair_j[..pairs].chunks(per_chunk));
+        self.seam.fill(false);
+        for ((firsts, seconds), seam) in chunks.zip(&mut self.seam) {
+            *seam = firsts.iter().chain(seconds).any(|&g| near(g));
+        }
+    }
+
+    /// Chunks of pairs marked as near the seam, and chunks.
+    #[cfg(test)]
+    pub(crate) fn chunks_near_the_seam(&self) -> (usize, usize) {
+        let chunks = self.pairs.div_ceil(CHUNK * lanes::<R>());
+        let marked = self.seam.iter().take(chunks).filter(|&&s| s).count();
+        (marked, chunks)
+    }
+
+    /// The history of grain i's used slot k while the storage is ready,
+    /// else `None` (the slots hold it).
+    pub(crate) fn spring_at(&self, i: usize, k: usize) -> Option<Spring<R>> {
+        if !self.ready {
+            return None;
+        }
+        let q = *self.start.get(i)? as usize + k;
+        let (e_n, e_s) = (self.e_n.as_flattened(), self.e_s.as_flattened());
+        Some(Spring {
+            e_n: *e_n.get(q)?,
+            e_s: *e_s.get(q)?,
+        })
+    }
+
+    /// Moves the history back into the slots and stops being ready: the
+    /// scalar step and the rebuild work on the slots.
+    pub(crate) fn history_to_slots(&mut self, spring: &mut [[Spring<R>; K]; N]) {
+        if !self.ready {
+            return;
+        }
+        self.ready = false;
+        let (e_n, e_s) = (self.e_n.as_flattened(), self.e_s.as_flattened());
+        let (pair_i, pair_k) = (self.pair_i.as_flattened(), self.pair_k.as_flattened());
+        let listed = self.listed.min(e_n.len());
+        for q in 0..listed {
+            if pair_k[q] == SELF_PAIR {
+                continue;
+            }
+            let (i, k) = (pair_i[q] as usize, usize::from(pair_k[q]));
+            if let Some(slot) = spring.get_mut(i).and_then(|s| s.get_mut(k)) {
+                *slot = Spring {
+                    e_n: e_n[q],
+                    e_s: e_s[q],
+                };
+            }
+        }
+    }
+}
+
+/// The pair list being built by [`PairIndex::index`]: first and second grain,
+/// slot, radii (from the grains' `radius`) and history per pair, `len`
+/// pairs so far, `lanes` per batch.
+struct PairList<'a, R, const N: usize> {
+    i: &'a mut [u32],
+    j: &'a mut [u32],
+    k: &'a mut [u8],
+    r_i: &'a mut [R],
+    r_j: &'a mut [R],
+    radius: &'a [R; N],
+    e_n: &'a mut [R],
+    e_s: &'a mut [R],
+    len: usize,
+    lanes: usize,
+}
+
+impl<R: Real, const N: usize> PairList<'_, R, N> {
+    /// Appends pair (i, j) of slot k with history h: false if full (or a
+    /// grain out of bounds).
+    fn push(&mut self, i: u32, j: u32, k: u8, h: Spring<R>) -> bool {
+        let q = self.len;
+        let radii = (self.radius.get(i as usize), self.radius.get(j as usize));
+        let (Some(&r_i), Some(&r_j)) = radii else {
+            return false;
+        };
+        if q >= self.i.len().min(self.j.len()).min(self.k.len())
+            || q >= self.r_i.len().min(self.r_j.len())
+            || q >= self.e_n.len().min(self.e_s.len())
+        {
+            return false;
+        }
+        (self.i[q], self.j[q], self.k[q]) = (i, j, k);
+        (self.r_i[q], self.r_j[q]) = (r_i, r_j);
+        (self.e_n[q], self.e_s[q]) = (h.e_n, h.e_s);
+        self.len += 1;
+        true
+    }
+
+    /// The first grain of the batch being filled (None: none is).
+    fn window_of_batch(&self) -> Option<usize> {
+        let filled = self.len % self.lanes.max(1);
+        let first = self.i.get(self.len.wrapping_sub(filled))?;
+        (filled > 0).then_some(*first as usize)
+    }
+
+    /// Whether grain m's pairs, with second grains `js`, must start a new
+    /// batch: m lies outside the first grains' window of the batch being
+    /// filled, or one of `js` outside that batch's second window but inside
+    /// the one a batch from m would have (a pair that no window holds,
+    /// across the periodic boundary, joins the batch, whose second grains
+    /// are then gathered).
+    fn leaves_windows(&self, m: usize, js: &[u32]) -> bool {
+        let Some(w) = self.window_of_batch() else {
+            return false;
+        };
+        let holds = |first: usize, j: u32| {
+            in_second_window::<N>(window_start::<N>(first as u32, self.lanes), j, self.lanes)
+        };
+        m - w >= self.lanes || js.iter().any(|&j| !holds(w, j) && holds(m, j))
+    }
+
+    /// Fills the batch being filled with pairs (w, w) of its first grain w:
+    /// coincident, so they keep a zero history and exert no force. False
+    /// if full.
+    fn pad(&mut self) -> bool {
+        let Some(w) = self.window_of_batch() else {
+            return true;
+        };
+        while !self.len.is_multiple_of(self.lanes.max(1)) {
+            if !self.push(w as u32, w as u32, SELF_PAIR, Spring::ZERO) {
+                return false;
+            }
+        }
+        true
+    }
+}
+
+/// The first grain of the window of a batch of pairs whose first pair's
+/// first grain is `i`: i itself, or the last window that ends within the
+/// grains' arrays.
+#[inline]
+pub(super) fn window_start<const N: usize>(i: u32, lanes: usize) -> usize {
+    (i as usize).min(N.saturating_sub(lanes))
+}
+
+/// Whether second grain j lies in the [`second_window`] of a batch whose
+/// window starts at grain `start` (never for f64, whose window is empty),
+/// that window within the grains' arrays.
+#[inline]
+fn in_second_window<const N: usize>(start: usize, j: u32, lanes: usize) -> bool {
+    let width = second_window(lanes);
+    start + width <= N && (j as usize).wrapping_sub(start) < width
+}
+
+/// Whether capacities suit `lanes` lanes (none: 0): N and K powers of
+/// two, so that masked indices need no bounds checks (every host capacity
+/// is), N a whole number of groups.
+pub(crate) const fn lanes_fit(n: usize, k: usize, lanes: usize) -> bool {
+    lanes > 0 && n.is_power_of_two() && k.is_power_of_two() && n >= lanes
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// 40 grains numbered as a bed's, column by column, 13 to a column:
+    /// grain m's pairs are the grain above it (m + 1) and its neighbour in
+    /// the next column (m + 13), and grain 3 touches grain 39 across the
+    /// periodic boundary. In f32 lanes: every listed pair is found at its
+    /// grain's start and slot, each batch's first and second grains are
+    /// picked by its controls (a batch of four grains' pairs would reach
+    /// 16 grains ahead: it ends early), and only the batch across the
+    /// boundary gathers its second grains.
+    #[test]
+    fn second_grains_lie_in_windows_but_across_the_boundary() {
+        const N: usize = 64;
+        const K: usize = 4;
+        let n = 40;
+        let mut batch = std::boxed::Box::new(PairIndex::<f32, N, K>::new());
+        let mut nbrs = std::boxed::Box::new(Neighbours::<f32, N, K>::new());
+        for m in 0..n {
+            let js = [m + 1, m + 13].into_iter().filter(|&j| j < n);
+            let js = js.chain((m == 3).then_some(39));
+            for j in js {
+                nbrs.push_history(m, j, Spring::ZERO);
+            }
+        }
+        let (count, other) = (nbrs.count, nbrs.other);
+        let mut grains = std::boxed::Box::new(Grains::<f32, N>::new());
+        grains.len = n;
+        batch.index(&grains, &nbrs, 1.0, 1.0);
+        assert!(batch.ready);
+        let (pair_i, pair_j) = (batch.pair_i.as_flattened(), batch.pair_j.as_flattened());
+        for m in 0..n {
+            for (k, &j) in other[m][..usize::from(count[m])].iter().enumerate() {
+                let q = batch.start[m] as usize + k;
+                assert_eq!((pair_i[q], pair_j[q]), (m as u32, j));
+            }
+        }
+        let mut far = 0;
+        for t in 0..batch.pairs / 8 {
+            let pairs = t * 8..t * 8 + 8;
+            let start = window_start::<N>(pair_i[t * 8], 8);
+            for (l, q) in pairs.clone().enumerate() {
+                let first = usize::from(batch.window_lanes[t][l]);
+                assert_eq!(pair_i[q] as usize, start + first);
+            }
+            if batch.second_lanes[t][0] == FAR {
+                far += 1;
+                assert!(pairs.clone().any(|q| (pair_i[q], pair_j[q]) == (3, 39)));
+                continue;
+            }
+            for (l, q) in pairs.enumerate() {
+                let second = usize::from(batch.second_lanes[t][l]);
+                assert!(second < second_window(8));
+                assert_eq!(pair_j[q] as usize, start + second);
+            }
+        }
+        assert_eq!(far, 1);
+    }
+}

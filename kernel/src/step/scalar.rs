@@ -1,0 +1,414 @@
+//! The scalar step: portable, one grain at a time. The contact forces
+//! (6)–(9) of every overlapping listed pair, then symplectic Euler
+//! (1)–(3), grain after grain ([`step`]); the drag (4)–(5) before it, flow
+//! on ([`add_drag`]).
+//!
+//! A pair's geometry (distance, normal, relative velocities) depends only on
+//! the start-of-step state (docs/model.md §2), so it may be computed ahead of the
+//! laws, which must run in the fixed order (their sums are order-dependent
+//! in floating point). [`Touching`] holds one grain's contacts found ahead.
+
+use super::mover::Mover;
+use crate::contact::{ContactLaw, Spring};
+use crate::error::Error;
+use crate::flow::Profile;
+use crate::grains::Grains;
+use crate::neighbours::Neighbours;
+use crate::periodic::periodic;
+use crate::real::Real;
+
+/// The scalar step: contact forces (6)–(9) of every overlapping listed
+/// pair, then symplectic Euler (1)–(3), grain after grain; the largest
+/// squared speed reached, or the first failing grain's error.
+///
+/// Pairs are visited in the fixed order (i ascending, j ascending); the
+/// history of separated pairs is dropped. Grain i appears only in pairs
+/// (m ≤ i, ·), so its force is complete once its own pairs are added and
+/// it is integrated at once, while its data is in cache: the same
+/// operations in the same order as a contact pass over all pairs followed
+/// by an integration pass over all grains, so the bits are theirs.
+///
+/// Each pair's geometry (distance, normal, relative velocities) depends
+/// only on the start-of-step state. With buffers (`BUFFER` > 0,
+/// [`super::GEOMETRY_AHEAD`]), grain i + 1's is found ([`Touching::find`])
+/// before grain i's laws and motion, so that an out-of-order core works
+/// on the next grain's square roots and divisions while it finishes
+/// grain i; without, just before grain i's laws. The laws and sums run
+/// in the fixed order either way.
+pub(crate) fn step<R: Real, const N: usize, const K: usize, const BUFFER: usize>(
+    grains: &mut Grains<R, N>,
+    nb: &mut Neighbours<R, N, K>,
+    law: ContactLaw<R>,
+    width: R,
+    mover: Mover<R>,
+) -> Result<R, Error> {
+    // A buffer holds every slot of a grain, or there is none.
+    const { assert!(BUFFER == 0 || BUFFER >= K) };
+    let ahead = BUFFER > 0;
+    let n = grains.len.min(N);
+    let (mut motion, mut forces, fixed) = split(grains, n, mover);
+    let r = forces.r;
+    // Grain i + 1's contacts can be found before grain i's laws and
+    // motion: they read only start-of-step state (grain i + 1 and grains
+    // j > i + 1; grain i moves after). Two buffers, used in turn.
+    let (mut a, mut b) = (Touching::<R, BUFFER>::new(), Touching::<R, BUFFER>::new());
+    let (mut current, mut next) = (&mut a, &mut b);
+    if ahead && n > 0 {
+        let state = motion.state(r, width);
+        let count = usize::from(nb.count[0]).min(K);
+        next.find(&state, 0, &nb.other[0][..count], &mut nb.spring[0][..count]);
+    }
+    for i in 0..n {
+        let ri = r[i];
+        // Grain i's sums live in registers: no pair (i, j) has j = i.
+        let mut sums = Sums {
+            fx: forces.fx[i],
+            fy: forces.fy[i],
+            torque: forces.torque[i],
+        };
+        let state = motion.state(r, width);
+        if ahead {
+            core::mem::swap(&mut current, &mut next);
+            if i + 1 < n {
+                let count = usize::from(nb.count[i + 1]).min(K);
+                let springs = &mut nb.spring[i + 1][..count];
+                next.find(&state, i + 1, &nb.other[i + 1][..count], springs);
+            }
+            let springs = &mut nb.spring[i];
+            for (k, c) in current.iter() {
+                if let Some(spring) = springs.get_mut(k) {
+                    forces.add(&law, spring, c, ri, &mut sums);
+                }
+            }
+        } else {
+            let count = usize::from(nb.count[i]).min(K);
+            let pairs = nb.other[i][..count].iter().zip(&mut nb.spring[i][..count]);
+            if let Some(own) = state.own(i) {
+                for (&j, spring) in pairs {
+                    if let Some(c) = state.contact(&own, j, spring) {
+                        forces.add(&law, spring, &c, ri, &mut sums);
+                    }
+                }
+            }
+        }
+        (forces.fx[i], forces.fy[i], forces.torque[i]) = (R::ZERO, R::ZERO, R::ZERO);
+        if !fixed[i] {
+            motion.advance(i, &sums)?;
+        }
+    }
+    Ok(motion.max_v2)
+}
+
+/// Drag (4)–(5) on every mobile grain of `g`, heights from the mean bed
+/// level `bed_level` (docs/model.md §6).
+pub(crate) fn add_drag<R: Real, const N: usize>(
+    g: &mut Grains<R, N>,
+    profile: &Profile<R>,
+    bed_level: R,
+) {
+    for i in 0..g.len.min(N) {
+        if g.fixed[i] {
+            continue;
+        }
+        let (fx, fy) = profile.drag(
+            g.drag_coef[i],
+            g.y[i] - bed_level,
+            g.u[i],
+            g.v[i],
+            g.z_u[i],
+            g.z_v[i],
+        );
+        g.fx[i] += fx;
+        g.fy[i] += fy;
+    }
+}
+
+/// Splits the first `n` grains into what the scalar step moves
+/// ([`Motion`]), what its pair sums use ([`Forces`]), and which are fixed.
+fn split<R: Real, const N: usize>(
+    g: &mut Grains<R, N>,
+    n: usize,
+    mover: Mover<R>,
+) -> (Motion<'_, R>, Forces<'_, R>, &[bool]) {
+    let motion = Motion {
+        x: &mut g.x[..n],
+        y: &mut g.y[..n],
+        u: &mut g.u[..n],
+        v: &mut g.v[..n],
+        w: &mut g.w[..n],
+        inv_mass: &g.inv_mass[..n],
+        inv_inertia: &g.inv_inertia[..n],
+        mover,
+        max_v2: R::ZERO,
+    };
+    let forces = Forces {
+        fx: &mut g.fx[..n],
+        fy: &mut g.fy[..n],
+        torque: &mut g.torque[..n],
+        r: &g.r[..n],
+    };
+    (motion, forces, &g.fixed[..n])
+}
+
+/// The grains' state during the scalar step, and the largest
+/// squared speed reached.
+struct Motion<'a, R: Real> {
+    x: &'a mut [R],
+    y: &'a mut [R],
+    u: &'a mut [R],
+    v: &'a mut [R],
+    w: &'a mut [R],
+    inv_mass: &'a [R],
+    inv_inertia: &'a [R],
+    mover: Mover<R>,
+    max_v2: R,
+}
+
+impl<R: Real> Motion<'_, R> {
+    /// The state as the pair geometry reads it (radii `r`, periodic `width`).
+    #[inline(always)]
+    fn state<'s>(&'s self, r: &'s [R], width: R) -> State<'s, R> {
+        State::new([&*self.x, &*self.y, &*self.u, &*self.v, &*self.w, r], width)
+    }
+
+    /// Moves mobile grain i under its force and torque `sums` ([`Mover::advance`]).
+    #[inline(always)]
+    fn advance(&mut self, i: usize, sums: &Sums<R>) -> Result<(), Error> {
+        // Read here, not kept from the top: fewer live registers in the
+        // pair loops.
+        let moved = self.mover.advance(
+            i,
+            [self.x[i], self.y[i], self.u[i], self.v[i], self.w[i]],
+            [
+                sums.fx * self.inv_mass[i],
+                sums.fy * self.inv_mass[i],
+                sums.torque * self.inv_inertia[i],
+            ],
+        )?;
+        [self.x[i], self.y[i], self.u[i], self.v[i], self.w[i]] = moved;
+        self.max_v2 = R::max(self.max_v2, moved[2] * moved[2] + moved[3] * moved[3]);
+        Ok(())
+    }
+}
+
+/// The start-of-step state the geometry reads: positions, velocities,
+/// spins and radii of the grains, and the periodic width.
+struct State<'a, R: Real> {
+    x: &'a [R],
+    y: &'a [R],
+    u: &'a [R],
+    v: &'a [R],
+    w: &'a [R],
+    r: &'a [R],
+    width: R,
+    /// width / 2.
+    half_width: R,
+}
+
+/// Grain i's part of its pairs' geometry.
+struct Own<R: Real> {
+    x: R,
+    y: R,
+    u: R,
+    v: R,
+    /// r ω.
+    spin: R,
+    r: R,
+}
+
+impl<'a, R: Real> State<'a, R> {
+    /// The state of arrays x, y, u, v, ω, r (m, m/s, rad/s) in a periodic
+    /// width (m).
+    #[inline(always)]
+    fn new([x, y, u, v, w, r]: [&'a [R]; 6], width: R) -> Self {
+        State {
+            x,
+            y,
+            u,
+            v,
+            w,
+            r,
+            width,
+            half_width: width * R::HALF,
+        }
+    }
+
+    /// Grain i's state, if it exists.
+    #[inline(always)]
+    fn own(&self, i: usize) -> Option<Own<R>> {
+        let (&x, &y, &u) = (self.x.get(i)?, self.y.get(i)?, self.u.get(i)?);
+        let (&v, &w, &r) = (self.v.get(i)?, self.w.get(i)?, self.r.get(i)?);
+        Some(Own {
+            x,
+            y,
+            u,
+            v,
+            spin: r * w,
+            r,
+        })
+    }
+
+    /// The geometry of listed pair (i, j) of grain i (`own`) if the two are
+    /// in contact. Drops the history (`spring`) of a pair that is apart;
+    /// `None` also for j out of range and coincident centres.
+    #[inline(always)]
+    fn contact(&self, own: &Own<R>, j: u32, spring: &mut Spring<R>) -> Option<Contact<R>> {
+        let j = j as usize;
+        // Grain j's values are read where the equations need them: fewer
+        // live registers on small cores.
+        let (&xj, &yj, &rj) = (self.x.get(j)?, self.y.get(j)?, self.r.get(j)?);
+        let dx = periodic(xj - own.x, self.width, self.half_width);
+        let dy = yj - own.y;
+        let reach = own.r + rj;
+        let dist2 = dx * dx + dy * dy;
+        if dist2 >= reach * reach {
+            *spring = Spring::ZERO;
+            return None;
+        }
+        let dist = R::sqrt(dist2);
+        if dist == R::ZERO {
+            // Coincident centres: no direction to push along.
+            return None;
+        }
+        let inv = R::ONE / dist;
+        let (nx, ny) = (dx * inv, dy * inv);
+        // t = (sin α, −cos α) = (n_y, −n_x)
+        let (tx, ty) = (ny, -nx);
+        let du = own.u - *self.u.get(j)?;
+        let dv = own.v - *self.v.get(j)?;
+        let v_n = du * nx + dv * ny;
+        let v_s = -(du * tx + dv * ty) + own.spin + rj * *self.w.get(j)?;
+        Some(Contact {
+            j: j as u32,
+            nx,
+            ny,
+            overlap: reach - dist,
+            v_n,
+            v_s,
+        })
+    }
+}
+
+/// The geometry of a pair (i, j) in contact: what the law (6)–(9) needs.
+#[derive(Clone, Copy)]
+struct Contact<R: Real> {
+    j: u32,
+    /// Unit normal from i to j.
+    nx: R,
+    ny: R,
+    /// r_i + r_j − distance (> 0).
+    overlap: R,
+    /// Normal approach speed (v_i − v_j)·n.
+    v_n: R,
+    /// Tangential slip speed (docs/model.md §2).
+    v_s: R,
+}
+
+impl<R: Real> Contact<R> {
+    const ZERO: Self = Contact {
+        j: 0,
+        nx: R::ZERO,
+        ny: R::ZERO,
+        overlap: R::ZERO,
+        v_n: R::ZERO,
+        v_s: R::ZERO,
+    };
+}
+
+/// The force and torque sums of one grain.
+struct Sums<R: Real> {
+    fx: R,
+    fy: R,
+    torque: R,
+}
+
+/// Where a contact's force goes: grain i's sums (in registers) and every
+/// grain's force arrays (for j), with the radii for the torques.
+struct Forces<'a, R: Real> {
+    fx: &'a mut [R],
+    fy: &'a mut [R],
+    torque: &'a mut [R],
+    r: &'a [R],
+}
+
+impl<R: Real> Forces<'_, R> {
+    /// Advances the contact's history by the law (6)–(9) and adds its force
+    /// −f_n n + f_s t to grain i (radius `ri`, sums `own`) and the opposite
+    /// to grain j, with the torques −r f_s.
+    #[inline(always)]
+    fn add(
+        &mut self,
+        law: &ContactLaw<R>,
+        spring: &mut Spring<R>,
+        c: &Contact<R>,
+        ri: R,
+        own: &mut Sums<R>,
+    ) {
+        let Some((f_n, f_s)) = law.apply(spring, c.overlap, c.v_n, c.v_s) else {
+            return;
+        };
+        let j = c.j as usize;
+        let (Some(fxj), Some(fyj), Some(tj), Some(&rj)) = (
+            self.fx.get_mut(j),
+            self.fy.get_mut(j),
+            self.torque.get_mut(j),
+            self.r.get(j),
+        ) else {
+            return;
+        };
+        // t = (sin α, −cos α) = (n_y, −n_x)
+        let (tx, ty) = (c.ny, -c.nx);
+        let fx_pair = -f_n * c.nx + f_s * tx;
+        let fy_pair = -f_n * c.ny + f_s * ty;
+        own.fx += fx_pair;
+        own.fy += fy_pair;
+        *fxj -= fx_pair;
+        *fyj -= fy_pair;
+        own.torque -= ri * f_s;
+        *tj -= rj * f_s;
+    }
+}
+
+/// The contacts of one grain found ahead of its laws: slot and geometry.
+struct Touching<R: Real, const K: usize> {
+    len: usize,
+    slot: [u8; K],
+    contact: [Contact<R>; K],
+}
+
+impl<R: Real, const K: usize> Touching<R, K> {
+    /// Empty.
+    fn new() -> Self {
+        Touching {
+            len: 0,
+            slot: [0; K],
+            contact: [Contact::ZERO; K],
+        }
+    }
+
+    /// Replaces the contents by grain i's contacts in slot order (`slots`:
+    /// each slot's j, `springs`: its history), [`State::contact`].
+    #[inline(always)]
+    fn find(&mut self, s: &State<'_, R>, i: usize, slots: &[u32], springs: &mut [Spring<R>]) {
+        self.len = 0;
+        let Some(own) = s.own(i) else {
+            return;
+        };
+        let mut len = 0;
+        for (k, (&j, spring)) in slots.iter().zip(springs).enumerate() {
+            if let (Some(c), true) = (s.contact(&own, j, spring), len < K) {
+                (self.slot[len], self.contact[len]) = (k as u8, c);
+                len += 1;
+            }
+        }
+        self.len = len;
+    }
+
+    /// The contacts found: (slot, geometry), in slot order.
+    #[inline(always)]
+    fn iter(&self) -> impl Iterator<Item = (usize, &Contact<R>)> {
+        let len = self.len.min(K);
+        let slots = self.slot[..len].iter().map(|&k| usize::from(k));
+        slots.zip(&self.contact[..len])
+    }
+}
