@@ -18,7 +18,12 @@ fn path() -> PathBuf {
 fn run<R: Real>() -> (u64, u64) {
     let mut sim = Box::new(Sim::<R, 64, 8>::new());
     Scenario::paper()
-        .digests(&mut *sim, SETTLE_STEPS, FLOW_STEPS)
+        .digests(
+            &mut *sim,
+            Scenario::PAPER_TAU_STAR,
+            SETTLE_STEPS,
+            FLOW_STEPS,
+        )
         .expect("golden scenario runs")
 }
 

@@ -110,7 +110,6 @@ impl BenchBed {
     pub fn scenario(&self, columns: u32) -> Scenario {
         let mut sc = Scenario::paper();
         sc.rule.beta = self.beta;
-        sc.tau_star = TAU_STAR;
         sc.bed = BedSpec::uniform(0.5e-3, columns, ROWS);
         sc
     }
@@ -160,7 +159,7 @@ fn prepare_columns<R: Real, const N: usize, const K: usize>(
     let sc = bed.scenario(columns);
     if flow {
         prepare_columns(sim, bed, columns, false, beds)?;
-        sim.set_flow(Some(&sc.flow())).map_err(bed_error)?;
+        sim.set_flow(Some(&sc.flow(TAU_STAR))).map_err(bed_error)?;
         sim.run(FLOW_WARM_UP).map_err(bed_error)?;
     } else if columns > TILE_COLUMNS && columns.is_multiple_of(TILE_COLUMNS) {
         prepare_columns(sim, bed, TILE_COLUMNS, false, beds)?;

@@ -303,7 +303,7 @@ impl SimJob for CellJob<'_> {
 
     fn run<R: Real, const N: usize>(self, sim: &mut Sim<R, N, NEIGHBOURS>) -> Self::Output {
         let config = self.config;
-        let sc = config.scenario_at(self.tau_star, self.seed);
+        let sc = config.scenario_at(self.seed);
         let context = format!("tau* = {}, seed {}", self.tau_star, self.seed);
         let fail = || HostError::kernel(context.clone());
         let classes = &sc.bed.classes;
@@ -349,7 +349,8 @@ impl SimJob for CellJob<'_> {
             if state.done >= phase_steps(state.phase) {
                 match state.phase {
                     Phase::Settle => {
-                        sim.set_flow(Some(&sc.flow())).map_err(fail())?;
+                        sim.set_flow(Some(&sc.flow(self.tau_star)))
+                            .map_err(fail())?;
                         state.phase = Phase::SpinUp;
                     }
                     Phase::SpinUp => state.phase = Phase::Window,

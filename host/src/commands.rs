@@ -365,6 +365,7 @@ pub fn snapshot(
 
 struct DigestJob {
     scenario: Scenario,
+    tau_star: f64,
     steps: u64,
 }
 
@@ -372,7 +373,8 @@ impl SimJob for DigestJob {
     type Output = Result<(u64, u64), mbs_kernel::Error>;
 
     fn run<R: Real, const N: usize>(self, sim: &mut Sim<R, N, NEIGHBOURS>) -> Self::Output {
-        self.scenario.digests(sim, self.steps, self.steps)
+        self.scenario
+            .digests(sim, self.tau_star, self.steps, self.steps)
     }
 }
 
@@ -385,7 +387,8 @@ pub fn digest(
     tau_star: f64,
 ) -> Result<(), HostError> {
     let job = DigestJob {
-        scenario: config.scenario_at(tau_star, config.seeds[0]),
+        scenario: config.scenario_at(config.seeds[0]),
+        tau_star,
         steps,
     };
     let (settled, flow) = with_sim(precision, config.capacity, job)

@@ -3,7 +3,7 @@
 //! parameters. Every invalid value is reported as `key = value: must be …`.
 
 use mbs_kernel::{
-    explicit_damping_number, BedSpec, ContactConstants, FlowConfig, Material, Scenario, SizeClass,
+    explicit_damping_number, BedSpec, ContactConstants, FlowSpec, Material, Scenario, SizeClass,
     TimeStepRule, MAX_CLASSES,
 };
 use serde::{Deserialize, Serialize};
@@ -311,8 +311,8 @@ impl Default for FlowSection {
             eps0: f.eps0,
             roughness_d: f.roughness / p.bed.max_diameter(),
             turbulence: f.turbulence,
-            hold_steps: f.hold_steps,
-            bed_level_interval: f.bed_level_interval,
+            hold_steps: f.hold_steps / p.substeps,
+            bed_level_interval: f.bed_level_interval / p.substeps,
             bed_level_window: f.bed_level_window,
             fluid_density: p.material.rho,
             drag_coefficient: p.material.c_d,
@@ -385,10 +385,9 @@ impl Config {
         Config::validate(file)
     }
 
-    /// The scenario of one (τ*, seed) cell.
-    pub fn scenario_at(&self, tau_star: f64, seed: u64) -> Scenario {
+    /// The scenario of one seed.
+    pub fn scenario_at(&self, seed: u64) -> Scenario {
         Scenario {
-            tau_star,
             seed,
             ..self.scenario.clone()
         }
@@ -411,7 +410,6 @@ impl Config {
         let material = material(&file)?;
         let rule = time_rule(&file)?;
         let explicit_contact = explicit_contact(&file.contact, material.nu)?;
-        let flow = flow_config(&file.flow, d)?;
         let t = &file.time;
         need(
             (1..=10_000).contains(&t.substeps),
@@ -419,6 +417,7 @@ impl Config {
             t.substeps,
             "in [1, 10000]",
         )?;
+        let flow = flow_spec(&file.flow, d, t.substeps)?;
         non_negative("time.settle", t.settle)?;
         non_negative("time.spin_up", t.spin_up)?;
         positive("time.window", t.window)?;
@@ -482,7 +481,6 @@ impl Config {
             explicit_contact,
             substeps: t.substeps,
             bed,
-            tau_star: file.flow.tau_star[0],
             flow,
             skin: r.skin_d,
             seed: r.seeds[0],
@@ -496,7 +494,7 @@ impl Config {
             .sim_config()
             .and_then(|c| c.validate())
             .and_then(|()| scenario.bed.validate())
-            .and_then(|()| scenario.flow().validate())
+            .and_then(|()| scenario.flow(file.flow.tau_star[0]).validate())
             .map_err(|e| ConfigError::Parse(e.to_string()))?;
         Ok(Config {
             tau_stars: file.flow.tau_star.clone(),
@@ -680,8 +678,9 @@ fn explicit_contact(c: &ContactSection, nu: f64) -> Result<Option<ContactConstan
     }
 }
 
-/// `[flow]` except τ* into the kernel's flow template.
-fn flow_config(f: &FlowSection, d: f64) -> Result<FlowConfig, ConfigError> {
+/// `[flow]` except τ* into the kernel's flow specification, its intervals
+/// converted to integration steps (`substeps` per Δt).
+fn flow_spec(f: &FlowSection, d: f64, substeps: u32) -> Result<FlowSpec, ConfigError> {
     need(
         !f.tau_star.is_empty() && f.tau_star.len() <= 1000,
         "flow.tau_star",
@@ -732,16 +731,16 @@ fn flow_config(f: &FlowSection, d: f64) -> Result<FlowConfig, ConfigError> {
         f.bed_level_window,
         "in [1, 1e6] largest diameters",
     )?;
-    Ok(FlowConfig {
+    Ok(FlowSpec {
         kappa: f.kappa,
         depth: f.depth,
         eps0: f.eps0,
         roughness: f.roughness_d * d,
+        reference_diameter: d,
         turbulence: f.turbulence,
-        hold_steps: f.hold_steps,
-        bed_level_interval: f.bed_level_interval,
+        hold_steps: f.hold_steps.saturating_mul(substeps),
+        bed_level_interval: f.bed_level_interval.saturating_mul(substeps),
         bed_level_window: f.bed_level_window,
-        ..FlowConfig::new(0.0, d)
     })
 }
 
@@ -804,7 +803,7 @@ pub const CONVERGED_WIDTH_D: f64 = 40.0;
 /// The warning for a bed too narrow for width-independent q*: narrower than
 /// two bed-level windows the whole periodic bed moves collectively, and
 /// narrower than [`CONVERGED_WIDTH_D`] its surface locks near the threshold.
-pub fn narrow_bed_warning(bed: &BedSpec, flow: &FlowConfig) -> Option<String> {
+pub fn narrow_bed_warning(bed: &BedSpec, flow: &FlowSpec) -> Option<String> {
     let d = bed.max_diameter();
     let needed = (2.0 * flow.bed_level_window).max(CONVERGED_WIDTH_D) * d;
     let width = bed.width();
@@ -867,13 +866,7 @@ mod tests {
         expected.grains.diameter_mm = Some(0.5);
         assert_eq!(parsed, expected);
         let c = Config::load(None).unwrap();
-        assert_eq!(
-            c.scenario,
-            Scenario {
-                tau_star: 0.03,
-                ..default_scenario()
-            }
-        );
+        assert_eq!(c.scenario, default_scenario());
     }
 
     #[test]
@@ -916,7 +909,7 @@ mod tests {
     #[test]
     fn empty_file_is_the_paper_case_on_a_converged_width() {
         let c = Config::from_toml("").unwrap();
-        assert_eq!(c.scenario_at(0.2, 1), default_scenario());
+        assert_eq!(c.scenario_at(1), default_scenario());
         assert_eq!(default_scenario().bed.columns, 40);
         assert!(narrow_bed_warning(&default_scenario().bed, &default_scenario().flow).is_none());
     }

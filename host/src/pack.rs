@@ -48,9 +48,7 @@ impl SimJob for Packing<'_> {
     type Output = Result<Vec<PackSample>, HostError>;
 
     fn run<R: Real, const N: usize>(self, sim: &mut Sim<R, N, NEIGHBOURS>) -> Self::Output {
-        let sc = self
-            .config
-            .scenario_at(self.config.scenario.tau_star, self.seed);
+        let sc = self.config.scenario_at(self.seed);
         let fail = || HostError::kernel(format!("packing, seed {}", self.seed));
         sc.build(sim).map_err(fail())?;
         let every = self.every.max(1);

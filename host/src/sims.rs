@@ -57,8 +57,8 @@ mod tests {
         );
         assert_eq!(a.digest(), b.digest());
         assert_eq!(
-            sc.digests(&mut *a, 200, 200).unwrap(),
-            sc.digests(&mut *b, 200, 200).unwrap()
+            sc.digests(&mut *a, 0.2, 200, 200).unwrap(),
+            sc.digests(&mut *b, 0.2, 200, 200).unwrap()
         );
     }
 }

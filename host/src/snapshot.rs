@@ -45,7 +45,7 @@ impl SimJob for Snapshots<'_> {
 
     fn run<R: Real, const N: usize>(self, sim: &mut Sim<R, N, NEIGHBOURS>) -> Self::Output {
         let config = self.config;
-        let sc = config.scenario_at(self.tau_star, self.seed);
+        let sc = config.scenario_at(self.seed);
         let fail = || {
             HostError::kernel(format!(
                 "snapshot tau* = {}, seed {}",
@@ -54,7 +54,8 @@ impl SimJob for Snapshots<'_> {
         };
         sc.build(sim).map_err(fail())?;
         run_steps(sim, config.steps(config.file.time.settle), self.progress).map_err(fail())?;
-        sim.set_flow(Some(&sc.flow())).map_err(fail())?;
+        sim.set_flow(Some(&sc.flow(self.tau_star)))
+            .map_err(fail())?;
         let frame = |sim: &Sim<R, N, NEIGHBOURS>| Frame {
             time: sim.time(),
             width: sim.config().width,

@@ -13,7 +13,8 @@ fn kernel_checkpoint() -> Vec<u8> {
     let sc = Scenario::paper();
     sc.build(&mut *sim).unwrap();
     sim.run(300).unwrap();
-    sim.set_flow(Some(&sc.flow())).unwrap();
+    sim.set_flow(Some(&sc.flow(Scenario::PAPER_TAU_STAR)))
+        .unwrap();
     sim.run(300).unwrap();
     let mut out = Vec::new();
     sim.checkpoint(|b| out.extend_from_slice(b));

@@ -22,7 +22,7 @@
 //! sim.run(10_000)?;
 //! assert!(sim.observe().contacts >= 10);
 //! // Switch the flow on (τ* = 0.2) and step on.
-//! sim.set_flow(Some(&scenario.flow()))?;
+//! sim.set_flow(Some(&scenario.flow(0.2)))?;
 //! sim.run(400)?;
 //! // The digest of the whole state: a copy restored from a checkpoint
 //! // has the same bits.
@@ -127,5 +127,5 @@ pub use flow::{shear_velocity, FlowConfig};
 pub use grains::{GrainSpec, MAX_CLASSES};
 pub use observe::{q_star, Observation};
 pub use real::Real;
-pub use scenario::{Scenario, G};
+pub use scenario::{FlowSpec, Scenario, G};
 pub use sim::{Sim, SimConfig};

@@ -12,6 +12,49 @@ use crate::sim::{Sim, SimConfig};
 /// Standard gravity (m/s²).
 pub const G: f64 = 9.81;
 
+/// The flow of docs/model.md §6 without its strength: a [`FlowConfig`]
+/// without the shear velocity, which [`Scenario::flow`] derives from a
+/// Shields number. Its intervals count integration steps.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FlowSpec {
+    /// Kármán constant κ.
+    pub kappa: f64,
+    /// Flow depth h (m).
+    pub depth: f64,
+    /// Sheltering coefficient at bed level ε0.
+    pub eps0: f64,
+    /// Equivalent roughness k_s (m).
+    pub roughness: f64,
+    /// Grain diameter d of the zero-level shift y + 0.25d (m).
+    pub reference_diameter: f64,
+    /// Monte Carlo fluctuations on.
+    pub turbulence: bool,
+    /// Integration steps a fluctuation is held.
+    pub hold_steps: u32,
+    /// Integration steps between recomputations of the mean bed level.
+    pub bed_level_interval: u32,
+    /// Width of the bed-level windows, in largest diameters.
+    pub bed_level_window: f64,
+}
+
+impl FlowSpec {
+    /// The kernel's flow at shear velocity `u_star` (m/s).
+    pub fn at(&self, u_star: f64) -> FlowConfig {
+        FlowConfig {
+            u_star,
+            kappa: self.kappa,
+            depth: self.depth,
+            eps0: self.eps0,
+            roughness: self.roughness,
+            reference_diameter: self.reference_diameter,
+            turbulence: self.turbulence,
+            hold_steps: self.hold_steps,
+            bed_level_interval: self.bed_level_interval,
+            bed_level_window: self.bed_level_window,
+        }
+    }
+}
+
 /// Everything needed to build, settle and drive a bed.
 ///
 /// ```
@@ -20,9 +63,13 @@ pub const G: f64 = 9.81;
 /// let scenario = Scenario::paper();
 /// assert_eq!(scenario.step_dt(), 2.0e-5 / 8.0);
 /// // The golden-digest run in miniature (100 steps settling, 100 under
-/// // the flow): two runs, the same bits.
+/// // the flow at the paper's τ*): two runs, the same bits.
+/// let tau_star = Scenario::PAPER_TAU_STAR;
 /// let (mut a, mut b) = (Sim::<f32, 64, 8>::new(), Sim::<f32, 64, 8>::new());
-/// assert_eq!(scenario.digests(&mut a, 100, 100)?, scenario.digests(&mut b, 100, 100)?);
+/// assert_eq!(
+///     scenario.digests(&mut a, tau_star, 100, 100)?,
+///     scenario.digests(&mut b, tau_star, 100, 100)?
+/// );
 /// # Ok::<(), mbs_kernel::Error>(())
 /// ```
 #[derive(Debug, Clone, PartialEq)]
@@ -33,17 +80,15 @@ pub struct Scenario {
     pub rule: TimeStepRule,
     /// Contact constants given explicitly instead of derived from `rule`.
     pub explicit_contact: Option<ContactConstants>,
-    /// Integration steps per Δt: the kernel integrates with Δt/substeps and
-    /// keeps every constant derived from Δt. Flow hold and bed-level
-    /// intervals are counted in steps of Δt, so they keep their duration.
+    /// Integration steps per constants' time step: the kernel integrates
+    /// with step_dt = constants_dt/substeps and keeps every constant derived
+    /// from constants_dt.
     pub substeps: u32,
     /// The initial bed (docs/model.md §7).
     pub bed: BedSpec,
-    /// Shields number τ* of the flow phase.
-    pub tau_star: f64,
-    /// The flow of docs/model.md §6; its `u_star` is replaced by the one of `tau_star`
-    /// and its `depth` is also the top of the domain.
-    pub flow: FlowConfig,
+    /// The flow without its strength ([`Scenario::flow`] adds the u* of a
+    /// τ*); its `depth` is also the top of the domain.
+    pub flow: FlowSpec,
     /// Largest neighbour skin in units of the largest diameter.
     pub skin: f64,
     /// Seed of every random draw.
@@ -51,14 +96,20 @@ pub struct Scenario {
 }
 
 impl Scenario {
+    /// The Shields number of the paper's flow phase (and of the golden digests).
+    pub const PAPER_TAU_STAR: f64 = 0.2;
+
     /// The paper's case (docs/model.md §9): d = 0.5 mm, nld = 5, nvd = 10, spacing
-    /// 1.05 d, Δt = 2.0e-5 s, α_m = 20, α_cn = 1.3, β = 15.8, τ* = 0.2,
-    /// integrated with 8 substeps: at Δt itself the tangential dashpot of
+    /// 1.05 d, Δt = 2.0e-5 s, α_m = 20, α_cn = 1.3, β = 15.8, the flow of
+    /// [`FlowConfig::new`] with fluctuations held and the bed level
+    /// recomputed every 100 steps of Δt, integrated with 8 substeps: at Δt itself the tangential dashpot of
     /// rule (17) is beyond the explicit damping limit
     /// ([`crate::explicit_damping_number`] ≈ 2.85) and the bed never settles;
     /// with 4 substeps q* still depends on the step, with 8 and 16 it does
     /// not (README, "The explicit damping limit").
     pub fn paper() -> Self {
+        const D: f64 = 0.5e-3;
+        const SUBSTEPS: u32 = 8;
         Scenario {
             material: Material::default(),
             rule: TimeStepRule {
@@ -68,10 +119,19 @@ impl Scenario {
                 constants_dt: 2.0e-5,
             },
             explicit_contact: None,
-            substeps: 8,
-            bed: BedSpec::uniform(0.5e-3, 5, 10),
-            tau_star: 0.2,
-            flow: FlowConfig::new(0.0, 0.5e-3),
+            substeps: SUBSTEPS,
+            bed: BedSpec::uniform(D, 5, 10),
+            flow: FlowSpec {
+                kappa: 0.4,
+                depth: 0.20,
+                eps0: 0.4,
+                roughness: D,
+                reference_diameter: D,
+                turbulence: true,
+                hold_steps: 100 * SUBSTEPS,
+                bed_level_interval: 100 * SUBSTEPS,
+                bed_level_window: 5.0,
+            },
             skin: 0.1,
             seed: 1,
         }
@@ -109,17 +169,11 @@ impl Scenario {
         self.rule.constants_dt / f64::from(self.substeps.max(1))
     }
 
-    /// The flow at this scenario's τ*: u* from τ* for the largest grain, hold
-    /// and bed-level intervals converted to integration steps (saturating).
-    pub fn flow(&self) -> FlowConfig {
-        let d = self.bed.max_diameter();
-        let n = self.substeps.max(1);
-        FlowConfig {
-            u_star: shear_velocity(self.tau_star, self.material.s, G, d),
-            hold_steps: self.flow.hold_steps.saturating_mul(n),
-            bed_level_interval: self.flow.bed_level_interval.saturating_mul(n),
-            ..self.flow
-        }
+    /// The flow at Shields number `tau_star`: u* from τ* for the largest
+    /// grain (docs/model.md §6).
+    pub fn flow(&self, tau_star: f64) -> FlowConfig {
+        let u_star = shear_velocity(tau_star, self.material.s, G, self.bed.max_diameter());
+        self.flow.at(u_star)
     }
 
     /// Resets `sim` and builds the initial bed.
@@ -131,18 +185,19 @@ impl Scenario {
     }
 
     /// The fixed golden-digest run: build the bed, `settle_steps` steps
-    /// without flow, then `flow_steps` steps under the flow. Returns the
-    /// digests after each phase.
+    /// without flow, then `flow_steps` steps under the flow at `tau_star`.
+    /// Returns the digests after each phase.
     pub fn digests<R: Real, const N: usize, const K: usize>(
         &self,
         sim: &mut Sim<R, N, K>,
+        tau_star: f64,
         settle_steps: u64,
         flow_steps: u64,
     ) -> Result<(u64, u64), Error> {
         self.build(sim)?;
         sim.run(settle_steps)?;
         let settled = sim.digest();
-        sim.set_flow(Some(&self.flow()))?;
+        sim.set_flow(Some(&self.flow(tau_star)))?;
         sim.run(flow_steps)?;
         Ok((settled, sim.digest()))
     }

@@ -21,9 +21,12 @@ fn packing() -> Scenario {
 }
 
 /// The same constants integrated with Δt/4: inside the explicit stability
-/// limit of the tangential dashpot (see `paper_constants_jitter`).
+/// limit of the tangential dashpot (see `paper_constants_jitter`). The flow's
+/// intervals count integration steps: 100 steps of Δt, as in the paper.
 fn refined(mut s: Scenario) -> Scenario {
     s.substeps = 4;
+    s.flow.hold_steps = 100 * s.substeps;
+    s.flow.bed_level_interval = 100 * s.substeps;
     s
 }
 
@@ -79,7 +82,7 @@ fn builds_and_settles<R: Real>(_tol: f64) {
     // settled bed rests on contacts, so every grain is a bed grain.
     let d = 0.5e-3;
     for (window, windows) in [(5.0, 1usize), (1e6, 1), (2.0, 2), (1.0, 5)] {
-        let mut level_flow = sc.flow();
+        let mut level_flow = sc.flow(Scenario::PAPER_TAU_STAR);
         level_flow.u_star = 0.0;
         level_flow.bed_level_window = window;
         sim.set_flow(Some(&level_flow)).unwrap();
@@ -118,7 +121,8 @@ fn transport_under_flow<R: Real>(_tol: f64) {
     let mut sim = boxed::<R>();
     sc.build(&mut *sim).unwrap();
     sim.run(20_000).unwrap();
-    sim.set_flow(Some(&sc.flow())).unwrap();
+    sim.set_flow(Some(&sc.flow(Scenario::PAPER_TAU_STAR)))
+        .unwrap();
     let mut flux = 0.0;
     let steps = 40_000;
     for _ in 0..steps / 100 {
@@ -226,7 +230,8 @@ fn fixed_heights_have_the_requested_spread() {
 
 fn run_digest<R: Real>(sc: &Scenario) -> (u64, u64) {
     let mut sim = boxed::<R>();
-    sc.digests(&mut *sim, 3000, 3000).unwrap()
+    sc.digests(&mut *sim, Scenario::PAPER_TAU_STAR, 3000, 3000)
+        .unwrap()
 }
 
 #[test]
@@ -262,7 +267,8 @@ fn bits_do_not_depend_on_skin_or_capacity() {
     // The skins do change how often the lists are rebuilt.
     let rebuilds = |sc: &Scenario| {
         let mut sim = boxed::<f64>();
-        sc.digests(&mut *sim, 3000, 3000).unwrap();
+        sc.digests(&mut *sim, Scenario::PAPER_TAU_STAR, 3000, 3000)
+            .unwrap();
         sim.neighbour_rebuilds()
     };
     let (few, many) = (rebuilds(&thick), rebuilds(&thin));
@@ -271,5 +277,9 @@ fn bits_do_not_depend_on_skin_or_capacity() {
         "rebuilds: skin 0.4 {few}, 0.02 {many}"
     );
     let mut bigger = Box::new(Sim::<f64, 2048, 12>::new());
-    assert_eq!(reference, sc.digests(&mut *bigger, 3000, 3000).unwrap());
+    assert_eq!(
+        reference,
+        sc.digests(&mut *bigger, Scenario::PAPER_TAU_STAR, 3000, 3000)
+            .unwrap()
+    );
 }

@@ -18,7 +18,8 @@ fn run<R: Real, const N: usize, const K: usize>(sim: &mut Sim<R, N, K>, settle: 
     let sc = Scenario::paper();
     sc.build(sim).unwrap();
     sim.run(settle).unwrap();
-    sim.set_flow(Some(&sc.flow())).unwrap();
+    sim.set_flow(Some(&sc.flow(Scenario::PAPER_TAU_STAR)))
+        .unwrap();
     sim.run(flow).unwrap();
 }
 
@@ -41,8 +42,12 @@ fn resume_is_bit_identical<R: Real>() {
             let sc = Scenario::paper();
             uninterrupted.run(300).unwrap();
             resumed.run(300).unwrap();
-            uninterrupted.set_flow(Some(&sc.flow())).unwrap();
-            resumed.set_flow(Some(&sc.flow())).unwrap();
+            uninterrupted
+                .set_flow(Some(&sc.flow(Scenario::PAPER_TAU_STAR)))
+                .unwrap();
+            resumed
+                .set_flow(Some(&sc.flow(Scenario::PAPER_TAU_STAR)))
+                .unwrap();
         }
         uninterrupted.run(1200).unwrap();
         resumed.run(1200).unwrap();

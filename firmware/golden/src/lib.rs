@@ -111,7 +111,8 @@ pub mod stack {
 }
 
 /// Builds `scenario`'s bed in `sim`, runs `steps` settling steps, switches
-/// the flow on and runs `steps` flow steps, metering each step.
+/// the flow on at the paper's τ* and runs `steps` flow steps, metering each
+/// step.
 pub fn run<R: Real, const N: usize, const K: usize>(
     sim: &mut Sim<R, N, K>,
     scenario: &Scenario,
@@ -129,7 +130,7 @@ pub fn run<R: Real, const N: usize, const K: usize>(
         Ok(sim.digest())
     };
     let settled = phase(sim)?;
-    sim.set_flow(Some(&scenario.flow()))?;
+    sim.set_flow(Some(&scenario.flow(Scenario::PAPER_TAU_STAR)))?;
     let flow = phase(sim)?;
     Ok(Report {
         precision: R::NAME,

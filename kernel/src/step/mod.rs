@@ -185,7 +185,8 @@ mod tests {
             sim.step_with::<BUFFER, BATCHED>().unwrap();
         }
         let settled = sim.digest();
-        sim.set_flow(Some(&sc.flow())).unwrap();
+        sim.set_flow(Some(&sc.flow(Scenario::PAPER_TAU_STAR)))
+            .unwrap();
         for _ in 0..1500 {
             sim.step_with::<BUFFER, BATCHED>().unwrap();
         }
@@ -386,7 +387,8 @@ mod tests {
             sim.add_grain(&spec).unwrap();
         }
         if flow {
-            sim.set_flow(Some(&Scenario::paper().flow())).unwrap();
+            sim.set_flow(Some(&Scenario::paper().flow(Scenario::PAPER_TAU_STAR)))
+                .unwrap();
         }
         let mut outcomes = std::vec::Vec::new();
         for _ in 0..40 {
