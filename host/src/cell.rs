@@ -302,14 +302,13 @@ impl SimJob for CellJob<'_> {
     type Output = Result<CellOutcome, HostError>;
 
     fn run<R: Real, const N: usize>(self, sim: &mut Sim<R, N, NEIGHBOURS>) -> Self::Output {
-        let config = self.config;
-        let sc = config.scenario_at(self.seed);
+        let setup = self.config.setup(self.tau_star, self.seed);
+        let sc = &setup.scenario;
         let context = format!("tau* = {}, seed {}", self.tau_star, self.seed);
         let fail = || HostError::kernel(context.clone());
         let classes = &sc.bed.classes;
-        let t = &config.file.time;
-        let sample = u64::from(t.sample_steps);
-        let samples = (config.steps(t.window) / sample).max(1);
+        let durations = self.config.durations;
+        let (sample, samples) = (durations.sample, durations.samples);
         let mut state = match self.resume {
             Some(ck) => {
                 let s = &ck.state;
@@ -338,9 +337,9 @@ impl SimJob for CellJob<'_> {
             }
         };
         let phase_steps = |p: Phase| match p {
-            Phase::Settle => config.steps(t.settle),
-            Phase::SpinUp => config.steps(t.spin_up),
-            Phase::Window => samples * sample,
+            Phase::Settle => durations.settle,
+            Phase::SpinUp => durations.spin_up,
+            Phase::Window => durations.window(),
         };
         let (d_max, s) = (sc.bed.max_diameter(), sc.material.s);
         let mut last_checkpoint = Instant::now();
@@ -349,8 +348,7 @@ impl SimJob for CellJob<'_> {
             if state.done >= phase_steps(state.phase) {
                 match state.phase {
                     Phase::Settle => {
-                        sim.set_flow(Some(&sc.flow(self.tau_star)))
-                            .map_err(fail())?;
+                        sim.set_flow(Some(&setup.flow)).map_err(fail())?;
                         state.phase = Phase::SpinUp;
                     }
                     Phase::SpinUp => state.phase = Phase::Window,

@@ -5,7 +5,7 @@ use crate::bench::bench;
 use crate::config::{warnings, Config, Precision, DEFAULT_TOML};
 use crate::error::HostError;
 use crate::experiment::RunControl;
-use crate::experiment::{aggregate, cell_steps, run_all, transport_table, TransportRow};
+use crate::experiment::{aggregate, run_all, transport_table, TransportRow};
 use crate::output::{create_dir, write_csv, write_json, write_text};
 use crate::pack::{packing, write_packing, Packing};
 use crate::plot::{save, TransportFigure};
@@ -64,6 +64,11 @@ fn report_warnings(config: &Config, quiet: bool, under_flow: bool) {
             eprintln!("warning: {w}");
         }
     }
+}
+
+/// `out`, else the configuration's output directory.
+fn output_dir(config: &Config, out: Option<&Path>) -> PathBuf {
+    out.map_or_else(|| config.output.clone(), Path::to_path_buf)
 }
 
 /// Runs `f` on a rayon pool of `threads` workers (0: rayon's default).
@@ -168,7 +173,7 @@ pub fn run(
     common: Common,
 ) -> Result<(), HostError> {
     report_warnings(config, common.quiet, true);
-    let dir = out.map_or_else(|| config.file.run.output.clone(), Path::to_path_buf);
+    let dir = output_dir(config, out);
     create_dir(&dir)?;
     let text = toml::to_string(&config.file)
         .map_err(|e| HostError::io(dir.join(RUN_CONFIG))(std::io::Error::other(e)))?;
@@ -192,7 +197,7 @@ pub fn run(
     // A second handler cannot be installed (e.g. in-process tests); Ctrl-C then just kills.
     let _ = ctrlc::set_handler(|| STOP.store(true, Ordering::Relaxed));
     let cells = (config.tau_stars.len() * config.seeds.len()) as u64;
-    let bar = progress(cells * cell_steps(config), "transport", common.quiet);
+    let bar = progress(cells * config.durations.cell(), "transport", common.quiet);
     let start = Instant::now();
     let control = RunControl {
         dir: &dir,
@@ -289,16 +294,16 @@ pub fn pack(
     common: Common,
 ) -> Result<(), HostError> {
     report_warnings(config, common.quiet, false);
-    let dir = out.map_or_else(|| config.file.run.output.clone(), Path::to_path_buf);
-    let duration = duration.unwrap_or(config.file.time.settle);
+    let dir = output_dir(config, out);
+    let steps = duration.map_or(config.durations.settle, |d| config.steps_of(d));
     let seed = config.seeds[0];
     let every = u64::from(config.scenario.substeps) * 10;
     create_dir(&dir)?;
-    let bar = progress(config.steps(duration), "packing", common.quiet);
+    let bar = progress(steps, "packing", common.quiet);
     let samples = packing(Packing {
         config,
         seed,
-        duration,
+        steps,
         every,
         progress: &bar,
     })?;
@@ -339,10 +344,14 @@ pub fn snapshot(
     common: Common,
 ) -> Result<(), HostError> {
     report_warnings(config, common.quiet, true);
-    let dir: PathBuf = out.map_or_else(|| config.file.run.output.clone(), Path::to_path_buf);
+    let dir = output_dir(config, out);
     create_dir(&dir)?;
-    let steps = config.steps(config.file.time.settle) + frames * config.steps(every);
-    let bar = progress(steps, "snapshot", common.quiet);
+    let every = config.steps_of(every);
+    let bar = progress(
+        config.durations.settle + frames * every,
+        "snapshot",
+        common.quiet,
+    );
     let list = snapshots(Snapshots {
         config,
         tau_star,

@@ -3,8 +3,8 @@
 //! parameters. Every invalid value is reported as `key = value: must be …`.
 
 use mbs_kernel::{
-    explicit_damping_number, BedSpec, ContactConstants, FlowSpec, Material, Scenario, SizeClass,
-    TimeStepRule, MAX_CLASSES,
+    explicit_damping_number, BedSpec, ContactConstants, FlowConfig, FlowSpec, Material, Scenario,
+    SizeClass, TimeStepRule, MAX_CLASSES,
 };
 use serde::{Deserialize, Serialize};
 use std::fmt;
@@ -333,12 +333,17 @@ impl Default for RunSection {
     }
 }
 
-/// A validated configuration, ready to build simulations from.
+/// The run plan: a validated configuration, read by every command. Times
+/// are integration steps, the flow is the kernel's [`FlowSpec`] (intervals in
+/// integration steps, u* per τ* from [`Config::setup`]).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Config {
-    /// The file with every default filled in (echoed in `summary.json`).
+    /// The file with every default filled in: only echoed (`config.toml`,
+    /// `summary.json`) and hashed into the keys of cells, never read for
+    /// values.
     pub file: ConfigFile,
-    /// The scenario at the first τ* and seed.
+    /// Material, contact rule, bed, flow without u*, skin; the seed is the
+    /// first of `seeds` ([`Config::scenario_at`] gives the others).
     pub scenario: Scenario,
     /// Derived contact constants (SI).
     pub contact: ContactConstants,
@@ -346,10 +351,48 @@ pub struct Config {
     pub tau_stars: Vec<f64>,
     /// Seeds, as given.
     pub seeds: Vec<u64>,
+    /// Phase lengths of a transport cell.
+    pub durations: Durations,
+    /// Output directory (`--out` overrides).
+    pub output: PathBuf,
     /// Working precision.
     pub precision: Precision,
     /// Grain capacity (one of [`CAPACITIES`]).
     pub capacity: usize,
+}
+
+/// Phase lengths of a transport cell, in integration steps.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Durations {
+    /// Settling without flow.
+    pub settle: u64,
+    /// Spin-up under the flow, before averaging.
+    pub spin_up: u64,
+    /// Between two samples of q* in the window.
+    pub sample: u64,
+    /// Samples of q* in the window (at least 1).
+    pub samples: u64,
+}
+
+impl Durations {
+    /// The averaging window: `samples` × `sample`.
+    pub fn window(&self) -> u64 {
+        self.samples * self.sample
+    }
+
+    /// A whole cell: settling, spin-up and window.
+    pub fn cell(&self) -> u64 {
+        self.settle + self.spin_up + self.window()
+    }
+}
+
+/// What the kernel runs for one (τ*, seed) cell.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Setup {
+    /// The scenario with the cell's seed.
+    pub scenario: Scenario,
+    /// The flow at the cell's τ*.
+    pub flow: FlowConfig,
 }
 
 impl Config {
@@ -393,14 +436,17 @@ impl Config {
         }
     }
 
-    /// The integration step Δt/substeps (s).
-    pub fn dt(&self) -> f64 {
-        self.scenario.step_dt()
+    /// The scenario and flow of the (τ*, seed) cell: u* from τ*.
+    pub fn setup(&self, tau_star: f64, seed: u64) -> Setup {
+        Setup {
+            flow: self.scenario.flow(tau_star),
+            scenario: self.scenario_at(seed),
+        }
     }
 
     /// Integration steps of `seconds` (rounded).
-    pub fn steps(&self, seconds: f64) -> u64 {
-        (seconds / self.dt()).round() as u64
+    pub fn steps_of(&self, seconds: f64) -> u64 {
+        steps_of(seconds, self.scenario.step_dt())
     }
 
     /// Checks every value and builds the typed configuration.
@@ -496,16 +542,31 @@ impl Config {
             .and_then(|()| scenario.bed.validate())
             .and_then(|()| scenario.flow(file.flow.tau_star[0]).validate())
             .map_err(|e| ConfigError::Parse(e.to_string()))?;
+        let step_dt = scenario.step_dt();
+        let sample = u64::from(t.sample_steps);
+        let durations = Durations {
+            settle: steps_of(t.settle, step_dt),
+            spin_up: steps_of(t.spin_up, step_dt),
+            sample,
+            samples: (steps_of(t.window, step_dt) / sample).max(1),
+        };
         Ok(Config {
             tau_stars: file.flow.tau_star.clone(),
-            seeds: file.run.seeds.clone(),
-            precision: file.run.precision,
-            capacity: file.run.capacity,
+            seeds: r.seeds.clone(),
+            durations,
+            output: r.output.clone(),
+            precision: r.precision,
+            capacity: r.capacity,
             file,
             scenario,
             contact,
         })
     }
+}
+
+/// Integration steps of step_dt in `seconds` (rounded).
+fn steps_of(seconds: f64, step_dt: f64) -> u64 {
+    (seconds / step_dt).round() as u64
 }
 
 /// `[grains]` and `[bed]` into the kernel's bed specification.

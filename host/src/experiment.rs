@@ -46,20 +46,6 @@ pub struct CellResult {
     pub grain_steps: u64,
 }
 
-/// Integration steps of one cell (for progress bars).
-pub fn cell_steps(config: &Config) -> u64 {
-    let t = &config.file.time;
-    config.steps(t.settle) + config.steps(t.spin_up) + window_samples(config) * sample_steps(config)
-}
-
-fn sample_steps(config: &Config) -> u64 {
-    u64::from(config.file.time.sample_steps)
-}
-
-fn window_samples(config: &Config) -> u64 {
-    (config.steps(config.file.time.window) / sample_steps(config)).max(1)
-}
-
 /// Runs `steps` steps in chunks, reporting progress.
 pub fn run_steps<R: Real, const N: usize>(
     sim: &mut Sim<R, N, NEIGHBOURS>,
@@ -168,7 +154,7 @@ pub fn run_all(
             if let Some(Ok(done)) = store.get::<_, Result<CellResult, String>>(&spec) {
                 // A checkpoint left by a crash between storing and removing it.
                 remove_if_present(&path)?;
-                progress.inc(cell_steps(config));
+                progress.inc(config.durations.cell());
                 return Ok((CellOutcome::Done(done), 1));
             }
             let key = cell_key(&serde_json::to_string(&spec).unwrap_or_default());

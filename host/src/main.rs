@@ -292,7 +292,7 @@ fn execute(cli: Cli) -> Result<(), HostError> {
             shard,
             reference,
         } => {
-            let base = load(&config)?.file;
+            let base = load(&config)?;
             let options = Options {
                 quick,
                 last_stage: usize::from(stage),

@@ -36,8 +36,8 @@ pub struct Packing<'a> {
     pub config: &'a Config,
     /// Seed of the bed.
     pub seed: u64,
-    /// Duration (s).
-    pub duration: f64,
+    /// Integration steps.
+    pub steps: u64,
     /// Integration steps between samples.
     pub every: u64,
     /// Progress (in steps).
@@ -52,7 +52,7 @@ impl SimJob for Packing<'_> {
         let fail = || HostError::kernel(format!("packing, seed {}", self.seed));
         sc.build(sim).map_err(fail())?;
         let every = self.every.max(1);
-        let samples = self.config.steps(self.duration) / every;
+        let samples = self.steps / every;
         let sample = |sim: &Sim<R, N, NEIGHBOURS>| {
             let o = sim.observe();
             PackSample {

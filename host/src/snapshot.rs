@@ -34,8 +34,8 @@ pub struct Snapshots<'a> {
     pub seed: u64,
     /// Frames after the settled one.
     pub frames: u64,
-    /// Time between frames (s).
-    pub every: f64,
+    /// Integration steps between frames.
+    pub every: u64,
     /// Progress (in steps).
     pub progress: &'a ProgressBar,
 }
@@ -45,17 +45,16 @@ impl SimJob for Snapshots<'_> {
 
     fn run<R: Real, const N: usize>(self, sim: &mut Sim<R, N, NEIGHBOURS>) -> Self::Output {
         let config = self.config;
-        let sc = config.scenario_at(self.seed);
+        let setup = config.setup(self.tau_star, self.seed);
         let fail = || {
             HostError::kernel(format!(
                 "snapshot tau* = {}, seed {}",
                 self.tau_star, self.seed
             ))
         };
-        sc.build(sim).map_err(fail())?;
-        run_steps(sim, config.steps(config.file.time.settle), self.progress).map_err(fail())?;
-        sim.set_flow(Some(&sc.flow(self.tau_star)))
-            .map_err(fail())?;
+        setup.scenario.build(sim).map_err(fail())?;
+        run_steps(sim, config.durations.settle, self.progress).map_err(fail())?;
+        sim.set_flow(Some(&setup.flow)).map_err(fail())?;
         let frame = |sim: &Sim<R, N, NEIGHBOURS>| Frame {
             time: sim.time(),
             width: sim.config().width,
@@ -63,7 +62,7 @@ impl SimJob for Snapshots<'_> {
         };
         let mut out = vec![frame(sim)];
         for _ in 0..self.frames {
-            run_steps(sim, config.steps(self.every), self.progress).map_err(fail())?;
+            run_steps(sim, self.every, self.progress).map_err(fail())?;
             out.push(frame(sim));
         }
         Ok(out)

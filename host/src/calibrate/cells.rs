@@ -155,7 +155,7 @@ impl Cells<'_> {
             let run = packing(Packing {
                 config: &config,
                 seed: config.seeds[0],
-                duration: spec.duration,
+                steps: config.steps_of(spec.duration),
                 every,
                 progress: &ProgressBar::hidden(),
             });

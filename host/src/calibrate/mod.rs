@@ -18,7 +18,7 @@ pub mod optimise;
 pub mod report;
 pub mod stages;
 
-use crate::config::{ConfigFile, DEFAULT_TOML};
+use crate::config::{Config, ConfigFile};
 use crate::error::HostError;
 use crate::references::Reference;
 use cells::{Cells, TransportSpec};
@@ -169,8 +169,8 @@ impl Plan {
 
 /// Everything a stage needs.
 pub struct Context<'a> {
-    /// The base configuration (stage 1 starts from it).
-    pub base: ConfigFile,
+    /// The base configuration: its file is what the stages vary.
+    pub base: Config,
     /// Grids and durations.
     pub plan: Plan,
     /// The reference relation of stages 3–5.
@@ -304,12 +304,6 @@ impl Context<'_> {
     }
 }
 
-/// The default base configuration (the embedded paper's case).
-pub fn default_base() -> ConfigFile {
-    // The embedded file parses (test `embedded_file_is_the_default`).
-    toml::from_str(DEFAULT_TOML).unwrap_or_default()
-}
-
 /// Options of `mbs calibrate`.
 #[derive(Debug, Clone, Copy)]
 pub struct Options {
@@ -342,23 +336,28 @@ pub enum Progress {
 
 /// Runs the calibration into `dir` (resuming from its cell store).
 pub fn calibrate(
-    mut base: ConfigFile,
+    base: Config,
     dir: &std::path::Path,
     options: Options,
 ) -> Result<Progress, HostError> {
     use stages::{beta, mixed, settling, timestep};
-    crate::output::create_dir(dir)?;
-    crate::output::remove_temporaries(dir)?;
-    let store = crate::store::Store::open(&dir.join(STORE))?;
     let plan = if options.quick {
         Plan::quick()
     } else {
         Plan::full()
     };
+    let base = match plan.flow_columns {
+        Some(columns) => {
+            let mut file = base.file;
+            file.bed.columns = columns;
+            Config::validate(file)?
+        }
+        None => base,
+    };
+    crate::output::create_dir(dir)?;
+    crate::output::remove_temporaries(dir)?;
+    let store = crate::store::Store::open(&dir.join(STORE))?;
     crate::output::write_json(&dir.join("plan.json"), &plan)?;
-    if let Some(columns) = plan.flow_columns {
-        base.bed.columns = columns;
-    }
     let bar = if options.quiet {
         indicatif::ProgressBar::hidden()
     } else {
@@ -383,7 +382,7 @@ pub fn calibrate(
     };
     let waiting = |stage| Ok(Progress::Waiting { stage });
     bar.set_message("stage 1 (α_m)");
-    let Some(s1) = settling::run(&ctx, 1, ctx.base.contact.alpha_m)? else {
+    let Some(s1) = settling::run(&ctx, 1, ctx.base.scenario.rule.alpha_m)? else {
         return waiting(1);
     };
     if options.last_stage < 2 {

@@ -9,7 +9,7 @@ use super::stages::{
     timestep::{TimestepRow, TimestepStage},
 };
 use super::Plan;
-use crate::config::ConfigFile;
+use crate::config::Config;
 use crate::error::HostError;
 use crate::output::write_text;
 use crate::references::Reference;
@@ -147,7 +147,7 @@ pub fn write_report(
     dir: &Path,
     plan: &Plan,
     reference: Reference,
-    base: &ConfigFile,
+    base: &Config,
     s: &Stages<'_>,
 ) -> Result<(), HostError> {
     let mut o = String::new();
@@ -161,10 +161,10 @@ pub fn write_report(
         env!("CARGO_PKG_VERSION"),
         if plan.quick { "quick" } else { "full" },
         reference.label(),
-        base.time.substeps,
+        base.scenario.substeps,
         plan.pack_columns,
-        base.bed.columns,
-        base.flow.bed_level_window,
+        base.scenario.bed.columns,
+        base.scenario.flow.bed_level_window,
     );
     let dt01 = s
         .timestep
@@ -287,7 +287,7 @@ pub fn write_report(
     let _ = writeln!(
         o,
         "\n## Stage 4: Δt for other sizes and layers (paper Figs. 7–11)\n\nEvery d at nvd = {}, every nvd at d = {} mm, on {} columns. α_m, α_cn, β fixed; base Δt = {:.2e} s; τ* {:?}, seeds {:?}, {} s windows; Δt grid ×{:?}, then golden section to a bracket ratio {}.\n\n![](stage4_dt.png)\n\n![](stage4_dt_layers.png)\n\n![](stage4_sizes.png)\n\n![](stage4_layers.png)\n\n| d (mm) | nvd | Δt (s) | Δt / base | misfit | worst factor |\n|---|---|---|---|---|---|",
-        plan.layers.first().copied().unwrap_or(10), plan.study_mm, plan.timestep_columns.unwrap_or(base.bed.columns), s.timestep.base_dt, plan.dt_tau_stars, plan.dt_seeds, plan.dt_window, plan.dt_grid, plan.dt_tolerance
+        plan.layers.first().copied().unwrap_or(10), plan.study_mm, plan.timestep_columns.unwrap_or(base.scenario.bed.columns), s.timestep.base_dt, plan.dt_tau_stars, plan.dt_seeds, plan.dt_window, plan.dt_grid, plan.dt_tolerance
     );
     for r in &s.timestep.rows {
         let _ = writeln!(

@@ -48,7 +48,7 @@ pub fn run(ctx: &Context<'_>, alpha_m: f64, alpha_cn: f64) -> Result<Option<Beta
     let cells = points.iter().map(|p| p.1.len()).sum();
     let window = plan.window;
     let curve_at = |beta: f64, evaluation: usize| {
-        let c = configure(&ctx.base, alpha_m, alpha_cn, beta);
+        let c = configure(&ctx.base.file, alpha_m, alpha_cn, beta);
         ctx.curve(&c, &points, window, &slot_of(evaluation, cells))
     };
     // The grid's cells can go to other shards; the refinement follows it.

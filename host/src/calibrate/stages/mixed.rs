@@ -58,7 +58,7 @@ pub fn run(
     beta: f64,
 ) -> Result<Option<MixedStage>, HostError> {
     let plan = &ctx.plan;
-    let mut c = configure(&ctx.base, alpha_m, alpha_cn, beta);
+    let mut c = configure(&ctx.base.file, alpha_m, alpha_cn, beta);
     c.grains.diameter_mm = None;
     c.grains.classes = Some(
         plan.mixed

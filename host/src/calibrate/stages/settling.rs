@@ -79,7 +79,7 @@ pub fn run(
         ("alpha_cn", &plan.alpha_cn)
     };
     let configure = |v: f64| -> ConfigFile {
-        let mut c = ctx.base.clone();
+        let mut c = ctx.base.file.clone();
         c.bed.columns = plan.pack_columns;
         c.contact.beta = 1.0;
         c.contact.alpha_cn = 1.0;
@@ -104,10 +104,7 @@ pub fn run(
     if results.iter().any(Option::is_none) {
         return Ok(None);
     }
-    let d = crate::config::Config::validate(ctx.base.clone())?
-        .scenario
-        .bed
-        .max_diameter();
+    let d = ctx.base.scenario.bed.max_diameter();
     let tolerance = plan.settle_tolerance_d * d;
     let n = plan.pack_seeds.len();
     let mut rows = Vec::new();

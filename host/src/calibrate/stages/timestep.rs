@@ -85,7 +85,7 @@ pub fn run(
     beta: f64,
 ) -> Result<Option<TimestepStage>, HostError> {
     let plan = &ctx.plan;
-    let base_dt = ctx.base.time.dt;
+    let base_dt = ctx.base.scenario.rule.constants_dt;
     let mut rows = Vec::new();
     let mut complete = true;
     let units = units(plan);
@@ -97,7 +97,7 @@ pub fn run(
     for (unit, &(d, layers)) in units.iter().enumerate() {
         let slot = move |_k: usize| unit;
         let curve_at = |dt: f64| {
-            let mut c = configure(&ctx.base, alpha_m, alpha_cn, beta);
+            let mut c = configure(&ctx.base.file, alpha_m, alpha_cn, beta);
             c.grains.diameter_mm = Some(d);
             c.grains.classes = None;
             c.bed.rows = layers;
