@@ -14,11 +14,10 @@
 
 use crate::config::{Config, ConfigFile};
 use crate::error::HostError;
-use crate::experiment::{CellResult, BATCHES};
 use crate::sims::{with_sim, SimJob, NEIGHBOURS};
 use indicatif::ProgressBar;
 use mbs_kernel::{Fnv1a, Real, Sim, G};
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
@@ -28,6 +27,28 @@ const CHUNK: u64 = 2000;
 
 const MAGIC: [u8; 4] = *b"MBSC";
 const VERSION: u16 = 1;
+
+/// Batches of the window used for the standard error of a single seed.
+pub const BATCHES: usize = 10;
+
+/// What one (τ*, seed) cell measured.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct CellResult {
+    /// Shields number.
+    pub tau_star: f64,
+    /// Seed.
+    pub seed: u64,
+    /// Time-averaged q* over the window (all classes, d = d_max).
+    pub q_star: f64,
+    /// Time-averaged q* per size class (its own diameter).
+    pub q_star_class: Vec<f64>,
+    /// q* averaged over each of [`BATCHES`] consecutive parts of the window.
+    pub batch_means: Vec<f64>,
+    /// Mean bed level at the end (m, relative to the fixed grains' mean).
+    pub bed_level: f64,
+    /// Grain-steps computed.
+    pub grain_steps: u64,
+}
 
 /// Where a cell is.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -425,6 +446,35 @@ impl SimJob for CellJob<'_> {
 pub fn run_cell_job(job: CellJob<'_>) -> Result<CellOutcome, HostError> {
     let (precision, capacity) = (job.config.precision, job.config.capacity);
     with_sim(precision, capacity, job)
+}
+
+/// Runs one cell from the start to the end (no checkpoints).
+pub fn run_cell(
+    config: &Config,
+    tau_star: f64,
+    seed: u64,
+    progress: &ProgressBar,
+) -> Result<CellResult, HostError> {
+    let never = AtomicBool::new(false);
+    let control = Control {
+        path: None,
+        every: None,
+        stop: &never,
+        stop_after: None,
+    };
+    let job = CellJob {
+        config,
+        tau_star,
+        seed,
+        key: 0,
+        resume: None,
+        control: &control,
+        progress,
+    };
+    match run_cell_job(job)? {
+        CellOutcome::Done(r) => Ok(r),
+        CellOutcome::Stopped => Err(HostError::Interrupted { cells: 1 }),
+    }
 }
 
 #[cfg(test)]

@@ -144,7 +144,7 @@ struct Summary<'a> {
     grain_steps: u64,
     grain_steps_per_s: f64,
     transport: &'a [TransportRow],
-    cells: &'a [crate::experiment::CellResult],
+    cells: &'a [crate::cell::CellResult],
 }
 
 /// Set by Ctrl-C: running cells checkpoint and stop.

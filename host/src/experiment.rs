@@ -5,91 +5,20 @@
 //! output does not depend on the number of threads.
 
 use crate::cell::{
-    cell_key, run_cell_job, CellCheckpoint, CellJob, CellOutcome, Control, TransportSpec,
+    cell_key, run_cell_job, CellCheckpoint, CellJob, CellOutcome, CellResult, Control,
+    TransportSpec,
 };
 use crate::config::Config;
 use crate::error::HostError;
 use crate::output::{create_dir, remove_temporaries};
 use crate::references::Reference;
-use crate::sims::NEIGHBOURS;
 use crate::store::{Store, STORE};
 use indicatif::ProgressBar;
-use mbs_kernel::{Real, Sim};
 use rayon::prelude::*;
-use serde::{Deserialize, Serialize};
+use serde::Serialize;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
 use std::time::Duration;
-
-/// Batches of the window used for the standard error of a single seed.
-pub const BATCHES: usize = 10;
-
-/// Steps run between progress updates outside the window.
-const CHUNK: u64 = 2000;
-
-/// What one (τ*, seed) cell measured.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct CellResult {
-    /// Shields number.
-    pub tau_star: f64,
-    /// Seed.
-    pub seed: u64,
-    /// Time-averaged q* over the window (all classes, d = d_max).
-    pub q_star: f64,
-    /// Time-averaged q* per size class (its own diameter).
-    pub q_star_class: Vec<f64>,
-    /// q* averaged over each of [`BATCHES`] consecutive parts of the window.
-    pub batch_means: Vec<f64>,
-    /// Mean bed level at the end (m, relative to the fixed grains' mean).
-    pub bed_level: f64,
-    /// Grain-steps computed.
-    pub grain_steps: u64,
-}
-
-/// Runs `steps` steps in chunks, reporting progress.
-pub fn run_steps<R: Real, const N: usize>(
-    sim: &mut Sim<R, N, NEIGHBOURS>,
-    steps: u64,
-    progress: &ProgressBar,
-) -> Result<(), mbs_kernel::Error> {
-    let mut left = steps;
-    while left > 0 {
-        let n = left.min(CHUNK);
-        sim.run(n)?;
-        progress.inc(n);
-        left -= n;
-    }
-    Ok(())
-}
-
-/// Runs one cell from the start to the end (no checkpoints).
-pub fn run_cell(
-    config: &Config,
-    tau_star: f64,
-    seed: u64,
-    progress: &ProgressBar,
-) -> Result<CellResult, HostError> {
-    let never = AtomicBool::new(false);
-    let control = Control {
-        path: None,
-        every: None,
-        stop: &never,
-        stop_after: None,
-    };
-    let job = CellJob {
-        config,
-        tau_star,
-        seed,
-        key: 0,
-        resume: None,
-        control: &control,
-        progress,
-    };
-    match run_cell_job(job)? {
-        CellOutcome::Done(r) => Ok(r),
-        CellOutcome::Stopped => Err(HostError::Interrupted { cells: 1 }),
-    }
-}
 
 /// Where `run_all` keeps finished cells and checkpoints, and when it stops.
 pub struct RunControl<'a> {

@@ -3,9 +3,9 @@
 //!
 //! | module | concept |
 //! |---|---|
-//! | [`config`] | TOML configuration, defaults, validation |
-//! | [`sims`] | heap simulations of a run-time precision and capacity |
-//! | [`cell`] | one resumable (τ*, seed) run with its checkpoint file |
+//! | [`config`] | TOML configuration, defaults, validation into the run plan |
+//! | [`sims`] | heap simulations of a run-time precision and capacity, run with progress |
+//! | [`cell`] | one resumable (τ*, seed) run: its result and its checkpoint file |
 //! | [`experiment`] | q*(τ*) over seeds, in parallel, thread-count independent |
 //! | [`store`] | append-only file of finished cells |
 //! | [`references`] | bed-load relations of SPEC §10 |

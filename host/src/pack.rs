@@ -4,10 +4,9 @@
 
 use crate::config::Config;
 use crate::error::HostError;
-use crate::experiment::run_steps;
 use crate::output::write_csv;
 use crate::plot::{save, LinesFigure};
-use crate::sims::{with_sim, SimJob, NEIGHBOURS};
+use crate::sims::{run_steps, with_sim, SimJob, NEIGHBOURS};
 use indicatif::ProgressBar;
 use mbs_kernel::{Real, Sim};
 use serde::Serialize;

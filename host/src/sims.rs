@@ -3,10 +3,14 @@
 //! is compiled for [`crate::config::CAPACITIES`] × {f32, f64}.
 
 use crate::config::Precision;
+use indicatif::ProgressBar;
 use mbs_kernel::{Real, Sim};
 
 /// Neighbour slots per grain of every host simulation (the kernel's `K`).
 pub const NEIGHBOURS: usize = 8;
+
+/// Steps run between progress updates.
+const CHUNK: u64 = 2000;
 
 /// A simulation allocated directly on the heap, never built on the stack.
 pub fn boxed_sim<R: Real, const N: usize, const K: usize>() -> Box<Sim<R, N, K>> {
@@ -37,6 +41,22 @@ pub fn with_sim<J: SimJob>(precision: Precision, capacity: usize, job: J) -> J::
         (Precision::F64, 257..=4096) => job.run(&mut *boxed_sim::<f64, 4096, NEIGHBOURS>()),
         (Precision::F64, _) => job.run(&mut *boxed_sim::<f64, 65536, NEIGHBOURS>()),
     }
+}
+
+/// Runs `steps` steps in chunks, reporting progress.
+pub fn run_steps<R: Real, const N: usize>(
+    sim: &mut Sim<R, N, NEIGHBOURS>,
+    steps: u64,
+    progress: &ProgressBar,
+) -> Result<(), mbs_kernel::Error> {
+    let mut left = steps;
+    while left > 0 {
+        let n = left.min(CHUNK);
+        sim.run(n)?;
+        progress.inc(n);
+        left -= n;
+    }
+    Ok(())
 }
 
 #[cfg(test)]

@@ -3,10 +3,9 @@
 
 use crate::config::Config;
 use crate::error::HostError;
-use crate::experiment::run_steps;
 use crate::output::{create_dir, write_json, write_text};
 use crate::plot::{save, BedFigure, Disc};
-use crate::sims::{with_sim, SimJob, NEIGHBOURS};
+use crate::sims::{run_steps, with_sim, SimJob, NEIGHBOURS};
 use indicatif::ProgressBar;
 use mbs_kernel::{GrainSpec, Real, Sim};
 use serde::Serialize;

@@ -3,11 +3,10 @@
 //! otherwise it is computed (in parallel with the other cells of the same
 //! request) if this shard owns it, and stored as soon as it finishes.
 
-use crate::cell::canonical;
 pub use crate::cell::TransportSpec;
+use crate::cell::{canonical, run_cell, CellResult};
 use crate::config::{Config, ConfigFile};
 use crate::error::HostError;
-use crate::experiment::{run_cell, CellResult};
 use crate::pack::{packing, Packing};
 use crate::store::Store;
 use indicatif::ProgressBar;
