@@ -5,8 +5,8 @@ use crate::bench::bench;
 use crate::config::{warnings, Config, Precision, DEFAULT_TOML};
 use crate::error::HostError;
 use crate::experiment::RunControl;
-use crate::experiment::{aggregate, run_all, transport_table, TransportRow};
-use crate::output::{create_dir, write_csv, write_json, write_text};
+use crate::experiment::{aggregate, run_all, write_transport, TransportRow};
+use crate::output::{create_dir, write_json, write_text};
 use crate::pack::{packing, write_packing, Packing};
 use crate::plot::{save, TransportFigure};
 use crate::sims::{with_sim, SimJob, NEIGHBOURS};
@@ -221,8 +221,7 @@ pub fn run(
     let results = outcome.results;
     let wall = start.elapsed().as_secs_f64();
     let rows = aggregate(config, &results);
-    let (header, body) = transport_table(config, &rows);
-    write_csv(&dir.join("transport.csv"), &header, &body)?;
+    write_transport(&dir.join("transport.csv"), config, &rows)?;
     let class_labels = if config.scenario.bed.classes.len() > 1 {
         config
             .scenario

@@ -10,7 +10,7 @@ use crate::cell::{
 };
 use crate::config::Config;
 use crate::error::HostError;
-use crate::output::{create_dir, remove_temporaries};
+use crate::output::{create_dir, decimal, decimals, remove_temporaries, write_csv};
 use crate::references::Reference;
 use crate::store::{Store, STORE};
 use indicatif::ProgressBar;
@@ -213,8 +213,32 @@ pub fn aggregate(config: &Config, results: &[CellResult]) -> Vec<TransportRow> {
         .collect()
 }
 
-/// Header and rows of `transport.csv`.
-pub fn transport_table(config: &Config, rows: &[TransportRow]) -> (Vec<String>, Vec<Vec<String>>) {
+/// A line of `transport.csv`: a [`TransportRow`] with its classes' (mean,
+/// stderr) side by side.
+#[derive(Serialize)]
+struct TransportLine {
+    #[serde(serialize_with = "decimal")]
+    tau_star: f64,
+    #[serde(serialize_with = "decimal")]
+    q_star: f64,
+    #[serde(serialize_with = "decimal")]
+    q_star_stderr: f64,
+    seeds: usize,
+    #[serde(serialize_with = "decimal")]
+    mpm: f64,
+    #[serde(serialize_with = "decimal")]
+    wong_parker: f64,
+    #[serde(serialize_with = "decimals")]
+    classes: Vec<f64>,
+}
+
+/// Writes `transport.csv`: a line per τ*, and two columns per size class of
+/// a mixed bed.
+pub fn write_transport(
+    path: &Path,
+    config: &Config,
+    rows: &[TransportRow],
+) -> Result<(), HostError> {
     let mut header: Vec<String> = [
         "tau_star",
         "q_star",
@@ -232,25 +256,19 @@ pub fn transport_table(config: &Config, rows: &[TransportRow]) -> (Vec<String>, 
             header.push(format!("q_star_{d}mm_stderr"));
         }
     }
-    let body = rows
+    let lines: Vec<TransportLine> = rows
         .iter()
-        .map(|r| {
-            let mut line = vec![
-                r.tau_star.to_string(),
-                r.q_star.to_string(),
-                r.q_star_stderr.to_string(),
-                r.seeds.to_string(),
-                r.mpm.to_string(),
-                r.wong_parker.to_string(),
-            ];
-            for (q, e) in &r.classes {
-                line.push(q.to_string());
-                line.push(e.to_string());
-            }
-            line
+        .map(|r| TransportLine {
+            tau_star: r.tau_star,
+            q_star: r.q_star,
+            q_star_stderr: r.q_star_stderr,
+            seeds: r.seeds,
+            mpm: r.mpm,
+            wong_parker: r.wong_parker,
+            classes: r.classes.iter().flat_map(|&(q, e)| [q, e]).collect(),
         })
         .collect();
-    (header, body)
+    write_csv(path, Some(&header), &lines)
 }
 
 #[cfg(test)]

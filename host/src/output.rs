@@ -100,27 +100,93 @@ pub fn write_json(path: &Path, value: &impl serde::Serialize) -> Result<(), Host
     write_atomic(path, &bytes)
 }
 
-/// Writes a CSV table (header + rows) atomically.
-pub fn write_csv(path: &Path, header: &[String], rows: &[Vec<String>]) -> Result<(), HostError> {
-    let mut w = csv::Writer::from_writer(Vec::new());
-    let csv_err = |e: csv::Error| HostError::Io {
+/// Writes a CSV table atomically: a header, then a line per row (a
+/// serde-derived struct; a sequence field gives several columns). Without
+/// `header` the header is the row type's field names. Write every number
+/// with [`decimal`] or [`decimals`].
+pub fn write_csv<R: serde::Serialize>(
+    path: &Path,
+    header: Option<&[String]>,
+    rows: &[R],
+) -> Result<(), HostError> {
+    let io = |error| HostError::Io {
         path: path.to_path_buf(),
-        error: std::io::Error::other(e),
+        error,
     };
-    w.write_record(header).map_err(csv_err)?;
-    for r in rows {
-        w.write_record(r).map_err(csv_err)?;
+    let mut w = csv::WriterBuilder::new()
+        .has_headers(header.is_none())
+        .from_writer(Vec::new());
+    let csv_err = |e: csv::Error| io(std::io::Error::other(e));
+    if let Some(header) = header {
+        w.write_record(header).map_err(csv_err)?;
     }
-    let bytes = w.into_inner().map_err(|e| HostError::Io {
-        path: path.to_path_buf(),
-        error: e.into_error(),
-    })?;
+    for r in rows {
+        w.serialize(r).map_err(csv_err)?;
+    }
+    let bytes = w.into_inner().map_err(|e| io(e.into_error()))?;
     write_atomic(path, &bytes)
+}
+
+/// Serialises a number of a table as Rust's `Display` writes it (`0.00001`,
+/// `1`, `NaN`), as every table of mbs always has: csv's own serde support
+/// writes ryu's shortest form (`1e-5`, `1.0`). For `#[serde(serialize_with)]`.
+pub fn decimal<S: serde::Serializer>(value: &f64, s: S) -> Result<S::Ok, S::Error> {
+    s.collect_str(value)
+}
+
+/// [`decimal`] for each number of a sequence field (one column each).
+pub fn decimals<S: serde::Serializer>(values: &[f64], s: S) -> Result<S::Ok, S::Error> {
+    s.collect_seq(values.iter().map(|v| Decimal(*v)))
+}
+
+/// A number serialised with [`decimal`].
+struct Decimal(f64);
+
+impl serde::Serialize for Decimal {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        decimal(&self.0, s)
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn tables_write_numbers_as_display_writes_them() {
+        #[derive(serde::Serialize)]
+        struct Line {
+            #[serde(serialize_with = "decimal")]
+            x: f64,
+            n: usize,
+            #[serde(serialize_with = "decimals")]
+            more: Vec<f64>,
+        }
+        #[derive(serde::Serialize)]
+        struct Named {
+            #[serde(serialize_with = "decimal")]
+            small: f64,
+            note: &'static str,
+        }
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("t.csv");
+        let header = ["x", "n", "a", "b"].map(String::from);
+        let line = Line {
+            x: 1.0,
+            n: 2,
+            more: vec![1e-5, f64::NAN],
+        };
+        write_csv(&path, Some(&header), &[line]).unwrap();
+        let text = std::fs::read_to_string(&path).unwrap();
+        assert_eq!(text, "x,n,a,b\n1,2,0.00001,NaN\n");
+        let named = Named {
+            small: 2.5e-7,
+            note: "a, b",
+        };
+        write_csv(&path, None, &[named]).unwrap();
+        let text = std::fs::read_to_string(&path).unwrap();
+        assert_eq!(text, "small,note\n0.00000025,\"a, b\"\n");
+    }
 
     #[test]
     fn failed_write_keeps_the_old_file_and_leaves_no_temporary() {

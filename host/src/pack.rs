@@ -4,7 +4,7 @@
 
 use crate::config::Config;
 use crate::error::HostError;
-use crate::output::write_csv;
+use crate::output::{decimal, write_csv};
 use crate::plot::{save, LinesFigure};
 use crate::sims::{run_steps, with_sim, SimJob, NEIGHBOURS};
 use indicatif::ProgressBar;
@@ -12,20 +12,25 @@ use mbs_kernel::{Real, Sim};
 use serde::Serialize;
 use std::path::Path;
 
-/// One sample of a packing run.
+/// One sample of a packing run: a line of `packing.csv`.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct PackSample {
     /// Time (s).
+    #[serde(serialize_with = "decimal")]
     pub time: f64,
     /// Height of the mobile grains' centre of gravity (m).
+    #[serde(serialize_with = "decimal")]
     pub y_gc: f64,
     /// Kinetic energy of the mobile grains (J).
+    #[serde(serialize_with = "decimal")]
     pub kinetic_energy: f64,
     /// Largest overlap (m).
+    #[serde(serialize_with = "decimal")]
     pub max_overlap: f64,
     /// Contacts.
     pub contacts: usize,
     /// Largest mobile-grain speed (m/s).
+    #[serde(serialize_with = "decimal")]
     pub max_speed: f64,
 }
 
@@ -80,29 +85,7 @@ pub fn packing(job: Packing<'_>) -> Result<Vec<PackSample>, HostError> {
 
 /// Writes `packing.csv` and the y_gc(t) plot `packing.png`/`.svg` into `dir`.
 pub fn write_packing(dir: &Path, samples: &[PackSample], title: &str) -> Result<(), HostError> {
-    let header = [
-        "time",
-        "y_gc",
-        "kinetic_energy",
-        "max_overlap",
-        "contacts",
-        "max_speed",
-    ]
-    .map(String::from);
-    let rows: Vec<Vec<String>> = samples
-        .iter()
-        .map(|s| {
-            vec![
-                s.time.to_string(),
-                s.y_gc.to_string(),
-                s.kinetic_energy.to_string(),
-                s.max_overlap.to_string(),
-                s.contacts.to_string(),
-                s.max_speed.to_string(),
-            ]
-        })
-        .collect();
-    write_csv(&dir.join("packing.csv"), &header, &rows)?;
+    write_csv(&dir.join("packing.csv"), None, samples)?;
     let points: Vec<(f64, f64)> = samples.iter().map(|s| (s.time, s.y_gc * 1e3)).collect();
     let figure = LinesFigure {
         series: vec![(String::new(), points)],

@@ -7,7 +7,7 @@ use crate::calibrate::optimise::{grid_then_golden, Search};
 use crate::calibrate::{Context, Curve};
 use crate::config::ConfigFile;
 use crate::error::HostError;
-use crate::output::write_csv;
+use crate::output::{decimal, write_csv};
 use crate::plot::{save, LinesFigure, TransportFigure};
 use serde::{Deserialize, Serialize};
 
@@ -90,38 +90,54 @@ pub fn points(curve: &Curve) -> Vec<(f64, f64, f64)> {
         .collect()
 }
 
+/// A line of `stage3.csv`: one evaluation of the search.
+#[derive(Serialize)]
+struct EvaluationLine {
+    #[serde(serialize_with = "decimal")]
+    beta: f64,
+    #[serde(serialize_with = "decimal")]
+    misfit: f64,
+}
+
+/// A line of `stage3_transport.csv`: q* at one τ* before and after the fit.
+#[derive(Serialize)]
+struct TransportLine {
+    #[serde(serialize_with = "decimal")]
+    tau_star: f64,
+    #[serde(serialize_with = "decimal")]
+    q_star_before: f64,
+    #[serde(serialize_with = "decimal")]
+    stderr_before: f64,
+    #[serde(serialize_with = "decimal")]
+    q_star_after: f64,
+    #[serde(serialize_with = "decimal")]
+    stderr_after: f64,
+    #[serde(serialize_with = "decimal")]
+    reference: f64,
+}
+
 fn write_outputs(ctx: &Context<'_>, r: &BetaStage) -> Result<(), HostError> {
     let mut evaluations: Vec<(f64, f64)> = r.search.grid.clone();
     evaluations.extend(r.search.refinement.iter().copied());
-    let header = ["beta", "misfit"].map(String::from);
-    let body: Vec<Vec<String>> = evaluations
+    let lines: Vec<EvaluationLine> = evaluations
         .iter()
-        .map(|(b, v)| vec![b.to_string(), v.to_string()])
+        .map(|&(beta, misfit)| EvaluationLine { beta, misfit })
         .collect();
-    write_csv(&ctx.dir.join("stage3.csv"), &header, &body)?;
-    let header = [
-        "tau_star",
-        "q_star_before",
-        "stderr_before",
-        "q_star_after",
-        "stderr_after",
-        "reference",
-    ]
-    .map(String::from);
-    let body: Vec<Vec<String>> = (0..r.after.tau_stars.len())
+    write_csv(&ctx.dir.join("stage3.csv"), None, &lines)?;
+    let lines: Vec<TransportLine> = (0..r.after.tau_stars.len())
         .map(|k| {
             let t = r.after.tau_stars[k];
-            vec![
-                t.to_string(),
-                r.before.q_star[k].to_string(),
-                r.before.stderr[k].to_string(),
-                r.after.q_star[k].to_string(),
-                r.after.stderr[k].to_string(),
-                ctx.reference.q_star(t).to_string(),
-            ]
+            TransportLine {
+                tau_star: t,
+                q_star_before: r.before.q_star[k],
+                stderr_before: r.before.stderr[k],
+                q_star_after: r.after.q_star[k],
+                stderr_after: r.after.stderr[k],
+                reference: ctx.reference.q_star(t),
+            }
         })
         .collect();
-    write_csv(&ctx.dir.join("stage3_transport.csv"), &header, &body)?;
+    write_csv(&ctx.dir.join("stage3_transport.csv"), None, &lines)?;
     let figure = TransportFigure {
         series: vec![
             (format!("β = {:.3} (fitted)", r.beta), points(&r.after)),

@@ -8,7 +8,7 @@ use super::{beta::configure, save_stage, slot_of};
 use crate::calibrate::{Context, Curve, Q_FLOOR};
 use crate::config::ClassEntry;
 use crate::error::HostError;
-use crate::output::write_csv;
+use crate::output::{decimal, write_csv};
 use crate::plot::{save, TransportFigure};
 use serde::{Deserialize, Serialize};
 
@@ -118,31 +118,37 @@ pub fn run(
     Ok(Some(result))
 }
 
+/// A line of `stage5.csv`: a [`ClassPoint`].
+#[derive(Serialize)]
+struct ClassLine {
+    #[serde(serialize_with = "decimal")]
+    tau_star: f64,
+    #[serde(serialize_with = "decimal")]
+    diameter_mm: f64,
+    #[serde(serialize_with = "decimal")]
+    fraction: f64,
+    #[serde(serialize_with = "decimal")]
+    tau_star_class: f64,
+    #[serde(serialize_with = "decimal")]
+    q_star_fraction: f64,
+    #[serde(serialize_with = "decimal")]
+    reference: f64,
+}
+
 fn write_outputs(ctx: &Context<'_>, r: &MixedStage) -> Result<(), HostError> {
-    let header = [
-        "tau_star",
-        "diameter_mm",
-        "fraction",
-        "tau_star_class",
-        "q_star_fraction",
-        "reference",
-    ]
-    .map(String::from);
-    let body: Vec<Vec<String>> = r
+    let lines: Vec<ClassLine> = r
         .points
         .iter()
-        .map(|p| {
-            vec![
-                p.tau_star.to_string(),
-                p.diameter_mm.to_string(),
-                p.fraction.to_string(),
-                p.tau_star_class.to_string(),
-                p.q_star_fraction.to_string(),
-                p.reference.to_string(),
-            ]
+        .map(|p| ClassLine {
+            tau_star: p.tau_star,
+            diameter_mm: p.diameter_mm,
+            fraction: p.fraction,
+            tau_star_class: p.tau_star_class,
+            q_star_fraction: p.q_star_fraction,
+            reference: p.reference,
         })
         .collect();
-    write_csv(&ctx.dir.join("stage5.csv"), &header, &body)?;
+    write_csv(&ctx.dir.join("stage5.csv"), None, &lines)?;
     let mut diameters: Vec<f64> = r.points.iter().map(|p| p.diameter_mm).collect();
     diameters.dedup();
     let series = diameters

@@ -7,7 +7,7 @@ use crate::calibrate::cells::{PackCurve, PackSpec};
 use crate::calibrate::Context;
 use crate::config::ConfigFile;
 use crate::error::HostError;
-use crate::output::write_csv;
+use crate::output::{decimal, write_csv};
 use crate::plot::{save, LinesFigure};
 use serde::{Deserialize, Serialize};
 
@@ -175,23 +175,33 @@ pub fn run(
     Ok(Some(result))
 }
 
+/// A line of `stage1.csv` or `stage2.csv`: a [`SettlingRow`].
+#[derive(Serialize)]
+struct SettlingLine<'a> {
+    #[serde(serialize_with = "decimal")]
+    value: f64,
+    #[serde(serialize_with = "decimal")]
+    settling_time: f64,
+    #[serde(serialize_with = "decimal")]
+    final_speed: f64,
+    stable: bool,
+    note: &'a str,
+}
+
 fn write_outputs(ctx: &Context<'_>, stage: usize, r: &SettlingStage) -> Result<(), HostError> {
     let name = format!("stage{stage}");
-    let header = ["value", "settling_time", "final_speed", "stable", "note"].map(String::from);
-    let body: Vec<Vec<String>> = r
+    let lines: Vec<SettlingLine> = r
         .rows
         .iter()
-        .map(|row| {
-            vec![
-                row.value.to_string(),
-                row.settling_time.to_string(),
-                row.final_speed.to_string(),
-                row.stable.to_string(),
-                row.note.clone(),
-            ]
+        .map(|row| SettlingLine {
+            value: row.value,
+            settling_time: row.settling_time,
+            final_speed: row.final_speed,
+            stable: row.stable,
+            note: &row.note,
         })
         .collect();
-    write_csv(&ctx.dir.join(format!("{name}.csv")), &header, &body)?;
+    write_csv(&ctx.dir.join(format!("{name}.csv")), None, &lines)?;
     let symbol = if stage == 1 { "α_m" } else { "α_cn" };
     let figure = LinesFigure {
         series: r

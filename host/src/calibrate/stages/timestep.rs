@@ -7,7 +7,7 @@ use super::{beta::configure, beta::points, save_stage};
 use crate::calibrate::optimise::grid_then_golden;
 use crate::calibrate::{Context, Curve};
 use crate::error::HostError;
-use crate::output::write_csv;
+use crate::output::{decimal, write_csv};
 use crate::plot::{save, LinesFigure, TransportFigure};
 use serde::{Deserialize, Serialize};
 
@@ -141,31 +141,36 @@ pub fn run(
     Ok(Some(result))
 }
 
+/// A line of `stage4.csv`: one (d, nvd) search.
+#[derive(Serialize)]
+struct TimestepLine {
+    #[serde(serialize_with = "decimal")]
+    diameter_mm: f64,
+    layers: u32,
+    #[serde(serialize_with = "decimal")]
+    dt: f64,
+    #[serde(serialize_with = "decimal")]
+    dt_over_base: f64,
+    #[serde(serialize_with = "decimal")]
+    misfit: f64,
+    #[serde(serialize_with = "decimal")]
+    worst_factor: f64,
+}
+
 fn write_outputs(ctx: &Context<'_>, r: &TimestepStage) -> Result<(), HostError> {
-    let header = [
-        "diameter_mm",
-        "layers",
-        "dt",
-        "dt_over_base",
-        "misfit",
-        "worst_factor",
-    ]
-    .map(String::from);
-    let body: Vec<Vec<String>> = r
+    let lines: Vec<TimestepLine> = r
         .rows
         .iter()
-        .map(|row| {
-            vec![
-                row.diameter_mm.to_string(),
-                row.layers.to_string(),
-                row.dt.to_string(),
-                (row.dt / r.base_dt).to_string(),
-                row.misfit.to_string(),
-                row.worst_factor.to_string(),
-            ]
+        .map(|row| TimestepLine {
+            diameter_mm: row.diameter_mm,
+            layers: row.layers,
+            dt: row.dt,
+            dt_over_base: row.dt / r.base_dt,
+            misfit: row.misfit,
+            worst_factor: row.worst_factor,
         })
         .collect();
-    write_csv(&ctx.dir.join("stage4.csv"), &header, &body)?;
+    write_csv(&ctx.dir.join("stage4.csv"), None, &lines)?;
     // Fig. 11: Δt against d (first nvd) and against nvd (study diameter).
     let first_layers = r.rows.first().map_or(10, |row| row.layers);
     let study_d = ctx.plan.study_mm;
