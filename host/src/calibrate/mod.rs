@@ -209,6 +209,15 @@ pub const Q_FLOOR: f64 = 1e-4;
 pub const MISFIT_FLOOR: f64 = 0.1;
 
 impl Curve {
+    /// (τ*, q*, stderr) of every point, for error bars.
+    pub fn points(&self) -> Vec<(f64, f64, f64)> {
+        self.tau_stars
+            .iter()
+            .zip(self.q_star.iter().zip(&self.stderr))
+            .map(|(&t, (&q, &e))| (t, q, e))
+            .collect()
+    }
+
     /// Mean squared log-ratio of q* to `reference` (the objective of stages
     /// 3 and 4), q* floored at [`MISFIT_FLOOR`] × reference;
     /// [`FAILED_MISFIT`] if any cell failed.
@@ -243,6 +252,16 @@ impl Curve {
 }
 
 impl Context<'_> {
+    /// The base configuration with the contact constants α_m, α_cn and β of
+    /// a stage (the settling stages also pack on their own bed).
+    pub fn configure(&self, alpha_m: f64, alpha_cn: f64, beta: f64) -> ConfigFile {
+        let mut c = self.base.file.clone();
+        c.contact.alpha_m = alpha_m;
+        c.contact.alpha_cn = alpha_cn;
+        c.contact.beta = beta;
+        c
+    }
+
     /// The transport curve of `config` at `points` (τ* and the seeds averaged
     /// there); `None` while cells owned by other shards are missing.
     /// `slot(k)` numbers the cells for sharding.

@@ -5,7 +5,6 @@
 use super::{save_stage, slot_of};
 use crate::calibrate::optimise::{grid_then_golden, Search};
 use crate::calibrate::{Context, Curve};
-use crate::config::ConfigFile;
 use crate::error::HostError;
 use crate::output::{decimal, write_csv};
 use crate::plot::{save, LinesFigure, TransportFigure};
@@ -32,15 +31,6 @@ pub struct BetaStage {
     pub misfit: f64,
 }
 
-/// The configuration of stages 3–5: α_m, α_cn from stages 1–2 and `beta`.
-pub fn configure(base: &ConfigFile, alpha_m: f64, alpha_cn: f64, beta: f64) -> ConfigFile {
-    let mut c = base.clone();
-    c.contact.alpha_m = alpha_m;
-    c.contact.alpha_cn = alpha_cn;
-    c.contact.beta = beta;
-    c
-}
-
 /// Runs stage 3.
 pub fn run(ctx: &Context<'_>, alpha_m: f64, alpha_cn: f64) -> Result<Option<BetaStage>, HostError> {
     let plan = &ctx.plan;
@@ -48,7 +38,7 @@ pub fn run(ctx: &Context<'_>, alpha_m: f64, alpha_cn: f64) -> Result<Option<Beta
     let cells = points.iter().map(|p| p.1.len()).sum();
     let window = plan.window;
     let curve_at = |beta: f64, evaluation: usize| {
-        let c = configure(&ctx.base.file, alpha_m, alpha_cn, beta);
+        let c = ctx.configure(alpha_m, alpha_cn, beta);
         ctx.curve(&c, &points, window, &slot_of(evaluation, cells))
     };
     // The grid's cells can go to other shards; the refinement follows it.
@@ -78,16 +68,6 @@ pub fn run(ctx: &Context<'_>, alpha_m: f64, alpha_cn: f64) -> Result<Option<Beta
     };
     write_outputs(ctx, &result)?;
     Ok(Some(result))
-}
-
-/// Error-bar points of a curve.
-pub fn points(curve: &Curve) -> Vec<(f64, f64, f64)> {
-    curve
-        .tau_stars
-        .iter()
-        .zip(curve.q_star.iter().zip(&curve.stderr))
-        .map(|(&t, (&q, &e))| (t, q, e))
-        .collect()
 }
 
 /// A line of `stage3.csv`: one evaluation of the search.
@@ -140,8 +120,8 @@ fn write_outputs(ctx: &Context<'_>, r: &BetaStage) -> Result<(), HostError> {
     write_csv(&ctx.dir.join("stage3_transport.csv"), None, &lines)?;
     let figure = TransportFigure {
         series: vec![
-            (format!("β = {:.3} (fitted)", r.beta), points(&r.after)),
-            ("β = 1 (before)".to_string(), points(&r.before)),
+            (format!("β = {:.3} (fitted)", r.beta), r.after.points()),
+            ("β = 1 (before)".to_string(), r.before.points()),
         ],
         references: vec![ctx.reference],
         title: format!(

@@ -4,7 +4,7 @@
 //! by (d_max/d_min)³ so that the finest grains stay inside the explicit
 //! damping limit (README, "The explicit damping limit").
 
-use super::{beta::configure, save_stage, slot_of};
+use super::{save_stage, slot_of};
 use crate::calibrate::{Context, Curve, Q_FLOOR};
 use crate::config::ClassEntry;
 use crate::error::HostError;
@@ -58,7 +58,7 @@ pub fn run(
     beta: f64,
 ) -> Result<Option<MixedStage>, HostError> {
     let plan = &ctx.plan;
-    let mut c = configure(&ctx.base.file, alpha_m, alpha_cn, beta);
+    let mut c = ctx.configure(alpha_m, alpha_cn, beta);
     c.grains.diameter_mm = None;
     c.grains.classes = Some(
         plan.mixed

@@ -79,16 +79,9 @@ pub fn run(
         ("alpha_cn", &plan.alpha_cn)
     };
     let configure = |v: f64| -> ConfigFile {
-        let mut c = ctx.base.file.clone();
+        let (alpha_m, alpha_cn) = if stage == 1 { (v, 1.0) } else { (alpha_m, v) };
+        let mut c = ctx.configure(alpha_m, alpha_cn, 1.0);
         c.bed.columns = plan.pack_columns;
-        c.contact.beta = 1.0;
-        c.contact.alpha_cn = 1.0;
-        c.contact.alpha_m = alpha_m;
-        if stage == 1 {
-            c.contact.alpha_m = v;
-        } else {
-            c.contact.alpha_cn = v;
-        }
         c
     };
     let specs: Vec<PackSpec> = values

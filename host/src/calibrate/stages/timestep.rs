@@ -3,7 +3,7 @@
 //! agreement with the reference (a grid of Δt, then golden section on ln Δt).
 //! Each (d, nvd) search is one unit of sharding.
 
-use super::{beta::configure, beta::points, save_stage};
+use super::save_stage;
 use crate::calibrate::optimise::grid_then_golden;
 use crate::calibrate::{Context, Curve};
 use crate::error::HostError;
@@ -97,7 +97,7 @@ pub fn run(
     for (unit, &(d, layers)) in units.iter().enumerate() {
         let slot = move |_k: usize| unit;
         let curve_at = |dt: f64| {
-            let mut c = configure(&ctx.base.file, alpha_m, alpha_cn, beta);
+            let mut c = ctx.configure(alpha_m, alpha_cn, beta);
             c.grains.diameter_mm = Some(d);
             c.grains.classes = None;
             c.bed.rows = layers;
@@ -240,11 +240,11 @@ fn write_outputs(ctx: &Context<'_>, r: &TimestepStage) -> Result<(), HostError> 
             let label = format!("d = {} mm, nvd = {}", row.diameter_mm, row.layers);
             series.push((
                 format!("{label}, Δt = {:.2e} s", r.base_dt),
-                points(&row.before),
+                row.before.points(),
             ));
             series.push((
                 format!("{label}, Δt = {:.2e} s", row.dt),
-                points(&row.after),
+                row.after.points(),
             ));
         }
         let figure = TransportFigure {
