@@ -3,8 +3,8 @@
 //! parameters. Every invalid value is reported as `key = value: must be …`.
 
 use mbs_kernel::{
-    explicit_damping_number, BedSpec, ContactConstants, FlowConfig, FlowSpec, Material, Scenario,
-    SizeClass, TimeStepRule, MAX_CLASSES,
+    contact_constants, explicit_damping_number, BedSpec, ContactConstants, FlowConfig, FlowSpec,
+    Material, Scenario, SizeClass, TimeStepRule, MAX_CLASSES,
 };
 use serde::{Deserialize, Serialize};
 use std::fmt;
@@ -38,6 +38,39 @@ pub enum ConfigError {
         /// The allowed range.
         allowed: String,
     },
+    /// A value the kernel's own validation refused.
+    Kernel {
+        /// The configuration key it came from, e.g. `flow.fluid_density`.
+        key: &'static str,
+        /// The kernel's error (value and allowed range).
+        source: mbs_kernel::Error,
+    },
+}
+
+impl ConfigError {
+    /// A kernel error under the configuration key of the parameter it names.
+    fn kernel(source: mbs_kernel::Error) -> ConfigError {
+        let key = match source {
+            mbs_kernel::Error::InvalidParameter { name, .. } => config_key(name),
+            _ => "configuration",
+        };
+        ConfigError::Kernel { key, source }
+    }
+}
+
+/// The configuration key of a kernel parameter: the kernel names most
+/// parameters by their key already, the material's are spread over sections.
+fn config_key(name: &'static str) -> &'static str {
+    match name {
+        "material.rho" => "flow.fluid_density",
+        "material.c_d" => "flow.drag_coefficient",
+        "material.c_m" => "flow.added_mass",
+        "material.s" => "grains.specific_gravity",
+        "material.mu" => "contact.friction",
+        "material.nu" => "contact.poisson",
+        "grains.fraction (sum)" => "grains.classes (sum of fractions)",
+        other => other,
+    }
 }
 
 impl fmt::Display for ConfigError {
@@ -50,11 +83,24 @@ impl fmt::Display for ConfigError {
                 value,
                 allowed,
             } => write!(f, "{key} = {value}: must be {allowed}"),
+            ConfigError::Kernel {
+                key,
+                source: mbs_kernel::Error::InvalidParameter { value, allowed, .. },
+            } => write!(f, "{key} = {value}: must be {allowed}"),
+            ConfigError::Kernel { key, source } => write!(f, "{key}: {source}"),
         }
     }
 }
 
-impl std::error::Error for ConfigError {}
+impl std::error::Error for ConfigError {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        match self {
+            ConfigError::Read { source, .. } => Some(source),
+            ConfigError::Kernel { source, .. } => Some(source),
+            _ => None,
+        }
+    }
+}
 
 /// Fails with [`ConfigError::Invalid`] unless `ok`.
 fn need(ok: bool, key: &str, value: impl fmt::Display, allowed: &str) -> Result<(), ConfigError> {
@@ -77,16 +123,6 @@ fn positive(key: &str, value: f64) -> Result<(), ConfigError> {
 /// `value` finite and ≥ 0.
 fn non_negative(key: &str, value: f64) -> Result<(), ConfigError> {
     need(value.is_finite() && value >= 0.0, key, value, ">= 0")
-}
-
-/// `value` finite and in `[lo, hi]`.
-fn within(key: &str, value: f64, lo: f64, hi: f64) -> Result<(), ConfigError> {
-    need(
-        value.is_finite() && (lo..=hi).contains(&value),
-        key,
-        value,
-        &format!("in [{lo}, {hi}]"),
-    )
 }
 
 /// Working precision of the kernel.
@@ -454,7 +490,7 @@ impl Config {
         let bed = bed_spec(&file)?;
         let d = bed.max_diameter();
         let material = material(&file)?;
-        let rule = time_rule(&file)?;
+        let rule = time_rule(&file, d, &material)?;
         let explicit_contact = explicit_contact(&file.contact, material.nu)?;
         let t = &file.time;
         need(
@@ -531,17 +567,19 @@ impl Config {
             skin: r.skin_d,
             seed: r.seeds[0],
         };
-        let contact = scenario
-            .contact()
-            .map_err(|e| ConfigError::Parse(format!("contact constants: {e}")))?;
+        let contact = scenario.contact().map_err(ConfigError::kernel)?;
         stability(&scenario, &contact)?;
-        // The kernel's own checks as a backstop: they name their fields too.
+        for &tau_star in &file.flow.tau_star {
+            scenario
+                .flow(tau_star)
+                .validate()
+                .map_err(ConfigError::kernel)?;
+        }
+        // The simulation's own checks, as a backstop.
         scenario
             .sim_config()
             .and_then(|c| c.validate())
-            .and_then(|()| scenario.bed.validate())
-            .and_then(|()| scenario.flow(file.flow.tau_star[0]).validate())
-            .map_err(|e| ConfigError::Parse(e.to_string()))?;
+            .map_err(ConfigError::kernel)?;
         let step_dt = scenario.step_dt();
         let sample = u64::from(t.sample_steps);
         let durations = Durations {
@@ -598,7 +636,6 @@ fn bed_spec(file: &ConfigFile) -> Result<BedSpec, ConfigError> {
     )?;
     let single = g.classes.is_none();
     let mut classes = heapless::Vec::<SizeClass, MAX_CLASSES>::new();
-    let mut total = 0.0;
     for (k, c) in entries.iter().enumerate() {
         let key = |field: &str| {
             if single {
@@ -619,19 +656,12 @@ fn bed_spec(file: &ConfigFile) -> Result<BedSpec, ConfigError> {
             c.fraction,
             "in (0, 1]",
         )?;
-        total += c.fraction;
         // Capacity checked above; a failed push cannot happen.
         let _ = classes.push(SizeClass {
             diameter: c.diameter_mm * 1e-3,
             fraction: c.fraction,
         });
     }
-    need(
-        (total - 1.0).abs() < 1e-9,
-        "grains.classes (sum of fractions)",
-        total,
-        "1",
-    )?;
     let b = &file.bed;
     need(
         (3..=100_000).contains(&b.columns),
@@ -645,27 +675,17 @@ fn bed_spec(file: &ConfigFile) -> Result<BedSpec, ConfigError> {
         b.rows,
         "in [1, 10000]",
     )?;
-    need(
-        b.spacing.is_finite() && b.spacing > 1.0 && b.spacing <= 2.0,
-        "bed.spacing",
-        b.spacing,
-        "in (1, 2] (SPEC: 1.05-1.10)",
-    )?;
-    need(
-        b.vacancy.is_finite() && (0.0..1.0).contains(&b.vacancy),
-        "bed.vacancy",
-        b.vacancy,
-        "in [0, 1)",
-    )?;
-    within("bed.fixed_spread", b.fixed_spread, 0.0, 1.0)?;
-    Ok(BedSpec {
+    let bed = BedSpec {
         columns: b.columns,
         rows: b.rows,
         spacing: b.spacing,
         vacancy: b.vacancy,
         fixed_spread: b.fixed_spread,
         classes,
-    })
+    };
+    // Spacing, vacancy, spread and the sum of the fractions.
+    bed.validate().map_err(ConfigError::kernel)?;
+    Ok(bed)
 }
 
 /// Grain and fluid material.
@@ -677,55 +697,45 @@ fn material(file: &ConfigFile) -> Result<Material, ConfigError> {
         s,
         "in (1, 20]",
     )?;
-    let f = &file.flow;
-    positive("flow.fluid_density", f.fluid_density)?;
-    non_negative("flow.drag_coefficient", f.drag_coefficient)?;
-    non_negative("flow.added_mass", f.added_mass)?;
-    let c = &file.contact;
-    non_negative("contact.friction", c.friction)?;
-    need(
-        c.poisson.is_finite() && c.poisson > -1.0 && c.poisson <= 0.5,
-        "contact.poisson",
-        c.poisson,
-        "in (-1, 0.5]",
-    )?;
-    Ok(Material {
+    let (f, c) = (&file.flow, &file.contact);
+    let material = Material {
         rho: f.fluid_density,
         s,
         c_m: f.added_mass,
         c_d: f.drag_coefficient,
         mu: c.friction,
         nu: c.poisson,
-    })
+    };
+    material.validate().map_err(ConfigError::kernel)?;
+    Ok(material)
 }
 
-/// α_m, α_cn, β and Δt.
-fn time_rule(file: &ConfigFile) -> Result<TimeStepRule, ConfigError> {
+/// α_m, α_cn, β and Δt, checked by deriving the contact constants of the
+/// largest grain `d` from them (also where `contact.k_n` gives the constants).
+fn time_rule(file: &ConfigFile, d: f64, material: &Material) -> Result<TimeStepRule, ConfigError> {
     let c = &file.contact;
-    positive("contact.alpha_m", c.alpha_m)?;
-    non_negative("contact.alpha_cn", c.alpha_cn)?;
-    positive("contact.beta", c.beta)?;
     need(
         file.time.dt.is_finite() && file.time.dt > 0.0 && file.time.dt <= 1.0,
         "time.dt",
         file.time.dt,
         "in (0, 1] s",
     )?;
-    Ok(TimeStepRule {
+    let rule = TimeStepRule {
         alpha_m: c.alpha_m,
         alpha_cn: c.alpha_cn,
         beta: c.beta,
         constants_dt: file.time.dt,
-    })
+    };
+    contact_constants(&rule, d, material).map_err(ConfigError::kernel)?;
+    Ok(rule)
 }
 
-/// Explicit k_n and η_n, with k_s and η_s from (12), (13).
+/// Explicit k_n and η_n, with k_s and η_s from (12), (13) (the kernel
+/// checks them in [`Scenario::contact`]).
 fn explicit_contact(c: &ContactSection, nu: f64) -> Result<Option<ContactConstants>, ConfigError> {
     match (c.k_n, c.eta_n) {
         (None, None) => Ok(None),
         (Some(k_n), Some(eta_n)) => {
-            positive("contact.k_n", k_n)?;
-            non_negative("contact.eta_n", eta_n)?;
             let two_one_plus_nu = 2.0 * (1.0 + nu);
             Ok(Some(ContactConstants {
                 k_n,
@@ -740,7 +750,8 @@ fn explicit_contact(c: &ContactSection, nu: f64) -> Result<Option<ContactConstan
 }
 
 /// `[flow]` except τ* into the kernel's flow specification, its intervals
-/// converted to integration steps (`substeps` per Δt).
+/// converted to integration steps (`substeps` per Δt); κ, ε0 and the
+/// intervals are checked by the kernel with the flow at each τ*.
 fn flow_spec(f: &FlowSection, d: f64, substeps: u32) -> Result<FlowSpec, ConfigError> {
     need(
         !f.tau_star.is_empty() && f.tau_star.len() <= 1000,
@@ -765,26 +776,17 @@ fn flow_spec(f: &FlowSection, d: f64, substeps: u32) -> Result<FlowSpec, ConfigE
         format!("{:?}", f.tau_star),
         "distinct values",
     )?;
-    positive("flow.kappa", f.kappa)?;
     need(
         f.depth.is_finite() && f.depth > 0.0 && f.depth <= 100.0,
         "flow.depth",
         f.depth,
         "in (0, 100] m",
     )?;
-    within("flow.eps0", f.eps0, 0.0, 1.0)?;
     need(
         f.roughness_d.is_finite() && f.roughness_d > 0.0 && f.roughness_d <= 100.0,
         "flow.roughness_d",
         f.roughness_d,
         "in (0, 100]",
-    )?;
-    need(f.hold_steps >= 1, "flow.hold_steps", f.hold_steps, ">= 1")?;
-    need(
-        f.bed_level_interval >= 1,
-        "flow.bed_level_interval",
-        f.bed_level_interval,
-        ">= 1",
     )?;
     need(
         f.bed_level_window.is_finite() && (1.0..=1e6).contains(&f.bed_level_window),
@@ -985,7 +987,7 @@ mod tests {
             ("[run]\ncapacity = 256\n[bed]\ncolumns = 30", "run.capacity = 256: must be >= the bed's 330 grains"),
             ("[contact]\nalpha_m = 2.0\nbeta = 1.0\n[time]\nsubsteps = 1", "time.dt = 0.00002: must be <= 1.8"),
             ("[contact]\nk_n = 1.0", "contact.k_n = 1: must be given with contact.eta_n"),
-            ("[grains]\nclasses = [{ diameter_mm = 1.0, fraction = 0.6 }, { diameter_mm = 0.7, fraction = 0.6 }]", "grains.classes (sum of fractions) = 1.2: must be 1"),
+            ("[grains]\nclasses = [{ diameter_mm = 1.0, fraction = 0.6 }, { diameter_mm = 0.7, fraction = 0.6 }]", "grains.classes (sum of fractions) = 1.2: must be = 1"),
             ("[run]\nseeds = [1, 1]", "run.seeds = [1, 1]: must be distinct"),
             ("[flow]\ntau_star = [0.1, 0.1]", "flow.tau_star = [0.1, 0.1]: must be distinct values"),
         ];
@@ -993,6 +995,55 @@ mod tests {
             let e = Config::from_toml(text).unwrap_err().to_string();
             assert!(
                 e.starts_with(message),
+                "{text}\n  gave: {e}\n  want: {message}"
+            );
+        }
+        // Checks the kernel makes are the kernel's: its error is kept as a value.
+        let kernel_cases = [
+            (
+                "[flow]\nfluid_density = -1.0",
+                "flow.fluid_density",
+                "flow.fluid_density = -1: must be finite and > 0",
+            ),
+            (
+                "[contact]\npoisson = 0.5",
+                "contact.poisson",
+                "contact.poisson = 0.5: must be in (-1, 0.5)",
+            ),
+            (
+                "[bed]\nspacing = 3.0",
+                "bed.spacing",
+                "bed.spacing = 3: must be in (1, 2]",
+            ),
+            (
+                "[flow]\neps0 = 2.0",
+                "flow.eps0",
+                "flow.eps0 = 2: must be in [0, 1]",
+            ),
+            (
+                "[flow]\nhold_steps = 0",
+                "flow.hold_steps",
+                "flow.hold_steps = 0: must be >= 1",
+            ),
+            (
+                "[contact]\nalpha_m = -1.0",
+                "contact.alpha_m",
+                "contact.alpha_m = -1: must be finite and > 0",
+            ),
+            (
+                "[contact]\nk_n = -1.0\neta_n = 1e-4",
+                "contact.k_n",
+                "contact.k_n = -1: must be finite and > 0",
+            ),
+        ];
+        for (text, want_key, message) in kernel_cases {
+            let e = Config::from_toml(text).unwrap_err();
+            assert!(
+                matches!(e, ConfigError::Kernel { key, source: mbs_kernel::Error::InvalidParameter { .. } } if key == want_key),
+                "{text}: {e:?}"
+            );
+            assert!(
+                e.to_string().starts_with(message),
                 "{text}\n  gave: {e}\n  want: {message}"
             );
         }
