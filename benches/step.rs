@@ -1,6 +1,6 @@
 //! Criterion benchmarks of the hot loop in isolation (`mbs::bench`): settled
 //! beds of the paper's grains (d = 0.5 mm, α_m = 20, α_cn = 1.3, constants
-//! from Δt = 2.0e-5 s, integrated at Δt/8), 10 rows over a fixed row,
+//! from constants_dt = 2.0e-5 s, integrated at constants_dt/8), 10 rows over a fixed row,
 //! periodic in x, of about 64, 1 024, 16 384 and 65 536 grains (f32: up to
 //! 16 384), β = 15.8 and 1, f64 and f32; cases: step without flow, step with flow at τ* = 0.2,
 //! neighbour rebuild alone, contact law alone. Each bed runs on the same

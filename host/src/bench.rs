@@ -1,6 +1,7 @@
 //! The hot-loop benchmarks shared by `mbs bench` and the criterion benches
 //! (`benches/step.rs`): settled beds of the paper's grains (d = 0.5 mm,
-//! α_m = 20, α_cn = 1.3, constants from Δt = 2.0e-5 s, integrated at Δt/8),
+//! α_m = 20, α_cn = 1.3, constants from constants_dt = 2.0e-5 s, integrated
+//! at step_dt = constants_dt/8),
 //! [`ROWS`] rows deep over a fixed row, periodic in x, and four cases: a
 //! step without flow, a step with the flow at τ* = 0.2, the neighbour
 //! rebuild alone and the contact law alone.
@@ -24,13 +25,13 @@ pub const ROWS: u32 = 10;
 /// Columns of one tile: 93 × 11 = 1 023 grains.
 pub const TILE_COLUMNS: u32 = 93;
 
-/// Most steps of settling (0.5 s at Δt/8).
+/// Most steps of settling (0.5 s at step_dt = constants_dt/8).
 pub const SETTLE_MAX_STEPS: u64 = 200_000;
 
 /// Settled: every mobile grain slower than this (m/s).
 pub const REST_SPEED: f64 = 1e-3;
 
-/// Steps of flow before a flow case is timed (0.02 s at Δt/8): saltation
+/// Steps of flow before a flow case is timed (0.02 s at constants_dt/8): saltation
 /// has started, so the neighbour lists are rebuilt as often as in a run.
 pub const FLOW_WARM_UP: u64 = 8_000;
 

@@ -96,8 +96,10 @@ pub struct Derived {
     pub eta_n: f64,
     /// η_s (N s/m).
     pub eta_s: f64,
-    /// Integration step Δt/substeps (s).
-    pub dt_integration: f64,
+    /// The constants' time step constants_dt (s).
+    pub constants_dt_s: f64,
+    /// The integration step step_dt = constants_dt/substeps (s).
+    pub step_dt_s: f64,
     /// Explicit damping number of the largest grains (stable below 2).
     pub explicit_damping_number: f64,
     /// Periodic width L (m).
@@ -116,7 +118,8 @@ impl Derived {
             k_s: c.k_s,
             eta_n: c.eta_n,
             eta_s: c.eta_s,
-            dt_integration: sc.step_dt(),
+            constants_dt_s: sc.rule.constants_dt,
+            step_dt_s: sc.step_dt(),
             explicit_damping_number: explicit_damping_number(
                 &c,
                 &sc.material,

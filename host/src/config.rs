@@ -102,6 +102,35 @@ impl std::error::Error for ConfigError {
     }
 }
 
+/// Keys of earlier versions of mbs and what they are now.
+const RENAMED: [(&str, &str); 1] = [(
+    "time.dt",
+    "time.constants_dt (the constants' time step; the integration step is \
+     step_dt = constants_dt/substeps)",
+)];
+
+/// toml's message; for a key that was renamed, also its new name.
+fn parse_message(text: &str, e: &toml::de::Error) -> String {
+    let message = e.to_string().trim_end().to_string();
+    let Some(span) = e
+        .span()
+        .filter(|_| e.message().starts_with("unknown field"))
+    else {
+        return message;
+    };
+    let before = text.get(..span.start).unwrap_or("");
+    let section = before
+        .lines()
+        .rev()
+        .find_map(|line| line.trim().strip_prefix('[')?.split(']').next())
+        .unwrap_or("");
+    let key = format!("{section}.{}", text.get(span).unwrap_or("").trim());
+    match RENAMED.iter().find(|(old, _)| *old == key) {
+        Some((old, new)) => format!("{message}\n{old} is now {new}"),
+        None => message,
+    }
+}
+
 /// Fails with [`ConfigError::Invalid`] unless `ok`.
 fn need(ok: bool, key: &str, value: impl fmt::Display, allowed: &str) -> Result<(), ConfigError> {
     if ok {
@@ -197,9 +226,10 @@ pub struct ContactSection {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct TimeSection {
-    /// Δt the constants derive from (s).
-    pub dt: f64,
-    /// Integration steps per Δt.
+    /// The constants' time step Δt (s), from which the contact constants
+    /// derive (docs/model.md (10)–(13)).
+    pub constants_dt: f64,
+    /// Integration steps per constants_dt: step_dt = constants_dt/substeps.
     pub substeps: u32,
     /// Settling time (s).
     pub settle: f64,
@@ -227,9 +257,9 @@ pub struct FlowSection {
     pub roughness_d: f64,
     /// Monte Carlo turbulence on.
     pub turbulence: bool,
-    /// Hold of a fluctuation (steps of Δt).
+    /// Hold of a fluctuation (steps of constants_dt).
     pub hold_steps: u32,
-    /// Bed-level interval (steps of Δt).
+    /// Bed-level interval (steps of constants_dt).
     pub bed_level_interval: u32,
     /// Width of the bed-level windows, in largest diameters.
     pub bed_level_window: f64,
@@ -326,7 +356,7 @@ impl Default for TimeSection {
     fn default() -> Self {
         let p = Scenario::paper();
         TimeSection {
-            dt: p.rule.constants_dt,
+            constants_dt: p.rule.constants_dt,
             substeps: p.substeps,
             settle: 0.2,
             spin_up: 0.2,
@@ -435,7 +465,7 @@ impl Config {
     /// Parses and validates TOML text.
     pub fn from_toml(text: &str) -> Result<Config, ConfigError> {
         let file: ConfigFile =
-            toml::from_str(text).map_err(|e| ConfigError::Parse(e.to_string()))?;
+            toml::from_str(text).map_err(|e| ConfigError::Parse(parse_message(text, &e)))?;
         Config::validate(file)
     }
 
@@ -710,21 +740,23 @@ fn material(file: &ConfigFile) -> Result<Material, ConfigError> {
     Ok(material)
 }
 
-/// α_m, α_cn, β and Δt, checked by deriving the contact constants of the
+/// α_m, α_cn, β and constants_dt, checked by deriving the contact constants of the
 /// largest grain `d` from them (also where `contact.k_n` gives the constants).
 fn time_rule(file: &ConfigFile, d: f64, material: &Material) -> Result<TimeStepRule, ConfigError> {
     let c = &file.contact;
     need(
-        file.time.dt.is_finite() && file.time.dt > 0.0 && file.time.dt <= 1.0,
-        "time.dt",
-        file.time.dt,
+        file.time.constants_dt.is_finite()
+            && file.time.constants_dt > 0.0
+            && file.time.constants_dt <= 1.0,
+        "time.constants_dt",
+        file.time.constants_dt,
         "in (0, 1] s",
     )?;
     let rule = TimeStepRule {
         alpha_m: c.alpha_m,
         alpha_cn: c.alpha_cn,
         beta: c.beta,
-        constants_dt: file.time.dt,
+        constants_dt: file.time.constants_dt,
     };
     contact_constants(&rule, d, material).map_err(ConfigError::kernel)?;
     Ok(rule)
@@ -750,7 +782,7 @@ fn explicit_contact(c: &ContactSection, nu: f64) -> Result<Option<ContactConstan
 }
 
 /// `[flow]` except τ* into the kernel's flow specification, its intervals
-/// converted to integration steps (`substeps` per Δt); κ, ε0 and the
+/// converted to integration steps (`substeps` per constants_dt); κ, ε0 and the
 /// intervals are checked by the kernel with the flow at each τ*.
 fn flow_spec(f: &FlowSection, d: f64, substeps: u32) -> Result<FlowSpec, ConfigError> {
     need(
@@ -807,8 +839,8 @@ fn flow_spec(f: &FlowSection, d: f64, substeps: u32) -> Result<FlowSpec, ConfigE
     })
 }
 
-/// The classical stability bound of SPEC (11) for the lightest grain:
-/// Δt/substeps ≤ 2√(m/k_n).
+/// The classical stability bound docs/model.md (11) on the integration step
+/// for the lightest grain: step_dt = constants_dt/substeps ≤ 2√(m/k_n).
 fn stability(sc: &Scenario, c: &ContactConstants) -> Result<(), ConfigError> {
     let d_min = sc
         .bed
@@ -817,15 +849,15 @@ fn stability(sc: &Scenario, c: &ContactConstants) -> Result<(), ConfigError> {
         .map(|k| k.diameter)
         .fold(f64::INFINITY, f64::min);
     let limit = c.stable_dt_limit(sc.material.translational_mass(d_min));
-    let n = f64::from(sc.substeps);
     need(
         sc.step_dt() <= limit,
-        "time.dt",
-        sc.rule.constants_dt,
+        "step_dt",
+        format!("{:e} s", sc.step_dt()),
         &format!(
-            "<= {:.4e} s with substeps = {} (stability bound dt/substeps <= 2 sqrt(m/k_n), SPEC (11))",
-            limit * n,
-            sc.substeps
+            "<= {limit:.4e} s, the stability bound 2 sqrt(m/k_n) of the lightest grain \
+             (docs/model.md (11)), with step_dt = constants_dt/substeps = {} s/{}; \
+             raise time.substeps",
+            sc.rule.constants_dt, sc.substeps
         ),
     )
 }
@@ -840,16 +872,16 @@ pub const DAMPING_NUMBER_CONVERGED: f64 = 0.5;
 pub const F32_RESOLVED_SPEED: f64 = 1e-3;
 
 /// The speed (m/s) below which an f32 grain near x = L does not move in x in
-/// one step dt: half the spacing of f32 numbers at L, over dt.
-pub fn f32_frozen_speed(width: f64, dt: f64) -> f64 {
+/// one integration step: half the spacing of f32 numbers at L, over step_dt.
+pub fn f32_frozen_speed(width: f64, step_dt: f64) -> f64 {
     let spacing = width.log2().floor().exp2() * f64::from(f32::EPSILON);
-    0.5 * spacing / dt
+    0.5 * spacing / step_dt
 }
 
-/// The warning for an f32 bed `width` wide integrated with step `dt`, if
+/// The warning for an f32 bed `width` wide integrated with `step_dt`, if
 /// grains slower than [`F32_RESOLVED_SPEED`] cannot move in x.
-pub fn f32_width_warning(width: f64, dt: f64) -> Option<String> {
-    let frozen = f32_frozen_speed(width, dt);
+pub fn f32_width_warning(width: f64, step_dt: f64) -> Option<String> {
+    let frozen = f32_frozen_speed(width, step_dt);
     (frozen > F32_RESOLVED_SPEED).then(|| {
         format!(
             "precision f32 on a bed {width:.3} m wide: a grain slower than {frozen:.2e} m/s \
@@ -985,7 +1017,7 @@ mod tests {
             ("[flow]\ntau_star = [0.1, -1.0]", "flow.tau_star[1] = -1: must be in (0, 5]"),
             ("[run]\ncapacity = 100", "run.capacity = 100: must be one of"),
             ("[run]\ncapacity = 256\n[bed]\ncolumns = 30", "run.capacity = 256: must be >= the bed's 330 grains"),
-            ("[contact]\nalpha_m = 2.0\nbeta = 1.0\n[time]\nsubsteps = 1", "time.dt = 0.00002: must be <= 1.8"),
+            ("[contact]\nalpha_m = 2.0\nbeta = 1.0\n[time]\nsubsteps = 1", "step_dt = 2e-5 s: must be <= 1.8"),
             ("[contact]\nk_n = 1.0", "contact.k_n = 1: must be given with contact.eta_n"),
             ("[grains]\nclasses = [{ diameter_mm = 1.0, fraction = 0.6 }, { diameter_mm = 0.7, fraction = 0.6 }]", "grains.classes (sum of fractions) = 1.2: must be = 1"),
             ("[run]\nseeds = [1, 1]", "run.seeds = [1, 1]: must be distinct"),
@@ -1047,6 +1079,14 @@ mod tests {
                 "{text}\n  gave: {e}\n  want: {message}"
             );
         }
+        let renamed = Config::from_toml("[time]\ndt = 2e-5")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            renamed.contains("unknown field `dt`, expected one of `constants_dt`")
+                && renamed.contains("time.dt is now time.constants_dt"),
+            "{renamed}"
+        );
         let unknown = Config::from_toml("[grains]\ndiameter = 0.5").unwrap_err();
         assert!(
             unknown.to_string().contains("unknown field `diameter`"),

@@ -93,7 +93,7 @@ enum Command {
         #[arg(long, default_value_t = 0.2)]
         tau: f64,
     },
-    /// The paper's parameter optimisation, automated: α_m, α_cn, β, Δt(d, nvd), mixed sizes → report.md.
+    /// The paper's parameter optimisation, automated: α_m, α_cn, β, constants_dt(d, nvd), mixed sizes → report.md.
     #[command(args_conflicts_with_subcommands = true)]
     Calibrate {
         #[command(subcommand)]

@@ -56,7 +56,7 @@ fn quick_calibration_writes_every_stage_and_the_report() {
     let beta = s3["beta"].as_f64().unwrap();
     assert!(report.contains(&format!("| β | {beta:.3} | 15.8 |")));
     assert!(beta > 1.0 && beta < 30.0);
-    let dt01 = s4["rows"][0]["dt"].as_f64().unwrap();
+    let dt01 = s4["rows"][0]["constants_dt"].as_f64().unwrap();
     assert_eq!(s4["rows"][0]["diameter_mm"], 0.1);
     assert!(report.contains(&format!("| {dt01:.2e} s | 9.0e-6 s |")));
     let worst = s3["worst_factor"].as_f64().unwrap();

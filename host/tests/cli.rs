@@ -132,7 +132,7 @@ fn pack_writes_the_settling_curve() {
     let rows: Vec<Vec<f64>> = lines
         .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
         .collect();
-    // 0.05 s sampled every 10 Δt (= 2e-4 s): 250 samples after t = 0.
+    // 0.05 s sampled every 10 constants_dt (= 2e-4 s): 250 samples after t = 0.
     assert_eq!(rows.len(), 251);
     let (first, last) = (&rows[0], &rows[rows.len() - 1]);
     assert!(
@@ -225,7 +225,7 @@ fn bad_configurations_are_named_and_write_nothing() {
         ),
         (
             "[contact]\nalpha_m = 2.0\nbeta = 1.0\n[time]\nsubsteps = 1\n",
-            "time.dt = 0.00002: must be <= 1.8",
+            "step_dt = 2e-5 s: must be <= 1.8",
         ),
         (
             "[bed]\ncolumns = 40\n[run]\ncapacity = 256\n",

@@ -139,7 +139,8 @@ impl Cells<'_> {
         })
     }
 
-    /// Packing cells, sampled every 50 steps of Δt (1 ms at the paper's Δt).
+    /// Packing cells, sampled every 50 steps of constants_dt (1 ms at the
+    /// paper's constants_dt).
     pub fn packing(
         &self,
         specs: &[PackSpec],

@@ -5,7 +5,7 @@
 //! | 1 | α_m by the fastest settling of a packed bed (α_cn = 1, β = 1) | 20 |
 //! | 2 | α_cn the same way, α_m fixed | 1.3 |
 //! | 3 | β by golden-section search of the q*(τ*) misfit to a reference | 15.8 |
-//! | 4 | Δt for other grain sizes d and layer thicknesses nvd | 9.0e-6 s at d = 0.1 mm |
+//! | 4 | constants_dt for other grain sizes d and layer thicknesses nvd | 9.0e-6 s at d = 0.1 mm |
 //! | 5 | a mixed bed: fractional transport per size class | — |
 //!
 //! Every simulation is a cell ([`cells`]) stored as it finishes ([`store`]);
@@ -71,21 +71,21 @@ pub struct Plan {
     /// Transport window (s) of stages 3 and 5.
     pub window: f64,
     /// Transport window (s) of stage 4.
-    pub dt_window: f64,
+    pub timestep_window: f64,
     /// Stage 4: grain diameters (mm), searched at the first of `layers`.
     pub sizes_mm: Vec<f64>,
     /// Stage 4: layer thicknesses nvd, searched at the study diameter.
     pub layers: Vec<u32>,
     /// Stage 4: the diameter of the layer study (mm).
     pub study_mm: f64,
-    /// Stage 4: Δt grid as multiples of the configuration's Δt.
-    pub dt_grid: Vec<f64>,
-    /// Stage 4: stop when the Δt bracket is narrower than this ratio.
-    pub dt_tolerance: f64,
+    /// Stage 4: constants_dt grid as multiples of the base configuration's.
+    pub constants_dt_grid: Vec<f64>,
+    /// Stage 4: stop when the constants_dt bracket is narrower than this ratio.
+    pub constants_dt_tolerance: f64,
     /// Stage 4: Shields numbers.
-    pub dt_tau_stars: Vec<f64>,
+    pub timestep_tau_stars: Vec<f64>,
     /// Stage 4: seeds.
-    pub dt_seeds: Vec<u64>,
+    pub timestep_seeds: Vec<u64>,
     /// Stage 5: size classes (mm, fraction).
     pub mixed: Vec<(f64, f64)>,
 }
@@ -111,14 +111,14 @@ impl Plan {
             threshold_seeds: (1..=12).collect(),
             threshold_tau_star: 0.06,
             window: 2.0,
-            dt_window: 1.0,
+            timestep_window: 1.0,
             sizes_mm: vec![0.1, 0.2, 0.5, 1.0, 2.0],
             layers: vec![10, 20, 30, 40, 50],
             study_mm: 0.5,
-            dt_grid: vec![0.5, 1.0, 2.0],
-            dt_tolerance: 1.15,
-            dt_tau_stars: vec![0.1, 0.2, 0.4],
-            dt_seeds: vec![1, 2],
+            constants_dt_grid: vec![0.5, 1.0, 2.0],
+            constants_dt_tolerance: 1.15,
+            timestep_tau_stars: vec![0.1, 0.2, 0.4],
+            timestep_seeds: vec![1, 2],
             mixed: vec![(0.7, 0.5), (0.5, 0.5)],
         }
     }
@@ -139,13 +139,13 @@ impl Plan {
             seeds: vec![1],
             threshold_seeds: vec![1],
             window: 0.5,
-            dt_window: 0.5,
+            timestep_window: 0.5,
             sizes_mm: vec![0.1, 0.5],
             layers: vec![10, 20],
-            dt_grid: vec![0.5, 1.0],
-            dt_tolerance: 1.5,
-            dt_tau_stars: vec![0.1, 0.4],
-            dt_seeds: vec![1],
+            constants_dt_grid: vec![0.5, 1.0],
+            constants_dt_tolerance: 1.5,
+            timestep_tau_stars: vec![0.1, 0.4],
+            timestep_seeds: vec![1],
             study_mm: 0.5,
             ..Plan::full()
         }
@@ -421,7 +421,7 @@ pub fn calibrate(
     if options.last_stage < 4 {
         return Ok(Progress::Done { stages: 3 });
     }
-    bar.set_message("stage 4 (Δt for d and nvd)");
+    bar.set_message("stage 4 (constants_dt for d and nvd)");
     let Some(s4) = timestep::run(&ctx, s1.chosen, s2.chosen, s3.beta)? else {
         return waiting(4);
     };

@@ -61,8 +61,9 @@ fn settling_reason(stage: &SettlingStage, paper: f64) -> String {
     match (time(paper), time(stage.chosen)) {
         (Some(tp), Some(tc)) => format!(
             "here {paper} settles in {tp:.4} s and {} in {tc:.4} s ({:.0} % faster); \
-             the paper integrated at Δt itself, beyond the explicit damping limit, \
-             this run at Δt/substeps, so the settling race is run under different numerics",
+             the paper integrated at step_dt = constants_dt, beyond the explicit damping limit, \
+             this run at step_dt = constants_dt/substeps, so the settling race is run under \
+             different numerics",
             stage.chosen,
             100.0 * (1.0 - tc / tp)
         ),
@@ -70,36 +71,38 @@ fn settling_reason(stage: &SettlingStage, paper: f64) -> String {
     }
 }
 
-/// The fine grain of the paper's stage 4 (mm) and the Δt it found there (s).
+/// The fine grain of the paper's stage 4 (mm) and the constants_dt it found
+/// there (s).
 const PAPER_D_FINE_MM: f64 = 0.1;
-const PAPER_DT_FINE: f64 = 9.0e-6;
-/// The grain where the paper fitted α_m, α_cn and β (mm), and its Δt (s).
+const PAPER_CONSTANTS_DT_FINE: f64 = 9.0e-6;
+/// The grain where the paper fitted α_m, α_cn and β (mm), and its
+/// constants_dt (s).
 const PAPER_D_BASE_MM: f64 = 0.5;
-const PAPER_DT_BASE: f64 = 2.0e-5;
+const PAPER_CONSTANTS_DT_BASE: f64 = 2.0e-5;
 
-/// Why Δt at the paper's fine grain differs: the size scaling of this run
-/// against the paper's two values.
-fn dt_reason(stage: &TimestepStage, row: &TimestepRow) -> String {
-    let paper_ratio = PAPER_DT_FINE / PAPER_DT_BASE;
+/// Why constants_dt at the paper's fine grain differs: the size scaling of
+/// this run against the paper's two values.
+fn constants_dt_reason(stage: &TimestepStage, row: &TimestepRow) -> String {
+    let paper_ratio = PAPER_CONSTANTS_DT_FINE / PAPER_CONSTANTS_DT_BASE;
     let paper_exponent = paper_ratio.ln() / (PAPER_D_FINE_MM / PAPER_D_BASE_MM).ln();
     let scaling = match stage.size_exponent(row.layers) {
         Some(p) => format!(
-            "this run's Δt grows as d^{p:.2} over the sizes searched (least squares, nvd = {}), \
+            "this run's constants_dt grows as d^{p:.2} over the sizes searched (least squares, nvd = {}), \
              the paper's two values as d^{paper_exponent:.2}; ",
             row.layers
         ),
         None => String::new(),
     };
-    let relative = match stage.dt_at(PAPER_D_BASE_MM, row.layers) {
+    let relative = match stage.constants_dt_at(PAPER_D_BASE_MM, row.layers) {
         Some(dt) => format!(
-            "relative to Δt at d = {PAPER_D_BASE_MM} mm ({dt:.2e} s) d = {PAPER_D_FINE_MM} mm \
+            "relative to constants_dt at d = {PAPER_D_BASE_MM} mm ({dt:.2e} s) d = {PAPER_D_FINE_MM} mm \
              takes {:.2} of it, the paper {paper_ratio:.2}; ",
-            row.dt / dt
+            row.constants_dt / dt
         ),
         None => String::new(),
     };
     format!(
-        "{scaling}{relative}the absolute value differs because stage 4 fits Δt to the reference \
+        "{scaling}{relative}the absolute value differs because stage 4 fits constants_dt to the reference \
          (absorbing stage 3's residual) with the different α_m, α_cn, β above"
     )
 }
@@ -136,7 +139,7 @@ fn class_ratios(stage: &MixedStage) -> String {
 
 fn reason(same: bool, text: &str) -> String {
     if same {
-        "agrees (α: the same grid value; β within ±0.5; Δt within 15 %)".into()
+        "agrees (α: the same grid value; β within ±0.5; constants_dt within 15 %)".into()
     } else {
         text.into()
     }
@@ -154,7 +157,8 @@ pub fn write_report(
     let _ = writeln!(
         o,
         "# Calibration report\n\nWritten by `mbs calibrate` (mbs {}), {} plan, reference relation: {}. \
-         Integration: {} substeps per Δt (README, \"The explicit damping limit\"). \
+         Integration: {} substeps per constants_dt, step_dt = constants_dt/substeps \
+         (README, \"The explicit damping limit\"). \
          Packing stages on {} lattice columns (SPEC §9.1), flow stages on {} columns, \
          mean bed level per window of {} largest diameters (README, \"Bed width\"). \
          Plan: `plan.json`; every simulation: `cells.jsonl`.\n",
@@ -195,19 +199,19 @@ pub fn write_report(
         Some(r) => {
             let _ = writeln!(
                 o,
-                "| Δt at d = 0.1 mm (nvd = {}) | {:.2e} s | {PAPER_DT_FINE:.1e} s | {} |",
+                "| constants_dt at d = 0.1 mm (nvd = {}) | {:.2e} s | {PAPER_CONSTANTS_DT_FINE:.1e} s | {} |",
                 r.layers,
-                r.dt,
+                r.constants_dt,
                 reason(
-                    (r.dt / PAPER_DT_FINE - 1.0).abs() < 0.15,
-                    &dt_reason(s.timestep, r),
+                    (r.constants_dt / PAPER_CONSTANTS_DT_FINE - 1.0).abs() < 0.15,
+                    &constants_dt_reason(s.timestep, r),
                 )
             );
         }
         None => {
             let _ = writeln!(
                 o,
-                "| Δt at d = 0.1 mm | not in this plan | {PAPER_DT_FINE:.1e} s | |"
+                "| constants_dt at d = 0.1 mm | not in this plan | {PAPER_CONSTANTS_DT_FINE:.1e} s | |"
             );
         }
     }
@@ -286,8 +290,8 @@ pub fn write_report(
     }
     let _ = writeln!(
         o,
-        "\n## Stage 4: Δt for other sizes and layers (paper Figs. 7–11)\n\nEvery d at nvd = {}, every nvd at d = {} mm, on {} columns. α_m, α_cn, β fixed; base Δt = {:.2e} s; τ* {:?}, seeds {:?}, {} s windows; Δt grid ×{:?}, then golden section to a bracket ratio {}.\n\n![](stage4_dt.png)\n\n![](stage4_dt_layers.png)\n\n![](stage4_sizes.png)\n\n![](stage4_layers.png)\n\n| d (mm) | nvd | Δt (s) | Δt / base | misfit | worst factor |\n|---|---|---|---|---|---|",
-        plan.layers.first().copied().unwrap_or(10), plan.study_mm, plan.timestep_columns.unwrap_or(base.scenario.bed.columns), s.timestep.base_dt, plan.dt_tau_stars, plan.dt_seeds, plan.dt_window, plan.dt_grid, plan.dt_tolerance
+        "\n## Stage 4: constants_dt for other sizes and layers (paper Figs. 7–11)\n\nThe constants' time step constants_dt (the paper's Δt) searched for every d at nvd = {}, every nvd at d = {} mm, on {} columns. α_m, α_cn, β fixed; base constants_dt = {:.2e} s; τ* {:?}, seeds {:?}, {} s windows; constants_dt grid ×{:?}, then golden section to a bracket ratio {}.\n\n![](stage4_dt.png)\n\n![](stage4_dt_layers.png)\n\n![](stage4_sizes.png)\n\n![](stage4_layers.png)\n\n| d (mm) | nvd | constants_dt (s) | constants_dt / base | misfit | worst factor |\n|---|---|---|---|---|---|",
+        plan.layers.first().copied().unwrap_or(10), plan.study_mm, plan.timestep_columns.unwrap_or(base.scenario.bed.columns), s.timestep.base_constants_dt, plan.timestep_tau_stars, plan.timestep_seeds, plan.timestep_window, plan.constants_dt_grid, plan.constants_dt_tolerance
     );
     for r in &s.timestep.rows {
         let _ = writeln!(
@@ -295,15 +299,15 @@ pub fn write_report(
             "| {} | {} | {:.3e} | {:.3} | {:.4} | {:.2} |",
             r.diameter_mm,
             r.layers,
-            r.dt,
-            r.dt / s.timestep.base_dt,
+            r.constants_dt,
+            r.constants_dt / s.timestep.base_constants_dt,
             r.misfit,
             r.worst_factor
         );
     }
     let _ = writeln!(
         o,
-        "\n## Stage 5: mixed sizes\n\nClasses {:?} (mm, fraction), constants for the largest grain, {} substeps per Δt. Fractional transport q*_k/f_k of each class against the reference at the class's Shields number τ*_k = τ* d_max/d_k.\n\n![](stage5.png)\n\n| τ* | d (mm) | τ*_k | q*_k / f_k | reference | ratio |\n|---|---|---|---|---|---|",
+        "\n## Stage 5: mixed sizes\n\nClasses {:?} (mm, fraction), constants for the largest grain, {} substeps per constants_dt. Fractional transport q*_k/f_k of each class against the reference at the class's Shields number τ*_k = τ* d_max/d_k.\n\n![](stage5.png)\n\n| τ* | d (mm) | τ*_k | q*_k / f_k | reference | ratio |\n|---|---|---|---|---|---|",
         plan.mixed, s.mixed.substeps
     );
     for p in &s.mixed.points {

@@ -66,7 +66,8 @@ pub fn settling_time(curve: &PackCurve, tolerance: f64) -> f64 {
 
 /// Runs stage 1 (`parameter = "alpha_m"`, α_cn = 1) or stage 2
 /// (`"alpha_cn"`, α_m from stage 1), β = 1, on the base bed narrowed to
-/// the packing columns of the plan (SPEC §9.1: nld = 5), at the base Δt.
+/// the packing columns of the plan (SPEC §9.1: nld = 5), at the base
+/// constants_dt.
 pub fn run(
     ctx: &Context<'_>,
     stage: usize,

@@ -1,6 +1,7 @@
 //! Stage 4 (SPEC §9 steps 4–5): for other grain sizes d and layer
-//! thicknesses nvd, keep α_m, α_cn and β and search the Δt that restores
-//! agreement with the reference (a grid of Δt, then golden section on ln Δt).
+//! thicknesses nvd, keep α_m, α_cn and β and search the constants' time step
+//! constants_dt that restores agreement with the reference (a grid of
+//! constants_dt, then golden section on its logarithm).
 //! Each (d, nvd) search is one unit of sharding.
 
 use super::save_stage;
@@ -18,46 +19,46 @@ pub struct TimestepRow {
     pub diameter_mm: f64,
     /// Layer thickness nvd.
     pub layers: u32,
-    /// The Δt restoring agreement (s).
-    pub dt: f64,
+    /// The constants_dt restoring agreement (s).
+    pub constants_dt: f64,
     /// Misfit there.
     pub misfit: f64,
     /// Worst factor to the reference there.
     pub worst_factor: f64,
-    /// q*(τ*) at the base Δt.
+    /// q*(τ*) at the base constants_dt.
     pub before: Curve,
-    /// q*(τ*) at the fitted Δt.
+    /// q*(τ*) at the fitted constants_dt.
     pub after: Curve,
-    /// Every (Δt, misfit) evaluated.
+    /// Every (constants_dt, misfit) evaluated.
     pub evaluations: Vec<(f64, f64)>,
 }
 
 /// The outcome of stage 4.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct TimestepStage {
-    /// The base Δt (s).
-    pub base_dt: f64,
+    /// The base configuration's constants_dt (s).
+    pub base_constants_dt: f64,
     /// One row per (d, nvd), sizes outer, layers inner.
     pub rows: Vec<TimestepRow>,
 }
 
 impl TimestepStage {
-    /// Δt of the (d, nvd) search, if it ran.
-    pub fn dt_at(&self, diameter_mm: f64, layers: u32) -> Option<f64> {
+    /// constants_dt of the (d, nvd) search, if it ran.
+    pub fn constants_dt_at(&self, diameter_mm: f64, layers: u32) -> Option<f64> {
         self.rows
             .iter()
             .find(|r| r.diameter_mm == diameter_mm && r.layers == layers)
-            .map(|r| r.dt)
+            .map(|r| r.constants_dt)
     }
 
-    /// The exponent p of Δt ∝ d^p: least-squares slope of ln Δt against
+    /// The exponent p of constants_dt ∝ d^p: least-squares slope of its log against
     /// ln d over the sizes searched at `layers` (None with fewer than two).
     pub fn size_exponent(&self, layers: u32) -> Option<f64> {
         let points: Vec<(f64, f64)> = self
             .rows
             .iter()
-            .filter(|r| r.layers == layers && r.diameter_mm > 0.0 && r.dt > 0.0)
-            .map(|r| (r.diameter_mm.ln(), r.dt.ln()))
+            .filter(|r| r.layers == layers && r.diameter_mm > 0.0 && r.constants_dt > 0.0)
+            .map(|r| (r.diameter_mm.ln(), r.constants_dt.ln()))
             .collect();
         let n = points.len() as f64;
         let mean_x = points.iter().map(|p| p.0).sum::<f64>() / n;
@@ -85,18 +86,18 @@ pub fn run(
     beta: f64,
 ) -> Result<Option<TimestepStage>, HostError> {
     let plan = &ctx.plan;
-    let base_dt = ctx.base.scenario.rule.constants_dt;
+    let base_constants_dt = ctx.base.scenario.rule.constants_dt;
     let mut rows = Vec::new();
     let mut complete = true;
     let units = units(plan);
     let points: Vec<(f64, &[u64])> = plan
-        .dt_tau_stars
+        .timestep_tau_stars
         .iter()
-        .map(|&t| (t, plan.dt_seeds.as_slice()))
+        .map(|&t| (t, plan.timestep_seeds.as_slice()))
         .collect();
     for (unit, &(d, layers)) in units.iter().enumerate() {
         let slot = move |_k: usize| unit;
-        let curve_at = |dt: f64| {
+        let curve_at = |constants_dt: f64| {
             let mut c = ctx.configure(alpha_m, alpha_cn, beta);
             c.grains.diameter_mm = Some(d);
             c.grains.classes = None;
@@ -104,28 +105,33 @@ pub fn run(
             if let Some(columns) = plan.timestep_columns {
                 c.bed.columns = columns;
             }
-            c.time.dt = dt;
-            ctx.curve(&c, &points, plan.dt_window, &slot)
+            c.time.constants_dt = constants_dt;
+            ctx.curve(&c, &points, plan.timestep_window, &slot)
         };
-        let grid: Vec<f64> = plan.dt_grid.iter().map(|m| base_dt * m).collect();
-        let search = grid_then_golden(&grid, plan.dt_tolerance, |dt| {
-            Ok(curve_at(dt)?.map(|c| c.misfit(ctx.reference)))
+        let grid: Vec<f64> = plan
+            .constants_dt_grid
+            .iter()
+            .map(|m| base_constants_dt * m)
+            .collect();
+        let search = grid_then_golden(&grid, plan.constants_dt_tolerance, |constants_dt| {
+            Ok(curve_at(constants_dt)?.map(|c| c.misfit(ctx.reference)))
         })?;
         let Some(search) = search else {
             complete = false;
             continue;
         };
-        let (dt, misfit) = search.best;
+        let (constants_dt, misfit) = search.best;
         let mut evaluations = search.grid;
         evaluations.extend(search.refinement);
-        let (Some(before), Some(after)) = (curve_at(base_dt)?, curve_at(dt)?) else {
+        let (Some(before), Some(after)) = (curve_at(base_constants_dt)?, curve_at(constants_dt)?)
+        else {
             complete = false;
             continue;
         };
         rows.push(TimestepRow {
             diameter_mm: d,
             layers,
-            dt,
+            constants_dt,
             misfit,
             worst_factor: after.worst_factor(ctx.reference),
             before,
@@ -136,7 +142,10 @@ pub fn run(
     if !complete {
         return Ok(None);
     }
-    let result = TimestepStage { base_dt, rows };
+    let result = TimestepStage {
+        base_constants_dt,
+        rows,
+    };
     write_outputs(ctx, &result)?;
     Ok(Some(result))
 }
@@ -148,9 +157,9 @@ struct TimestepLine {
     diameter_mm: f64,
     layers: u32,
     #[serde(serialize_with = "decimal")]
-    dt: f64,
+    constants_dt: f64,
     #[serde(serialize_with = "decimal")]
-    dt_over_base: f64,
+    constants_dt_over_base: f64,
     #[serde(serialize_with = "decimal")]
     misfit: f64,
     #[serde(serialize_with = "decimal")]
@@ -164,14 +173,14 @@ fn write_outputs(ctx: &Context<'_>, r: &TimestepStage) -> Result<(), HostError> 
         .map(|row| TimestepLine {
             diameter_mm: row.diameter_mm,
             layers: row.layers,
-            dt: row.dt,
-            dt_over_base: row.dt / r.base_dt,
+            constants_dt: row.constants_dt,
+            constants_dt_over_base: row.constants_dt / r.base_constants_dt,
             misfit: row.misfit,
             worst_factor: row.worst_factor,
         })
         .collect();
     write_csv(&ctx.dir.join("stage4.csv"), None, &lines)?;
-    // Fig. 11: Δt against d (first nvd) and against nvd (study diameter).
+    // Fig. 11: constants_dt against d (first nvd) and against nvd (study diameter).
     let first_layers = r.rows.first().map_or(10, |row| row.layers);
     let study_d = ctx.plan.study_mm;
     let by_size: Vec<&TimestepRow> = r
@@ -190,11 +199,11 @@ fn write_outputs(ctx: &Context<'_>, r: &TimestepStage) -> Result<(), HostError> 
                  title: String| LinesFigure {
         series: vec![(
             String::new(),
-            rows.iter().map(|row| (x(row), row.dt)).collect(),
+            rows.iter().map(|row| (x(row), row.constants_dt)).collect(),
         )],
         title,
         x_label: x_label.into(),
-        y_label: "time step Δt (s)".into(),
+        y_label: "constants' time step constants_dt (s)".into(),
         log_axes: true,
         markers: true,
     };
@@ -204,7 +213,7 @@ fn write_outputs(ctx: &Context<'_>, r: &TimestepStage) -> Result<(), HostError> 
             &|row| row.diameter_mm,
             "grain diameter d (mm)",
             format!(
-                "Stage 4: Δt restoring agreement against d (nvd = {first_layers}; paper Fig. 11)"
+                "Stage 4: constants_dt restoring agreement against d (nvd = {first_layers}; paper Fig. 11)"
             ),
         ),
         &ctx.dir,
@@ -216,22 +225,22 @@ fn write_outputs(ctx: &Context<'_>, r: &TimestepStage) -> Result<(), HostError> 
             &|row| f64::from(row.layers),
             "layer thickness nvd",
             format!(
-                "Stage 4: Δt restoring agreement against nvd (d = {study_d} mm; paper Fig. 11)"
+                "Stage 4: constants_dt restoring agreement against nvd (d = {study_d} mm; paper Fig. 11)"
             ),
         ),
         &ctx.dir,
         "stage4_dt_layers",
     )?;
-    // Figs. 7–10: q* at the base and the fitted Δt, per d and per nvd.
+    // Figs. 7–10: q* at the base and the fitted constants_dt, per d and per nvd.
     for (name, title, rows) in [
         (
             "stage4_sizes",
-            format!("Stage 4: q* for each d (nvd = {first_layers}), base and fitted Δt"),
+            format!("Stage 4: q* for each d (nvd = {first_layers}), base and fitted constants_dt"),
             &by_size,
         ),
         (
             "stage4_layers",
-            format!("Stage 4: q* for each nvd (d = {study_d} mm), base and fitted Δt"),
+            format!("Stage 4: q* for each nvd (d = {study_d} mm), base and fitted constants_dt"),
             &by_layers,
         ),
     ] {
@@ -239,11 +248,11 @@ fn write_outputs(ctx: &Context<'_>, r: &TimestepStage) -> Result<(), HostError> 
         for row in rows.iter() {
             let label = format!("d = {} mm, nvd = {}", row.diameter_mm, row.layers);
             series.push((
-                format!("{label}, Δt = {:.2e} s", r.base_dt),
+                format!("{label}, constants_dt = {:.2e} s", r.base_constants_dt),
                 row.before.points(),
             ));
             series.push((
-                format!("{label}, Δt = {:.2e} s", row.dt),
+                format!("{label}, constants_dt = {:.2e} s", row.constants_dt),
                 row.after.points(),
             ));
         }
@@ -261,7 +270,7 @@ fn write_outputs(ctx: &Context<'_>, r: &TimestepStage) -> Result<(), HostError> 
 mod tests {
     use super::*;
 
-    fn row(diameter_mm: f64, layers: u32, dt: f64) -> TimestepRow {
+    fn row(diameter_mm: f64, layers: u32, constants_dt: f64) -> TimestepRow {
         let curve = Curve {
             tau_stars: vec![],
             q_star: vec![],
@@ -272,7 +281,7 @@ mod tests {
         TimestepRow {
             diameter_mm,
             layers,
-            dt,
+            constants_dt,
             misfit: 0.0,
             worst_factor: 1.0,
             before: curve.clone(),
@@ -289,12 +298,12 @@ mod tests {
             .collect();
         rows.push(row(0.5, 30, 1.0));
         let stage = TimestepStage {
-            base_dt: 2.0e-5,
+            base_constants_dt: 2.0e-5,
             rows,
         };
         let p = stage.size_exponent(10).unwrap();
         assert!((p - 0.5).abs() < 1e-12, "p = {p}");
-        assert_eq!(stage.dt_at(0.5, 30), Some(1.0));
+        assert_eq!(stage.constants_dt_at(0.5, 30), Some(1.0));
         assert_eq!(stage.size_exponent(30), None, "one size is no fit");
         assert_eq!(stage.size_exponent(20), None);
     }
