@@ -186,7 +186,7 @@ pub struct GrainsSection {
     pub specific_gravity: f64,
 }
 
-/// `[bed]` (SPEC §7).
+/// `[bed]` (docs/model.md §7).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct BedSection {
@@ -202,7 +202,7 @@ pub struct BedSection {
     pub fixed_spread: f64,
 }
 
-/// `[contact]` (SPEC §4–§5).
+/// `[contact]` (docs/model.md §4–§5).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct ContactSection {
@@ -241,7 +241,7 @@ pub struct TimeSection {
     pub sample_steps: u32,
 }
 
-/// `[flow]` (SPEC §6).
+/// `[flow]` (docs/model.md §6).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct FlowSection {
@@ -947,7 +947,8 @@ pub fn warnings(config: &Config, under_flow: bool) -> Vec<String> {
 mod tests {
     use super::*;
 
-    /// The default scenario: the paper's case (SPEC §9) on [`DEFAULT_COLUMNS`].
+    /// The default scenario: the paper's case (docs/model.md §9) on
+    /// [`DEFAULT_COLUMNS`].
     fn default_scenario() -> Scenario {
         let mut s = Scenario::paper();
         s.bed.columns = DEFAULT_COLUMNS;

@@ -1,6 +1,6 @@
-//! The transport-rate experiment (SPEC §8, §9 step 3): for every (τ*, seed)
-//! cell, build and settle the bed, switch the flow on, spin up, and average
-//! q* over a window. Cells run in parallel (rayon); each is computed alone
+//! The transport-rate experiment (docs/model.md §8, §9 step 3): for every
+//! (τ*, seed) cell, build and settle the bed, switch the flow on, spin up,
+//! and average q* over a window. Cells run in parallel (rayon); each is computed alone
 //! from its own seed and the results are combined in a fixed order, so the
 //! output does not depend on the number of threads.
 

@@ -8,8 +8,8 @@
 //! | [`cell`] | one resumable (τ*, seed) run: its result and its checkpoint file |
 //! | [`experiment`] | q*(τ*) over seeds, in parallel, thread-count independent |
 //! | [`store`] | append-only file of finished cells |
-//! | [`references`] | bed-load relations of SPEC §10 |
-//! | [`pack`] | packing test (SPEC §9.1) |
+//! | [`references`] | bed-load relations of docs/model.md §10 |
+//! | [`pack`] | packing test (docs/model.md §9 step 1) |
 //! | [`snapshot`] | bed pictures and VTK series |
 //! | [`bench`] | hot-loop benchmark shared with criterion |
 //! | [`plot`] | figures (PNG + SVG) |

@@ -50,7 +50,7 @@ enum Command {
     },
     /// Prints the embedded default configuration (the paper's case), commented.
     Config,
-    /// Packing test (SPEC §9.1): packing.csv and a plot of y_gc(t).
+    /// Packing test (docs/model.md §9 step 1): packing.csv and a plot of y_gc(t).
     Pack {
         /// Configuration file (TOML).
         config: Option<PathBuf>,

@@ -1,6 +1,6 @@
-//! The packing test of SPEC §9 step 1: build the bed and let it settle
-//! under gravity, recording y_gc(t), kinetic energy, largest overlap and
-//! contact count.
+//! The packing test of docs/model.md §9 step 1: build the bed and let it
+//! settle under gravity, recording y_gc(t), kinetic energy, largest overlap
+//! and contact count.
 
 use crate::config::Config;
 use crate::error::HostError;

@@ -95,7 +95,7 @@ fn series_colour(i: usize) -> RGBColor {
 pub type ErrorPoint = (f64, f64, f64);
 
 /// q* against τ* on log–log axes: simulated series with error bars and the
-/// SPEC §10 relations as curves.
+/// docs/model.md §10 relations as curves.
 pub struct TransportFigure {
     /// Labelled simulated series.
     pub series: Vec<(String, Vec<ErrorPoint>)>,

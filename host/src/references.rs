@@ -1,4 +1,4 @@
-//! Measured bed-load relations q*(τ*) of SPEC §10.
+//! Measured bed-load relations q*(τ*) of docs/model.md §10.
 
 use serde::{Deserialize, Serialize};
 

@@ -1,4 +1,5 @@
-//! `mbs calibrate`: the paper's parameter optimisation (SPEC §9), automated.
+//! `mbs calibrate`: the paper's parameter optimisation (docs/model.md §9),
+//! automated.
 //!
 //! | stage | what | paper |
 //! |---|---|---|
@@ -39,8 +40,8 @@ pub struct Plan {
     pub pack_duration: f64,
     /// Stages 1–2: seeds.
     pub pack_seeds: Vec<u64>,
-    /// Stages 1–2: lattice columns of the packing bed (SPEC §9.1: nld = 5);
-    /// the flow stages use the base bed's columns.
+    /// Stages 1–2: lattice columns of the packing bed (docs/model.md §9
+    /// step 1: nld = 5); the flow stages use the base bed's columns.
     pub pack_columns: u32,
     /// Stages 3–5: lattice columns instead of the base bed's (the quick plan
     /// uses 10: q* above τ* = 0.1 is the same as on 40, near the threshold

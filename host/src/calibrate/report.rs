@@ -159,7 +159,7 @@ pub fn write_report(
         "# Calibration report\n\nWritten by `mbs calibrate` (mbs {}), {} plan, reference relation: {}. \
          Integration: {} substeps per constants_dt, step_dt = constants_dt/substeps \
          (README, \"The explicit damping limit\"). \
-         Packing stages on {} lattice columns (SPEC §9.1), flow stages on {} columns, \
+         Packing stages on {} lattice columns (docs/model.md §9 step 1), flow stages on {} columns, \
          mean bed level per window of {} largest diameters (README, \"Bed width\"). \
          Plan: `plan.json`; every simulation: `cells.jsonl`.\n",
         env!("CARGO_PKG_VERSION"),

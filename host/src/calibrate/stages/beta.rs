@@ -1,6 +1,7 @@
-//! Stage 3 (SPEC §9 step 3): scale α_m and α_cn by β (18) until q*(τ*)
-//! matches the reference relation: a grid of β first (its cells can be
-//! sharded), then a golden-section search on ln β around the best grid point.
+//! Stage 3 (docs/model.md §9 step 3): scale α_m and α_cn by β (18) until
+//! q*(τ*) matches the reference relation: a grid of β first (its cells can
+//! be sharded), then a golden-section search on ln β around the best grid
+//! point.
 
 use super::{save_stage, slot_of};
 use crate::calibrate::optimise::{grid_then_golden, Search};

@@ -1,6 +1,6 @@
-//! Stage 5 (SPEC §9 step 6): a mixed bed with the constants of stage 3 set
-//! for the largest grain; fractional transport per size class against the
-//! reference relation evaluated per class. The integration step is refined
+//! Stage 5 (docs/model.md §9 step 6): a mixed bed with the constants of
+//! stage 3 set for the largest grain; fractional transport per size class
+//! against the reference relation evaluated per class. The integration step is refined
 //! by (d_max/d_min)³ so that the finest grains stay inside the explicit
 //! damping limit (README, "The explicit damping limit").
 

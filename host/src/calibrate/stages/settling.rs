@@ -1,5 +1,5 @@
-//! Stages 1 and 2 (SPEC §9 steps 1–2): packing runs over a range of α_m (then
-//! α_cn); the settling time is the time after which |y_gc − final y_gc|
+//! Stages 1 and 2 (docs/model.md §9 steps 1–2): packing runs over a range
+//! of α_m (then α_cn); the settling time is the time after which |y_gc − final y_gc|
 //! stays below a tolerance; the fastest value that comes to rest wins.
 
 use super::save_stage;
@@ -66,8 +66,8 @@ pub fn settling_time(curve: &PackCurve, tolerance: f64) -> f64 {
 
 /// Runs stage 1 (`parameter = "alpha_m"`, α_cn = 1) or stage 2
 /// (`"alpha_cn"`, α_m from stage 1), β = 1, on the base bed narrowed to
-/// the packing columns of the plan (SPEC §9.1: nld = 5), at the base
-/// constants_dt.
+/// the packing columns of the plan (docs/model.md §9 step 1: nld = 5), at
+/// the base constants_dt.
 pub fn run(
     ctx: &Context<'_>,
     stage: usize,

@@ -1,4 +1,4 @@
-//! Stage 4 (SPEC §9 steps 4–5): for other grain sizes d and layer
+//! Stage 4 (docs/model.md §9 steps 4–5): for other grain sizes d and layer
 //! thicknesses nvd, keep α_m, α_cn and β and search the constants' time step
 //! constants_dt that restores agreement with the reference (a grid of
 //! constants_dt, then golden section on its logarithm).
