@@ -320,8 +320,9 @@ impl Default for GrainsSection {
 }
 
 /// Lattice columns of the default bed: the narrowest measured whose q* does
-/// not depend on the width at any τ* in [0.06, 0.5] (README, "Bed width";
-/// the paper's 5 columns move collectively, 10 lock near the threshold).
+/// not depend on the width at any τ* in [0.06, 0.5]
+/// (docs/findings/bed-width.md; the paper's 5 columns move collectively, 10
+/// lock near the threshold).
 pub const DEFAULT_COLUMNS: u32 = 40;
 
 impl Default for BedSection {
@@ -864,7 +865,7 @@ fn stability(sc: &Scenario, c: &ContactConstants) -> Result<(), ConfigError> {
 
 /// Explicit damping number above which q* was found to depend on the
 /// integration step: a grain with four sticking contacts multiplies the
-/// single-contact number by about four (README, "The explicit damping limit").
+/// single-contact number by about four (docs/findings/explicit-damping-limit.md).
 pub const DAMPING_NUMBER_CONVERGED: f64 = 0.5;
 
 /// Slowest speed (m/s) a grain must reach to count as moving: an f32 bed on
@@ -892,7 +893,7 @@ pub fn f32_width_warning(width: f64, step_dt: f64) -> Option<String> {
 }
 
 /// Width, in largest diameters, from which q* was measured not to depend on
-/// the width at any τ* in [0.06, 0.5] (README, "Bed width": 40 columns).
+/// the width at any τ* in [0.06, 0.5] (docs/findings/bed-width.md: 40 columns).
 pub const CONVERGED_WIDTH_D: f64 = 40.0;
 
 /// The warning for a bed too narrow for width-independent q*: narrower than

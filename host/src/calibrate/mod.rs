@@ -45,11 +45,11 @@ pub struct Plan {
     pub pack_columns: u32,
     /// Stages 3–5: lattice columns instead of the base bed's (the quick plan
     /// uses 10: q* above τ* = 0.1 is the same as on 40, near the threshold
-    /// it is not; README, "Bed width").
+    /// it is not; docs/findings/bed-width.md).
     pub flow_columns: Option<u32>,
     /// Stage 4: lattice columns instead of the flow stages' (its τ* ≥ 0.1
-    /// converge by 20 columns; README, "Bed width"), so the 50-layer beds
-    /// stay affordable.
+    /// converge by 20 columns; docs/findings/bed-width.md), so the 50-layer
+    /// beds stay affordable.
     pub timestep_columns: Option<u32>,
     /// Stages 1–2: settled when |y_gc − final y_gc| stays below this (diameters).
     pub settle_tolerance_d: f64,
@@ -64,8 +64,8 @@ pub struct Plan {
     /// Stages 3, 5: seeds.
     pub seeds: Vec<u64>,
     /// Stages 3, 5: seeds instead of `seeds` at τ* ≤ `threshold_tau_star`,
-    /// where q* comes from rare events and 4 seeds leave ±45 % (README,
-    /// "Calibration").
+    /// where q* comes from rare events and 4 seeds leave ±45 %
+    /// (docs/calibration.md).
     pub threshold_seeds: Vec<u64>,
     /// Stages 3, 5: the largest τ* that uses `threshold_seeds`.
     pub threshold_tau_star: f64,

@@ -158,9 +158,9 @@ pub fn write_report(
         o,
         "# Calibration report\n\nWritten by `mbs calibrate` (mbs {}), {} plan, reference relation: {}. \
          Integration: {} substeps per constants_dt, step_dt = constants_dt/substeps \
-         (README, \"The explicit damping limit\"). \
+         (docs/findings/explicit-damping-limit.md). \
          Packing stages on {} lattice columns (docs/model.md §9 step 1), flow stages on {} columns, \
-         mean bed level per window of {} largest diameters (README, \"Bed width\"). \
+         mean bed level per window of {} largest diameters (docs/findings/bed-width.md). \
          Plan: `plan.json`; every simulation: `cells.jsonl`.\n",
         env!("CARGO_PKG_VERSION"),
         if plan.quick { "quick" } else { "full" },

@@ -2,7 +2,7 @@
 //! stage 3 set for the largest grain; fractional transport per size class
 //! against the reference relation evaluated per class. The integration step is refined
 //! by (d_max/d_min)³ so that the finest grains stay inside the explicit
-//! damping limit (README, "The explicit damping limit").
+//! damping limit (docs/findings/explicit-damping-limit.md).
 
 use super::{save_stage, slot_of};
 use crate::calibrate::{Context, Curve, Q_FLOOR};
