@@ -99,14 +99,14 @@ impl Scenario {
     /// The Shields number of the paper's flow phase (and of the golden digests).
     pub const PAPER_TAU_STAR: f64 = 0.2;
 
-    /// The paper's case (docs/model.md §9): d = 0.5 mm, nld = 5, nvd = 10, spacing
-    /// 1.05 d, Δt = 2.0e-5 s, α_m = 20, α_cn = 1.3, β = 15.8, the flow of
-    /// [`FlowConfig::new`] with fluctuations held and the bed level
-    /// recomputed every 100 steps of Δt, integrated with 8 substeps: at Δt itself the tangential dashpot of
-    /// rule (17) is beyond the explicit damping limit
-    /// ([`crate::explicit_damping_number`] ≈ 2.85) and the bed never settles;
-    /// with 4 substeps q* still depends on the step, with 8 and 16 it does
-    /// not (README, "The explicit damping limit").
+    /// The paper's case (docs/model.md §9): d = 0.5 mm, nld = 5, nvd = 10,
+    /// spacing 1.05 d, Δt = 2.0e-5 s, α_m = 20, α_cn = 1.3, β = 15.8, the
+    /// flow of [`FlowConfig::new`] with fluctuations held and the bed level
+    /// recomputed every 100 steps of Δt, integrated with 8 substeps: at Δt
+    /// itself the tangential dashpot of rule (17) is beyond the explicit
+    /// damping limit ([`crate::explicit_damping_number`] ≈ 2.85) and the bed
+    /// never settles; with 4 substeps q* still depends on the step, with 8
+    /// and 16 it does not (docs/findings/explicit-damping-limit.md).
     pub fn paper() -> Self {
         const D: f64 = 0.5e-3;
         const SUBSTEPS: u32 = 8;
