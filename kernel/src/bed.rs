@@ -318,7 +318,7 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
     /// Over the whole width (docs/model.md §6 as written) the highest bed grain is an
     /// extreme value that rises with the number of columns and lifted the
     /// zero of the log law above the surface of wide beds: q* fell 1.7× per
-    /// doubling of the width. Per window it converges (README, "Bed width").
+    /// doubling of the width. Per window it converges (docs/findings/bed-width.md).
     /// Without fixed grains the level is y = 0.
     pub(crate) fn update_bed_level(&mut self) {
         if !self.label_bed_grains() {

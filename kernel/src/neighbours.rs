@@ -40,7 +40,7 @@ const SKIN_FLOOR: f64 = 0.3;
 /// not depend on it; it depends only on the grains' state (a run restored
 /// from a checkpoint rebuilds as one that rebuilt at that point). A
 /// settled bed at the floor lists ~9 % fewer pairs than at the largest
-/// (README, "Speed of the hot loop").
+/// (docs/performance.md).
 fn adapted_skin<R: Real>(largest: R, step_travel: R) -> R {
     let floor = largest * R::from_f64(SKIN_FLOOR);
     let wanted = step_travel * R::from_f64(2.0 * SKIN_STEPS);

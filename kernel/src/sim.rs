@@ -428,7 +428,7 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
     /// Mean bed level y = 0 of the flow (docs/model.md §6), absolute (m): the mean
     /// centre height of the surface grains, found per window of
     /// `FlowConfig::bed_level_window` largest diameters so that it does not
-    /// depend on the width of the periodic bed (README, "Bed width").
+    /// depend on the width of the periodic bed (docs/findings/bed-width.md).
     pub fn bed_level(&self) -> f64 {
         self.bed_level.to_f64()
     }
