@@ -5,7 +5,8 @@
 //! the same inputs give the same bits on x86_64 and on a Cortex-M4F; `sqrt` is
 //! IEEE correctly rounded on every target. With the `micromath` feature the
 //! `f32` `exp` and `ln` (flow profile only, never contact geometry) use
-//! micromath instead: deterministic, but coarse (docs/board.md: worst relative error about 2.4e-3 for exp, 5.8e-4 for ln).
+//! micromath instead: deterministic, but coarse (worst relative error about
+//! 2.4e-3 for exp and 5.8e-4 for ln; docs/board.md).
 //!
 //! Functions are associated functions (`R::sqrt(x)`), never method calls, so a
 //! `std` build of the tests cannot silently pick an inherent float method.
