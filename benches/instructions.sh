@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Noise-free companion of `cargo bench --bench step`: instructions per
+# Noise-free companion of the criterion benches (benches/step.rs): instructions per
 # grain-step of the timed region of `mbs bench` (mbs::bench::timed),
 # counted by callgrind. Prepared beds are made natively first and kept in
 # target/tmp/bench-beds (shared with the criterion benches), so valgrind only runs the timed repetitions.

@@ -14,8 +14,9 @@
 //! prepared bed, rewound between stretches (`Prepared::time`), like
 //! `mbs bench`.
 //!
-//! Run: `cargo bench --bench step` (all), or e.g.
-//! `cargo bench --bench step -- 'f64/still/beta15.8/16368'`.
+//! Run from the repository's root: `cargo bench --manifest-path
+//! benches/Cargo.toml` (all), or e.g. `cargo bench --manifest-path
+//! benches/Cargo.toml -- 'f64/still/beta15.8/16368'`.
 
 use criterion::measurement::WallTime;
 use criterion::{
@@ -39,9 +40,10 @@ const F32_MAX_GRAINS: usize = 16_384;
 /// β of the paper, and 1.
 const BETAS: [f64; 2] = [15.8, 1.0];
 
-/// Prepared beds, shared with `benches/instructions.sh`.
+/// Prepared beds, shared with `benches/instructions.sh`: the top-level
+/// workspace's target/tmp/bench-beds.
 fn beds() -> PathBuf {
-    Path::new(env!("CARGO_TARGET_TMPDIR")).join("bench-beds")
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../target/tmp/bench-beds")
 }
 
 /// One benchmark: prepare `bed`, then time `case` on it.
