@@ -63,7 +63,8 @@
 //! own layer: there is no import cycle.
 //!
 //! 1. **Numbers** (leaves): `real` ([`Real`]: `f32` or `f64`, numbers
-//!    only), `error` ([`Error`]), [`random`] (keyed random streams),
+//!    only), `error` ([`Error`]), `events` ([`Events`]: event counters),
+//!    [`random`] (keyed random streams),
 //!    `periodic` (the minimum image across the periodic boundary).
 //! 2. **Model laws**: `constants` (material, and the contact constants from
 //!    Δt: [`contact_constants`]), [`contact`] (the contact law (6)–(9) and
@@ -105,6 +106,7 @@ mod constants;
 pub mod contact;
 mod digest;
 mod error;
+mod events;
 pub mod flow;
 mod grains;
 mod neighbours;
@@ -123,6 +125,7 @@ pub use constants::{
 };
 pub use digest::Fnv1a;
 pub use error::{Capacity, CheckpointFault, Error, Quantity};
+pub use events::Events;
 pub use flow::{shear_velocity, FlowConfig};
 pub use grains::{GrainSpec, MAX_CLASSES};
 pub use observe::{q_star, Observation};
