@@ -123,7 +123,7 @@ pub use checkpoint::CHECKPOINT_VERSION;
 pub use constants::{
     contact_constants, explicit_damping_number, ContactConstants, Material, TimeStepRule, A2, A3,
 };
-pub use digest::Fnv1a;
+pub use digest::{FieldGroup, Fnv1a};
 pub use error::{Capacity, CheckpointFault, Error, Quantity};
 pub use events::Events;
 pub use flow::{shear_velocity, FlowConfig};
