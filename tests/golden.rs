@@ -68,3 +68,83 @@ fn digests_distinguish_phases_and_precisions() {
         }
     }
 }
+
+/// The living-bed golden run: the paper's bed settled for
+/// `LIVING_SETTLE_STEPS` (no flow), then `LIVING_FLOW_STEPS` under the flow
+/// at τ* = `LIVING_TAU_STAR`, where grains saltate: every path of the step
+/// runs many times (counted by `Sim::events`).
+const LIVING_TAU_STAR: f64 = 0.5;
+const LIVING_SETTLE_STEPS: u64 = 80_000;
+const LIVING_FLOW_STEPS: u64 = 400_000;
+
+fn living_path() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/golden/living.txt")
+}
+
+/// (settled digest, flow digest, events of the flow phase).
+fn living<R: Real>() -> (u64, u64, mbs_kernel::Events) {
+    let mut sim = Box::new(Sim::<R, 64, 8>::new());
+    let sc = Scenario::paper();
+    sc.build(&mut *sim).expect("bed");
+    sim.count_events(true);
+    sim.run(LIVING_SETTLE_STEPS).expect("settles");
+    let settled = sim.digest();
+    let before = sim.events();
+    sim.set_flow(Some(&sc.flow(LIVING_TAU_STAR))).expect("flow");
+    sim.run(LIVING_FLOW_STEPS).expect("flows");
+    let after = sim.events();
+    let flow = mbs_kernel::Events {
+        contacts_made: after.contacts_made - before.contacts_made,
+        contacts_broken: after.contacts_broken - before.contacts_broken,
+        contacts_sliding: after.contacts_sliding - before.contacts_sliding,
+        seam_crossings: after.seam_crossings - before.seam_crossings,
+        neighbour_rebuilds: after.neighbour_rebuilds - before.neighbour_rebuilds,
+        turbulence_redraws: after.turbulence_redraws - before.turbulence_redraws,
+        bed_level_updates: after.bed_level_updates - before.bed_level_updates,
+    };
+    (settled, sim.digest(), flow)
+}
+
+/// The living bed reproduces its committed digests (re-record as the
+/// paper's: `MBS_BLESS=1 cargo test --release --test golden`), and its
+/// flow phase makes, breaks and slides contacts, carries grains across
+/// the seam, rebuilds the lists, redraws the turbulence and updates the
+/// bed level many times, in both precisions (docs/determinism.md gives
+/// the counts).
+#[test]
+fn living_bed_exercises_every_path_and_matches() {
+    let (a, b) = (living::<f32>(), living::<f64>());
+    for (precision, (_, _, e)) in [("f32", &a), ("f64", &b)] {
+        println!("living bed {precision}, flow phase: {e:?}");
+        assert!(e.contacts_made >= 300, "{precision} {e:?}");
+        assert!(e.contacts_broken >= 300, "{precision} {e:?}");
+        assert!(e.contacts_sliding >= 1_000_000, "{precision} {e:?}");
+        assert!(e.seam_crossings >= 40, "{precision} {e:?}");
+        assert!(e.neighbour_rebuilds >= 1000, "{precision} {e:?}");
+        assert_eq!(e.turbulence_redraws, 500, "{precision}");
+        assert_eq!(e.bed_level_updates, 500, "{precision}");
+    }
+    let now = vec![
+        format!("settled f32 {:#018x}", a.0),
+        format!("flow f32 {:#018x}", a.1),
+        format!("settled f64 {:#018x}", b.0),
+        format!("flow f64 {:#018x}", b.1),
+    ];
+    if std::env::var_os("MBS_BLESS").is_some() {
+        let text = format!(
+            "# Digests of the living bed: Scenario::paper() settled {LIVING_SETTLE_STEPS} steps, then {LIVING_FLOW_STEPS} steps at tau* = {LIVING_TAU_STAR} (tests/golden.rs).\n# Re-record: MBS_BLESS=1 cargo test --release --test golden\n{}\n",
+            now.join("\n")
+        );
+        std::fs::write(living_path(), text).expect("write golden file");
+        return;
+    }
+    let text = std::fs::read_to_string(living_path()).expect("tests/golden/living.txt exists");
+    let recorded: Vec<&str> = text
+        .lines()
+        .filter(|l| !l.starts_with('#') && !l.trim().is_empty())
+        .collect();
+    assert_eq!(
+        recorded, now,
+        "living-bed digests changed; if on purpose, re-record (see file header)"
+    );
+}

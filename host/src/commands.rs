@@ -390,13 +390,35 @@ impl SimJob for DigestJob {
 }
 
 /// `mbs digest`: state digests after `steps` settling steps and `steps`
-/// flow steps at τ* — what a board run is compared with.
+/// flow steps at τ* — what a board run is compared with; with `trace`
+/// (file, K), also writes the trace of that run ([`crate::trace`]).
 pub fn digest(
     config: &Config,
     steps: u64,
     precision: Precision,
     tau_star: f64,
+    trace: Option<(&Path, Option<String>, u64)>,
 ) -> Result<(), HostError> {
+    if let Some((path, config_name, every)) = trace {
+        let run = crate::trace::TraceRun {
+            scenario: config.scenario_at(config.seeds[0]),
+            config: config_name,
+            tau_star,
+            settle_steps: steps,
+            flow_steps: steps,
+            every,
+            precision,
+            capacity: config.capacity,
+        };
+        let trace = run.run().map_err(HostError::kernel(format!(
+            "digest trace, tau* = {tau_star}"
+        )))?;
+        let text = crate::trace::to_text(&trace).map_err(|e| HostError::Io {
+            path: path.to_path_buf(),
+            error: e.into(),
+        })?;
+        write_text(path, &text)?;
+    }
     let job = DigestJob {
         scenario: config.scenario_at(config.seeds[0]),
         tau_star,
@@ -405,6 +427,52 @@ pub fn digest(
     let (settled, flow) = with_sim(precision, config.capacity, job)
         .map_err(HostError::kernel(format!("digest, tau* = {tau_star}")))?;
     print(&format!("settled {settled:#018x}\nflow {flow:#018x}\n"))
+}
+
+/// `mbs digest --check FILE`: re-runs the trace's scenario and compares
+/// every record; a mismatch names the first differing record's step and
+/// field groups ([`HostError::Mismatch`], exit 1); a damaged, edited,
+/// truncated or foreign trace, or one whose configuration no longer gives
+/// its scenario, is refused ([`HostError::Trace`], exit 2).
+pub fn check_trace(path: &Path) -> Result<(), HostError> {
+    let refuse = |message: String| HostError::Trace {
+        path: path.to_path_buf(),
+        message,
+    };
+    let text = std::fs::read_to_string(path).map_err(HostError::io(path))?;
+    let recorded = crate::trace::parse(&text).map_err(refuse)?;
+    let config = match &recorded.config {
+        Some(file) => Config::load(Some(Path::new(file)))?,
+        None => Config::golden()?,
+    };
+    let run = crate::trace::TraceRun {
+        scenario: config.scenario_at(config.seeds[0]),
+        config: recorded.config.clone(),
+        tau_star: recorded.tau_star,
+        settle_steps: recorded.settle_steps,
+        flow_steps: recorded.flow_steps,
+        every: recorded.every,
+        precision: recorded.precision,
+        capacity: config.capacity,
+    };
+    let hash = format!("{:#018x}", run.scenario_hash());
+    if hash != recorded.scenario_hash {
+        return Err(refuse(format!(
+            "its scenario hash is {}, the configuration now gives {hash}",
+            recorded.scenario_hash
+        )));
+    }
+    let now = run
+        .run()
+        .map_err(HostError::kernel("digest --check".to_string()))?;
+    match crate::trace::first_mismatch(&recorded.records, &now.records) {
+        Some(message) => Err(HostError::Mismatch(message)),
+        None => print(&format!(
+            "trace matches: {} records, steps 0 to {}\n",
+            now.records.len(),
+            now.records.last().map_or(0, |r| r.step)
+        )),
+    }
 }
 
 /// `mbs bench`: ns per grain-step of one case on a prepared bed.

@@ -39,6 +39,15 @@ pub enum HostError {
     },
     /// A calibration stage cannot proceed (e.g. no candidate settles).
     Calibration(String),
+    /// A trace file is damaged, edited, truncated or foreign (exit 2).
+    Trace {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        message: String,
+    },
+    /// A re-run does not reproduce a trace (exit 1): where it first differs.
+    Mismatch(String),
     /// A plot could not be drawn.
     Plot {
         /// The file.
@@ -52,7 +61,7 @@ impl HostError {
     /// Process exit status: 2 for bad input, 1 for a failed run.
     pub fn exit_code(&self) -> u8 {
         match self {
-            HostError::Config(_) => 2,
+            HostError::Config(_) | HostError::Trace { .. } => 2,
             HostError::Interrupted { .. } => 130,
             _ => 1,
         }
@@ -88,6 +97,10 @@ impl fmt::Display for HostError {
                 path.display()
             ),
             HostError::Plot { path, message } => write!(f, "{}: {message}", path.display()),
+            HostError::Trace { path, message } => {
+                write!(f, "{}: trace refused: {message}", path.display())
+            }
+            HostError::Mismatch(message) => write!(f, "trace mismatch: {message}"),
         }
     }
 }

@@ -14,6 +14,7 @@
 //! | [`bench`] | hot-loop benchmark shared with criterion |
 //! | [`plot`] | figures (PNG + SVG) |
 //! | [`output`] | atomic file writes |
+//! | [`trace`] | digest traces: the digest run's field-group digests over time |
 //! | [`commands`] | the subcommands of `mbs` |
 
 pub mod bench;
@@ -30,6 +31,7 @@ pub mod references;
 pub mod sims;
 pub mod snapshot;
 pub mod store;
+pub mod trace;
 
 pub use config::{Config, ConfigError, Precision};
 pub use error::HostError;

@@ -92,6 +92,16 @@ enum Command {
         /// Shields number of the flow phase.
         #[arg(long, default_value_t = 0.2)]
         tau: f64,
+        /// Also write a trace of the run (JSON, docs/determinism.md "Traces").
+        #[arg(long, value_name = "FILE")]
+        trace: Option<PathBuf>,
+        /// Integration steps between the trace's records.
+        #[arg(long, default_value_t = 1000, requires = "trace")]
+        every: u64,
+        /// Re-run a trace's scenario and compare: exit 0 if every record
+        /// matches, 1 naming the first mismatch, 2 for a damaged or foreign trace.
+        #[arg(long, value_name = "TRACE", conflicts_with_all = ["config", "trace"])]
+        check: Option<PathBuf>,
     },
     /// The paper's parameter optimisation, automated: α_m, α_cn, β, constants_dt(d, nvd), mixed sizes → report.md.
     #[command(args_conflicts_with_subcommands = true)]
@@ -265,12 +275,28 @@ fn execute(cli: Cli) -> Result<(), HostError> {
             steps,
             precision,
             tau,
+            trace,
+            every,
+            check,
         } => {
+            if let Some(file) = check {
+                return commands::check_trace(&file);
+            }
+            if every == 0 {
+                return Err(mbs::ConfigError::Invalid {
+                    key: "--every".into(),
+                    value: every.to_string(),
+                    allowed: "> 0".into(),
+                }
+                .into());
+            }
+            let name = config.as_ref().map(|p| p.display().to_string());
             let config = match config {
                 Some(_) => load(&config)?,
                 None => mbs::Config::golden()?,
             };
-            commands::digest(&config, steps, precision, tau_arg(tau)?)
+            let trace = trace.as_deref().map(|path| (path, name, every));
+            commands::digest(&config, steps, precision, tau_arg(tau)?, trace)
         }
         Command::Calibrate {
             action: Some(CalibrateAction::Merge { shards, out }),

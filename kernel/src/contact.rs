@@ -84,6 +84,20 @@ impl<R: Real> ContactLaw<R> {
     ///   dashpot while sliding) **[choice, Cundall–Strack]**.
     #[inline]
     pub fn apply(&self, h: &mut Spring<R>, overlap: R, v_n: R, v_s: R) -> Option<(R, R)> {
+        self.apply_sliding(h, overlap, v_n, v_s)
+            .map(|(f_n, f_s, _)| (f_n, f_s))
+    }
+
+    /// [`ContactLaw::apply`], also telling whether the contact slides at
+    /// the Coulomb limit (9).
+    #[inline]
+    pub(crate) fn apply_sliding(
+        &self,
+        h: &mut Spring<R>,
+        overlap: R,
+        v_n: R,
+        v_s: R,
+    ) -> Option<(R, R, bool)> {
         let dxi_n = if h.e_n == R::ZERO {
             overlap
         } else {
@@ -97,13 +111,14 @@ impl<R: Real> ContactLaw<R> {
         let f_n = h.e_n + self.eta_n * v_n;
         h.e_s += self.k_s * v_s * self.step_dt;
         let limit = self.mu * h.e_n;
-        let f_s = if R::abs(h.e_s) > limit {
+        let slides = R::abs(h.e_s) > limit;
+        let f_s = if slides {
             h.e_s = if h.e_s > R::ZERO { limit } else { -limit };
             h.e_s
         } else {
             h.e_s + self.eta_s * v_s
         };
-        Some((f_n, f_s))
+        Some((f_n, f_s, slides))
     }
 }
 

@@ -63,7 +63,8 @@
 //! own layer: there is no import cycle.
 //!
 //! 1. **Numbers** (leaves): `real` ([`Real`]: `f32` or `f64`, numbers
-//!    only), `error` ([`Error`]), [`random`] (keyed random streams),
+//!    only), `error` ([`Error`]), `events` ([`Events`]: event counters),
+//!    [`random`] (keyed random streams),
 //!    `periodic` (the minimum image across the periodic boundary).
 //! 2. **Model laws**: `constants` (material, and the contact constants from
 //!    Δt: [`contact_constants`]), [`contact`] (the contact law (6)–(9) and
@@ -105,6 +106,7 @@ mod constants;
 pub mod contact;
 mod digest;
 mod error;
+mod events;
 pub mod flow;
 mod grains;
 mod neighbours;
@@ -121,8 +123,9 @@ pub use checkpoint::CHECKPOINT_VERSION;
 pub use constants::{
     contact_constants, explicit_damping_number, ContactConstants, Material, TimeStepRule, A2, A3,
 };
-pub use digest::Fnv1a;
+pub use digest::{FieldGroup, Fnv1a};
 pub use error::{Capacity, CheckpointFault, Error, Quantity};
+pub use events::Events;
 pub use flow::{shear_velocity, FlowConfig};
 pub use grains::{GrainSpec, MAX_CLASSES};
 pub use observe::{q_star, Observation};

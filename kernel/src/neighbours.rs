@@ -216,7 +216,7 @@ impl<R: Real, const N: usize, const K: usize> Neighbours<R, N, K> {
         }
         self.travel = R::ZERO;
         self.stale = false;
-        self.rebuilds = self.rebuilds.wrapping_add(1);
+        self.rebuilds = self.rebuilds.saturating_add(1);
         Ok(())
     }
 

@@ -7,6 +7,7 @@
 use crate::constants::{ContactConstants, Material, A2};
 use crate::contact::{ContactLaw, Spring};
 use crate::error::{check, finite, positive, Capacity, Error};
+use crate::events::Events;
 use crate::flow::{FlowConfig, Profile};
 use crate::grains::{GrainSpec, Grains, MAX_CLASSES};
 use crate::neighbours::Neighbours;
@@ -159,6 +160,11 @@ pub struct Sim<R: Real, const N: usize, const K: usize> {
     /// Mean bed level (docs/model.md §6), absolute height (m).
     pub(crate) bed_level: R,
     pub(crate) step: u64,
+    /// Events of the successful steps (diagnostic, not in the digest nor
+    /// in a checkpoint); the rebuilds are counted by the neighbour lists.
+    pub(crate) events: Events,
+    /// Whether the steps count contacts and seam crossings ([`Sim::count_events`]).
+    pub(crate) count_events: bool,
 }
 
 const ZERO_MATERIAL: Material = Material {
@@ -225,6 +231,8 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
             flow_epoch: 0,
             bed_level: R::ZERO,
             step: 0,
+            events: Events::ZERO,
+            count_events: false,
         }
     }
 
@@ -263,6 +271,7 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
         self.flow_epoch = 0;
         self.bed_level = R::ZERO;
         self.step = 0;
+        self.events = Events::ZERO;
         Ok(())
     }
 
@@ -387,6 +396,43 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
     /// results never depend on it).
     pub fn neighbour_rebuilds(&self) -> u64 {
         self.nbrs.rebuilds
+    }
+
+    /// Counts the contacts made, broken and sliding and the seam crossings
+    /// from now on (`on`), or stops (the default). Counting costs the
+    /// batched step ~7 % more instructions per grain-step; the other
+    /// events are always counted. Results never depend on it.
+    pub fn count_events(&mut self, on: bool) {
+        self.count_events = on;
+    }
+
+    /// How often each event of the step happened since [`Sim::reset`] or
+    /// [`Sim::restore`]: contacts made, broken and sliding and seam
+    /// crossings (while [`Sim::count_events`] is on), neighbour-list
+    /// rebuilds, turbulence redraws and bed-level updates. A diagnostic:
+    /// not in the digest nor in a checkpoint; the batched and the scalar
+    /// step count alike.
+    ///
+    /// ```
+    /// use mbs_kernel::{Scenario, Sim};
+    ///
+    /// let mut sim = Sim::<f64, 64, 8>::new();
+    /// Scenario::paper().build(&mut sim)?;
+    /// sim.count_events(true);
+    /// sim.run(3000)?;
+    /// let events = sim.events();
+    /// // The grains fell onto the bed and onto each other.
+    /// assert!(events.contacts_made > 0);
+    /// assert_eq!(events.neighbour_rebuilds, sim.neighbour_rebuilds());
+    /// // No flow yet: no turbulence, no bed level.
+    /// assert_eq!(events.turbulence_redraws, 0);
+    /// # Ok::<(), mbs_kernel::Error>(())
+    /// ```
+    pub fn events(&self) -> Events {
+        Events {
+            neighbour_rebuilds: self.nbrs.rebuilds,
+            ..self.events
+        }
     }
 
     /// The pairs (i, j), i < j, in contact with their spring history, in

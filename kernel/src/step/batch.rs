@@ -32,6 +32,7 @@ use super::index::{lanes, second_window, window_start, PairIndex, CHUNK, FAR, PA
 use super::mover::Mover;
 use crate::contact::ContactLaw;
 use crate::error::Error;
+use crate::events::Events;
 use crate::flow::Profile;
 use crate::grains::Grains;
 use crate::real::Real;
@@ -51,6 +52,8 @@ pub(crate) struct Params<R: Real> {
     pub(crate) law: ContactLaw<R>,
     pub(crate) mover: Mover<R>,
     pub(crate) drag: Option<(Profile<R>, R)>,
+    /// Count the contacts made, broken and sliding ([`crate::Sim::count_events`]).
+    pub(crate) count_events: bool,
 }
 
 /// Runs the batched step if the pair index is ready: the largest squared
@@ -66,6 +69,7 @@ pub(crate) fn batched_step<R: Real, const N: usize, const K: usize>(
     grains: &mut Grains<R, N>,
     index: &mut PairIndex<R, N, K>,
     params: &Params<R>,
+    events: &mut Events,
 ) -> Option<Result<R, Error>> {
     if !index.ready {
         return None;
@@ -76,7 +80,7 @@ pub(crate) fn batched_step<R: Real, const N: usize, const K: usize>(
         index.downcast_mut::<PairIndex<f64, N, K>>(),
         params.downcast_ref::<Params<f64>>(),
     ) {
-        let max_v2 = f64x4::batched_step(g, b, p);
+        let max_v2 = f64x4::batched_step(g, b, p, events);
         return Some(max_v2.map(R::from_f64));
     }
     if let (Some(g), Some(b), Some(p)) = (
@@ -84,7 +88,7 @@ pub(crate) fn batched_step<R: Real, const N: usize, const K: usize>(
         index.downcast_mut::<PairIndex<f32, N, K>>(),
         params.downcast_ref::<Params<f32>>(),
     ) {
-        let max_v2 = f32x8::batched_step(g, b, p);
+        let max_v2 = f32x8::batched_step(g, b, p, events);
         // Exact: every f32 is an f64.
         return Some(max_v2.map(|v| R::from_f64(f64::from(v))));
     }
@@ -109,11 +113,19 @@ struct BatchStep<'a, R: Real, const N: usize, const K: usize> {
     batch: &'a mut PairIndex<R, N, K>,
     /// The flow's drag, added to the forces first (flow on), or None.
     drag: Option<Drag<'a, R, N>>,
+    /// The contacts made, broken and sliding and the seam crossings.
+    events: &'a mut Events,
 }
 
 impl<'a, R: Real, const N: usize, const K: usize> BatchStep<'a, R, N, K> {
     /// The grains `g`, the pair index `batch` and the parameters `p` of a step.
-    fn new(g: &'a mut Grains<R, N>, batch: &'a mut PairIndex<R, N, K>, p: &Params<R>) -> Self {
+    /// The step's events are added to `events`.
+    fn new(
+        g: &'a mut Grains<R, N>,
+        batch: &'a mut PairIndex<R, N, K>,
+        p: &Params<R>,
+        events: &'a mut Events,
+    ) -> Self {
         BatchStep {
             n: g.len.min(N),
             x: &mut g.x,
@@ -134,6 +146,7 @@ impl<'a, R: Real, const N: usize, const K: usize> BatchStep<'a, R, N, K> {
                 z_u: &g.z_u,
                 z_v: &g.z_v,
             }),
+            events,
         }
     }
 }
@@ -169,12 +182,13 @@ macro_rules! lanes {
         $to_rows:expr, $from_rows:expr, $to_mask:ident,
         $add:ident, $sub:ident, $mul:ident, $div:ident, $sqrt:ident,
         $and:ident, $andnot:ident, $xor:ident, $blendv:ident, $cmp:ident,
-        $max:ident, $movemask:ident
+        $max:ident, $movemask:ident, $to_int:ident, $int_sub:ident
     ) => {
         #[allow(unsafe_code)]
         mod $module {
             use super::{BatchStep, Grains, PairIndex, Params, CHUNK, PAIRS};
             use crate::error::Error;
+            use crate::events::Events;
             use crate::real::Real;
             use core::arch::x86_64::*;
 
@@ -194,15 +208,20 @@ macro_rules! lanes {
                 g: &mut Grains<$R, N>,
                 b: &mut PairIndex<$R, N, K>,
                 p: &Params<$R>,
+                events: &mut Events,
             ) -> Result<$R, Error> {
-                let step = &mut BatchStep::new(g, b, p);
+                let step = &mut BatchStep::new(g, b, p, events);
                 // SAFETY: this module is compiled only with AVX2 enabled for the
                 // whole build, so the CPU running it has AVX2.
                 unsafe {
                     if let Some(drag) = step.drag {
                         drag_pass(step, &drag);
                     }
-                    pair_pass(step);
+                    if p.count_events {
+                        pair_pass::<N, K, true>(step);
+                    } else {
+                        pair_pass::<N, K, false>(step);
+                    }
                     grain_pass(step)
                 }
             }
@@ -422,7 +441,9 @@ macro_rules! lanes {
             /// lane as `State::contact` and `ContactLaw::apply`; each pair's force
             /// and torques added to its grains' sums in pair order.
             #[target_feature(enable = "avx2")]
-            fn pair_pass<const N: usize, const K: usize>(s: &mut BatchStep<'_, $R, N, K>) {
+            fn pair_pass<const N: usize, const K: usize, const COUNT: bool>(
+                s: &mut BatchStep<'_, $R, N, K>,
+            ) {
                 let splat = $set1;
                 let zero = $setzero();
                 let sign = splat(-0.0);
@@ -480,6 +501,15 @@ macro_rules! lanes {
                 let mut last = (usize::MAX, load_row(&[0.0; 4]));
                 // One buffer for every chunk (zeroing it per chunk cost ~8
                 // instructions per grain-step).
+                // Per lane, the contacts made, broken and sliding if COUNT
+                // (each mask lane, all ones, is −1 as an integer; counting
+                // costs ~7 % more instructions per grain-step).
+                let count = |n: __m256i, mask: $V| $int_sub(n, $to_int(mask));
+                let (mut made_n, mut broken_n, mut sliding_n) = (
+                    _mm256_setzero_si256(),
+                    _mm256_setzero_si256(),
+                    _mm256_setzero_si256(),
+                );
                 let mut geometry = [Geometry {
                     nx: zero,
                     ny: zero,
@@ -571,6 +601,15 @@ macro_rules! lanes {
                         // Outcomes: apart or broken drop the history; coincident keeps
                         // it; otherwise the new history and a force.
                         let acts = $andnot(broken, touching);
+                        // Events: made (first and acts), broken (had history,
+                        // neither acts nor keeps it), sliding (and acts).
+                        if COUNT {
+                            let held = $xor(acts, keeps);
+                            made_n = count(made_n, $and(first, acts));
+                            let dropped = $andnot(first, $andnot(held, all));
+                            broken_n = count(broken_n, dropped);
+                            sliding_n = count(sliding_n, $and(slides, acts));
+                        }
                         // Padding pairs (w, w) are coincident: their history stays zero.
                         // The lanes that act and those that keep are disjoint, so
                         // one of each pair of terms is +0: a bitwise merge, which
@@ -611,6 +650,16 @@ macro_rules! lanes {
                 if let Some(sums) = b.sums.get_mut(last.0) {
                     put_row(sums, last.1);
                 }
+                let total = |n: __m256i| {
+                    lanes($to_mask(n))
+                        .into_iter()
+                        .map(|c| u64::from(c.to_bits()))
+                        .sum::<u64>()
+                };
+                let e = &mut *s.events;
+                e.contacts_made = e.contacts_made.wrapping_add(total(made_n));
+                e.contacts_broken = e.contacts_broken.wrapping_add(total(broken_n));
+                e.contacts_sliding = e.contacts_sliding.wrapping_add(total(sliding_n));
             }
 
             /// Every grain's motion (`Mover::advance`) from its sums, which it
@@ -667,6 +716,9 @@ macro_rules! lanes {
                         let wrapped = $andnot($cmp(wrapped, width, _CMP_GE_OQ), wrapped);
                         let x = select(select(x, wrapped, under), sub(x, width), over);
                         in_x = inside(x);
+                        let crossed = $movemask($and($xor(over, under), mobile)).count_ones();
+                        let e = &mut *s.events;
+                        e.seam_crossings = e.seam_crossings.wrapping_add(u64::from(crossed));
                         x
                     };
                     let ok = $and(
@@ -692,7 +744,7 @@ macro_rules! lanes {
                                     sums[2][l] * s.inv_inertia[i],
                                 ],
                             );
-                            let moved = moved.inspect_err(|_| b.sums.fill([0.0; 4]))?;
+                            let (moved, _) = moved.inspect_err(|_| b.sums.fill([0.0; 4]))?;
                             [s.x[i], s.y[i], s.u[i], s.v[i], s.w[i]] = moved;
                             let v2 = moved[2] * moved[2] + moved[3] * moved[3];
                             max_v2 = $max(splat(v2), max_v2);
@@ -767,7 +819,9 @@ lanes!(
     _mm256_blendv_pd,
     _mm256_cmp_pd,
     _mm256_max_pd,
-    _mm256_movemask_pd
+    _mm256_movemask_pd,
+    _mm256_castpd_si256,
+    _mm256_sub_epi64
 );
 
 lanes!(
@@ -805,7 +859,9 @@ lanes!(
     _mm256_blendv_ps,
     _mm256_cmp_ps,
     _mm256_max_ps,
-    _mm256_movemask_ps
+    _mm256_movemask_ps,
+    _mm256_castps_si256,
+    _mm256_sub_epi32
 );
 
 /// Four vectors of four f64 lanes transposed: value l of vector c becomes

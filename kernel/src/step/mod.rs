@@ -21,6 +21,7 @@ pub(crate) mod no_lanes;
 mod scalar;
 
 use crate::error::{check, Error};
+use crate::events::Events;
 use crate::flow::fluctuation_draw;
 use crate::real::Real;
 use crate::sim::Sim;
@@ -64,14 +65,17 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
         if self.nbrs.stale {
             self.rebuild()?;
         }
+        let mut events = Events::ZERO;
         if self.flow_on {
             let since = self.step.saturating_sub(self.flow_epoch);
             if since.is_multiple_of(u64::from(self.flow.bed_level_interval.max(1))) {
                 self.update_bed_level();
+                events.bed_level_updates = 1;
             }
             let hold = u64::from(self.flow.hold_steps.max(1));
             if self.profile.turbulence && since.is_multiple_of(hold) {
                 self.draw_fluctuations(since / hold);
+                events.turbulence_redraws = 1;
             }
         }
         let mover = self.mover();
@@ -82,8 +86,9 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
                 law: self.law,
                 mover,
                 drag: self.flow_on.then_some((self.profile, self.bed_level)),
+                count_events: self.count_events,
             };
-            batch::batched_step(&mut self.grains, &mut self.index, &params)
+            batch::batched_step(&mut self.grains, &mut self.index, &params, &mut events)
         } else {
             None
         };
@@ -97,7 +102,7 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
                 }
                 self.index.history_to_slots(&mut self.nbrs.spring);
                 let (g, nb) = (&mut self.grains, &mut self.nbrs);
-                scalar::step::<R, N, K, BUFFER>(g, nb, self.law, self.width, mover)
+                scalar::step::<R, N, K, BUFFER>(g, nb, self.law, self.width, mover, &mut events)
             }
         };
         match moved {
@@ -105,6 +110,15 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
                 // The grains moved at most max_v2^½ step_dt.
                 self.nbrs.add_travel(R::sqrt(max_v2) * self.step_dt);
                 self.step += 1;
+                if !self.count_events {
+                    // Contacts and seam crossings are counted only on request.
+                    events = Events {
+                        bed_level_updates: events.bed_level_updates,
+                        turbulence_redraws: events.turbulence_redraws,
+                        ..Events::ZERO
+                    };
+                }
+                self.events.add(&events);
                 Ok(())
             }
             Err(e) => {
@@ -176,11 +190,13 @@ mod tests {
 
     /// The paper's scenario, settling then flow, stepped with the batched
     /// step where it has lanes (`BATCHED`) or the scalar step with the pair
-    /// geometry found ahead (`BUFFER` > 0) or not: (settled, flow) digests.
-    fn digests<R: Real, const BUFFER: usize, const BATCHED: bool>() -> (u64, u64) {
+    /// geometry found ahead (`BUFFER` > 0) or not: (settled, flow) digests
+    /// and the events.
+    fn digests<R: Real, const BUFFER: usize, const BATCHED: bool>() -> (u64, u64, Events) {
         let mut sim = Sim::<R, 64, 8>::new();
         let sc = Scenario::paper();
         sc.build(&mut sim).unwrap();
+        sim.count_events(true);
         for _ in 0..1500 {
             sim.step_with::<BUFFER, BATCHED>().unwrap();
         }
@@ -203,7 +219,15 @@ mod tests {
         if BATCHED {
             assert!(sim.index.ready);
         }
-        (settled, flow)
+        let events = sim.events();
+        for made in [
+            events.contacts_made,
+            events.contacts_broken,
+            events.contacts_sliding,
+        ] {
+            assert!(made > 0, "{events:?}");
+        }
+        (settled, flow, events)
     }
 
     /// The host's loop shapes (batched step in lanes; scalar step with the
@@ -249,6 +273,7 @@ mod tests {
         sc.bed.columns = 24;
         let mut batched = std::boxed::Box::new(Sim::<R, 512, 8>::new());
         sc.build(&mut batched).unwrap();
+        batched.count_events(true);
         batched.run(8000).unwrap();
         for i in 0..batched.len() {
             if !batched.grains.fixed[i] {
@@ -256,18 +281,21 @@ mod tests {
             }
         }
         let mut scalar = batched.clone();
+        let crossed = batched.events().seam_crossings;
         let mut wraps = 0;
         for _ in 0..400 {
             let xs = batched.grains.x;
             batched.step_with::<8, true>().unwrap();
             scalar.step_with::<0, false>().unwrap();
             assert_eq!(batched.digest(), scalar.digest());
+            assert_eq!(batched.events(), scalar.events());
             let half = 0.5 * batched.width.to_f64();
             wraps += (0..batched.len())
                 .filter(|&i| (xs[i] - batched.grains.x[i]).to_f64() > half)
                 .count();
         }
         assert!(wraps >= 10, "{wraps} grains wrapped around");
+        assert_eq!(batched.events().seam_crossings - crossed, wraps as u64);
         assert!(
             batched.contacts().count() > batched.len(),
             "a bed in contact"
@@ -286,6 +314,7 @@ mod tests {
         let mut config = Scenario::paper().sim_config().unwrap();
         (config.width, config.y_min) = (0.02, -0.01);
         sim.reset(&config).unwrap();
+        sim.count_events(true);
         sim
     }
 
@@ -366,12 +395,12 @@ mod tests {
     }
 
     /// Steps a random cluster 40 times, batched or scalar: each step's
-    /// outcome and digest, up to the first error.
+    /// outcome, digest and events so far, up to the first error.
     fn cluster<R: Real>(
         grains: &[Loose],
         flow: bool,
         batched: bool,
-    ) -> std::vec::Vec<(Result<(), Error>, u64)> {
+    ) -> std::vec::Vec<(Result<(), Error>, u64, Events)> {
         let mut sim = small_box::<R>();
         for &(x, y, u, v, spin, class, fixed) in grains {
             let spec = GrainSpec {
@@ -394,7 +423,7 @@ mod tests {
         for _ in 0..40 {
             let outcome = step_small_box(&mut sim, batched);
             let failed = outcome.is_err();
-            outcomes.push((outcome, sim.digest()));
+            outcomes.push((outcome, sim.digest(), sim.events()));
             if failed {
                 break;
             }

@@ -24,9 +24,14 @@ pub(crate) struct Mover<R: Real> {
 impl<R: Real> Mover<R> {
     /// The new (x, y, u, v, ω) of grain `i` from its state and its
     /// accelerations (F_x/m', F_y/m', T/I): velocities first, then positions
-    /// from the new velocities.
+    /// from the new velocities; and whether it wrapped across the seam.
     #[inline]
-    pub(crate) fn advance(&self, i: usize, state: [R; 5], accel: [R; 3]) -> Result<[R; 5], Error> {
+    pub(crate) fn advance(
+        &self,
+        i: usize,
+        state: [R; 5],
+        accel: [R; 3],
+    ) -> Result<([R; 5], bool), Error> {
         let [x, y, u, v, w] = state;
         let dt = self.step_dt;
         let u = u + (accel[0] + self.gravity[0]) * dt;
@@ -34,6 +39,7 @@ impl<R: Real> Mover<R> {
         let w = w + accel[2] * dt;
         let mut x = x + u * dt;
         let y = y + v * dt;
+        let mut wrapped = true;
         if x >= self.width {
             x -= self.width;
         } else if x < R::ZERO {
@@ -41,12 +47,14 @@ impl<R: Real> Mover<R> {
             if x >= self.width {
                 x = R::ZERO; // −tiny + L rounded up to L
             }
+        } else {
+            wrapped = false;
         }
         // One test on the common path: every value finite and inside the domain.
         // The domain test also rejects a non-finite u or v (x, y then become
         // ±∞ or NaN, step_dt > 0) and a non-finite y; ω needs its own test.
         if R::is_finite(w) && x >= R::ZERO && x < self.width && y >= self.y_min && y <= self.y_max {
-            Ok([x, y, u, v, w])
+            Ok(([x, y, u, v, w], wrapped))
         } else {
             Err(self.fault(i, [x, y, u, v, w]))
         }

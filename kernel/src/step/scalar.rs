@@ -11,6 +11,7 @@
 use super::mover::Mover;
 use crate::contact::{ContactLaw, Spring};
 use crate::error::Error;
+use crate::events::Events;
 use crate::flow::Profile;
 use crate::grains::Grains;
 use crate::neighbours::Neighbours;
@@ -19,7 +20,9 @@ use crate::real::Real;
 
 /// The scalar step: contact forces (6)–(9) of every overlapping listed
 /// pair, then symplectic Euler (1)–(3), grain after grain; the largest
-/// squared speed reached, or the first failing grain's error.
+/// squared speed reached, or the first failing grain's error. The
+/// contacts made, broken and sliding and the seam crossings are added to
+/// `events`.
 ///
 /// Pairs are visited in the fixed order (i ascending, j ascending); the
 /// history of separated pairs is dropped. Grain i appears only in pairs
@@ -41,6 +44,7 @@ pub(crate) fn step<R: Real, const N: usize, const K: usize, const BUFFER: usize>
     law: ContactLaw<R>,
     width: R,
     mover: Mover<R>,
+    events: &mut Events,
 ) -> Result<R, Error> {
     // A buffer holds every slot of a grain, or there is none.
     const { assert!(BUFFER == 0 || BUFFER >= K) };
@@ -56,7 +60,14 @@ pub(crate) fn step<R: Real, const N: usize, const K: usize, const BUFFER: usize>
     if ahead && n > 0 {
         let state = motion.state(r, width);
         let count = usize::from(nb.count[0]).min(K);
-        next.find(&state, 0, &nb.other[0][..count], &mut nb.spring[0][..count]);
+        let springs = &mut nb.spring[0][..count];
+        next.find(
+            &state,
+            0,
+            &nb.other[0][..count],
+            springs,
+            &mut forces.broken,
+        );
     }
     for i in 0..n {
         let ri = r[i];
@@ -72,7 +83,8 @@ pub(crate) fn step<R: Real, const N: usize, const K: usize, const BUFFER: usize>
             if i + 1 < n {
                 let count = usize::from(nb.count[i + 1]).min(K);
                 let springs = &mut nb.spring[i + 1][..count];
-                next.find(&state, i + 1, &nb.other[i + 1][..count], springs);
+                let broken = &mut forces.broken;
+                next.find(&state, i + 1, &nb.other[i + 1][..count], springs, broken);
             }
             let springs = &mut nb.spring[i];
             for (k, c) in current.iter() {
@@ -85,7 +97,7 @@ pub(crate) fn step<R: Real, const N: usize, const K: usize, const BUFFER: usize>
             let pairs = nb.other[i][..count].iter().zip(&mut nb.spring[i][..count]);
             if let Some(own) = state.own(i) {
                 for (&j, spring) in pairs {
-                    if let Some(c) = state.contact(&own, j, spring) {
+                    if let Some(c) = state.contact(&own, j, spring, &mut forces.broken) {
                         forces.add(&law, spring, &c, ri, &mut sums);
                     }
                 }
@@ -96,6 +108,10 @@ pub(crate) fn step<R: Real, const N: usize, const K: usize, const BUFFER: usize>
             motion.advance(i, &sums)?;
         }
     }
+    events.contacts_made = events.contacts_made.wrapping_add(forces.made);
+    events.contacts_broken = events.contacts_broken.wrapping_add(forces.broken);
+    events.contacts_sliding = events.contacts_sliding.wrapping_add(forces.sliding);
+    events.seam_crossings = events.seam_crossings.wrapping_add(motion.crossings);
     Ok(motion.max_v2)
 }
 
@@ -140,18 +156,22 @@ fn split<R: Real, const N: usize>(
         inv_inertia: &g.inv_inertia[..n],
         mover,
         max_v2: R::ZERO,
+        crossings: 0,
     };
     let forces = Forces {
         fx: &mut g.fx[..n],
         fy: &mut g.fy[..n],
         torque: &mut g.torque[..n],
         r: &g.r[..n],
+        made: 0,
+        broken: 0,
+        sliding: 0,
     };
     (motion, forces, &g.fixed[..n])
 }
 
-/// The grains' state during the scalar step, and the largest
-/// squared speed reached.
+/// The grains' state during the scalar step, the largest squared speed
+/// reached and the seam crossings.
 struct Motion<'a, R: Real> {
     x: &'a mut [R],
     y: &'a mut [R],
@@ -162,6 +182,7 @@ struct Motion<'a, R: Real> {
     inv_inertia: &'a [R],
     mover: Mover<R>,
     max_v2: R,
+    crossings: u64,
 }
 
 impl<R: Real> Motion<'_, R> {
@@ -176,7 +197,7 @@ impl<R: Real> Motion<'_, R> {
     fn advance(&mut self, i: usize, sums: &Sums<R>) -> Result<(), Error> {
         // Read here, not kept from the top: fewer live registers in the
         // pair loops.
-        let moved = self.mover.advance(
+        let (moved, wrapped) = self.mover.advance(
             i,
             [self.x[i], self.y[i], self.u[i], self.v[i], self.w[i]],
             [
@@ -186,6 +207,7 @@ impl<R: Real> Motion<'_, R> {
             ],
         )?;
         [self.x[i], self.y[i], self.u[i], self.v[i], self.w[i]] = moved;
+        self.crossings = self.crossings.wrapping_add(u64::from(wrapped));
         self.max_v2 = R::max(self.max_v2, moved[2] * moved[2] + moved[3] * moved[3]);
         Ok(())
     }
@@ -249,10 +271,17 @@ impl<'a, R: Real> State<'a, R> {
     }
 
     /// The geometry of listed pair (i, j) of grain i (`own`) if the two are
-    /// in contact. Drops the history (`spring`) of a pair that is apart;
-    /// `None` also for j out of range and coincident centres.
+    /// in contact. Drops the history (`spring`) of a pair that is apart,
+    /// counting it in `broken` if it was a contact; `None` also for j out
+    /// of range and coincident centres.
     #[inline(always)]
-    fn contact(&self, own: &Own<R>, j: u32, spring: &mut Spring<R>) -> Option<Contact<R>> {
+    fn contact(
+        &self,
+        own: &Own<R>,
+        j: u32,
+        spring: &mut Spring<R>,
+        broken: &mut u64,
+    ) -> Option<Contact<R>> {
         let j = j as usize;
         // Grain j's values are read where the equations need them: fewer
         // live registers on small cores.
@@ -262,6 +291,7 @@ impl<'a, R: Real> State<'a, R> {
         let reach = own.r + rj;
         let dist2 = dx * dx + dy * dy;
         if dist2 >= reach * reach {
+            *broken = broken.wrapping_add(u64::from(spring.e_n != R::ZERO));
             *spring = Spring::ZERO;
             return None;
         }
@@ -323,12 +353,16 @@ struct Sums<R: Real> {
 }
 
 /// Where a contact's force goes: grain i's sums (in registers) and every
-/// grain's force arrays (for j), with the radii for the torques.
+/// grain's force arrays (for j), with the radii for the torques; and the
+/// contacts made, broken and sliding so far.
 struct Forces<'a, R: Real> {
     fx: &'a mut [R],
     fy: &'a mut [R],
     torque: &'a mut [R],
     r: &'a [R],
+    made: u64,
+    broken: u64,
+    sliding: u64,
 }
 
 impl<R: Real> Forces<'_, R> {
@@ -344,9 +378,13 @@ impl<R: Real> Forces<'_, R> {
         ri: R,
         own: &mut Sums<R>,
     ) {
-        let Some((f_n, f_s)) = law.apply(spring, c.overlap, c.v_n, c.v_s) else {
+        let first = spring.e_n == R::ZERO;
+        let Some((f_n, f_s, slides)) = law.apply_sliding(spring, c.overlap, c.v_n, c.v_s) else {
+            self.broken = self.broken.wrapping_add(u64::from(!first));
             return;
         };
+        self.made = self.made.wrapping_add(u64::from(first));
+        self.sliding = self.sliding.wrapping_add(u64::from(slides));
         let j = c.j as usize;
         let (Some(fxj), Some(fyj), Some(tj), Some(&rj)) = (
             self.fx.get_mut(j),
@@ -387,16 +425,24 @@ impl<R: Real, const K: usize> Touching<R, K> {
     }
 
     /// Replaces the contents by grain i's contacts in slot order (`slots`:
-    /// each slot's j, `springs`: its history), [`State::contact`].
+    /// each slot's j, `springs`: its history), [`State::contact`], which
+    /// counts the contacts it drops in `broken`.
     #[inline(always)]
-    fn find(&mut self, s: &State<'_, R>, i: usize, slots: &[u32], springs: &mut [Spring<R>]) {
+    fn find(
+        &mut self,
+        s: &State<'_, R>,
+        i: usize,
+        slots: &[u32],
+        springs: &mut [Spring<R>],
+        broken: &mut u64,
+    ) {
         self.len = 0;
         let Some(own) = s.own(i) else {
             return;
         };
         let mut len = 0;
         for (k, (&j, spring)) in slots.iter().zip(springs).enumerate() {
-            if let (Some(c), true) = (s.contact(&own, j, spring), len < K) {
+            if let (Some(c), true) = (s.contact(&own, j, spring, broken), len < K) {
                 (self.slot[len], self.contact[len]) = (k as u8, c);
                 len += 1;
             }
