@@ -38,6 +38,12 @@ pub fn print(text: &str) -> Result<(), HostError> {
     }
 }
 
+/// Writes `text` and a newline to standard error; a closed or broken standard
+/// error is ignored (a message cannot change the outcome or the exit status).
+pub fn print_err(text: &str) {
+    let _ = writeln!(std::io::stderr().lock(), "{text}");
+}
+
 /// A progress bar over `len` integration steps on standard error (hidden
 /// when quiet or when standard error is not a terminal).
 pub fn progress(len: u64, what: &str, quiet: bool) -> ProgressBar {
@@ -61,7 +67,7 @@ pub fn progress(len: u64, what: &str, quiet: bool) -> ProgressBar {
 fn report_warnings(config: &Config, quiet: bool, under_flow: bool) {
     if !quiet {
         for w in warnings(config, under_flow) {
-            eprintln!("warning: {w}");
+            print_err(&format!("warning: {w}"));
         }
     }
 }
@@ -212,11 +218,11 @@ pub fn run(
     bar.finish_and_clear();
     let outcome = match outcome {
         Err(HostError::Interrupted { cells }) => {
-            eprintln!(
+            print_err(&format!(
                 "stopped: {cells} cell(s) checkpointed in {}/checkpoints; resume with `mbs run --resume {}`",
                 dir.display(),
                 dir.display()
-            );
+            ));
             return Err(HostError::Interrupted { cells });
         }
         other => other?,
@@ -424,7 +430,7 @@ pub fn bench_command(
     let sc = job.bed.scenario(job.bed.columns());
     if precision == Precision::F32 && !common.quiet {
         if let Some(w) = crate::config::f32_width_warning(sc.bed.width(), sc.step_dt()) {
-            eprintln!("warning: {w}");
+            print_err(&format!("warning: {w}"));
         }
     }
     let r = bench(precision, job);
