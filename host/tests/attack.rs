@@ -70,3 +70,91 @@ fn a_closed_stderr_keeps_the_exit_status_of_a_good_run() {
 fn a_closed_stdout_keeps_the_exit_status_of_config() {
     assert_eq!(with_closed_streams(&["config".as_ref()], true), Some(0));
 }
+
+/// A run of SMALL into `dir/name` stopped after `steps` steps of every cell:
+/// the output directory, holding a checkpoint per cell.
+fn stopped_run(dir: &std::path::Path, name: &str, steps: u64) -> std::path::PathBuf {
+    let cfg = write(dir, "small.toml", SMALL);
+    let out = dir.join(name);
+    run_into(&cfg, &out)
+        .args(["--stop-after-steps", &steps.to_string()])
+        .assert()
+        .code(130);
+    out
+}
+
+/// Reads `cell`'s checkpoint in `out`, with the key the file holds.
+fn read_checkpoint(out: &std::path::Path, cell: &str) -> mbs::cell::CellCheckpoint {
+    let bytes = std::fs::read(out.join("checkpoints").join(cell)).unwrap();
+    let key = u64::from_le_bytes(bytes[6..14].try_into().unwrap());
+    mbs::cell::CellCheckpoint::decode(&bytes, key).unwrap()
+}
+
+/// Edits `cell`'s checkpoint with `edit` (its checksum recomputed), resumes,
+/// and expects a refusal naming the checkpoint: exit 1, no table.
+fn crafted_is_refused(
+    steps: u64,
+    cell: &str,
+    edit: impl FnOnce(&mut mbs::cell::CellCheckpoint, &std::path::Path),
+) {
+    let dir = tempfile::tempdir().unwrap();
+    let out = stopped_run(dir.path(), "out", steps);
+    let mut ck = read_checkpoint(&out, cell);
+    edit(&mut ck, &out);
+    std::fs::write(out.join("checkpoints").join(cell), ck.encode()).unwrap();
+    resume_in(&out)
+        .assert()
+        .code(1)
+        .stderr(predicates::str::contains("checkpoint refused"));
+    assert!(!out.join("transport.csv").exists());
+}
+
+/// Steps of SMALL: 20 000 settling, 8 000 spin-up, then the window.
+const IN_SPIN_UP: u64 = 24_000;
+const IN_WINDOW: u64 = 34_000;
+
+#[test]
+fn crafted_window_samples_in_spin_up_are_refused_not_a_panic() {
+    crafted_is_refused(IN_WINDOW, "tau0.3_seed1.ckpt", |ck, _| {
+        ck.state.phase = mbs::cell::Phase::SpinUp;
+        ck.state.done = 0;
+    });
+}
+
+#[test]
+fn crafted_done_beyond_the_spin_up_is_refused() {
+    crafted_is_refused(IN_SPIN_UP, "tau0.3_seed1.ckpt", |ck, _| {
+        ck.state.done = u64::MAX;
+    });
+}
+
+#[test]
+fn crafted_batch_counts_that_wrap_are_refused() {
+    crafted_is_refused(IN_WINDOW, "tau0.3_seed1.ckpt", |ck, _| {
+        let n = ck.state.samples;
+        ck.state.batch_n = [0; mbs::cell::BATCHES];
+        ck.state.batch_n[0] = 1 << 63;
+        ck.state.batch_n[1] = (1 << 63) + n;
+    });
+}
+
+#[test]
+fn a_crafted_total_is_refused() {
+    crafted_is_refused(IN_WINDOW, "tau0.3_seed1.ckpt", |ck, _| {
+        ck.state.total = 2.0 * ck.state.total + 1.0;
+    });
+}
+
+#[test]
+fn another_cells_kernel_state_is_refused() {
+    crafted_is_refused(IN_WINDOW, "tau0.1_seed1.ckpt", |ck, out| {
+        ck.sim = read_checkpoint(out, "tau0.3_seed1.ckpt").sim;
+    });
+}
+
+#[test]
+fn another_seeds_kernel_state_is_refused() {
+    crafted_is_refused(IN_SPIN_UP, "tau0.3_seed1.ckpt", |ck, out| {
+        ck.sim = read_checkpoint(out, "tau0.3_seed2.ckpt").sim;
+    });
+}
