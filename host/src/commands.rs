@@ -183,7 +183,7 @@ pub fn run(
 ) -> Result<(), HostError> {
     report_warnings(config, common.quiet, true);
     let dir = output_dir(config, out);
-    create_dir(&dir)?;
+    let _lock = crate::output::lock_dir(&dir)?;
     let text = toml::to_string(&config.file)
         .map_err(|e| HostError::io(dir.join(RUN_CONFIG))(std::io::Error::other(e)))?;
     let started = std::fs::read_to_string(dir.join(RUN_CONFIG)).ok();

@@ -158,3 +158,56 @@ fn another_seeds_kernel_state_is_refused() {
         ck.sim = read_checkpoint(out, "tau0.3_seed2.ckpt").sim;
     });
 }
+
+/// Holds the advisory lock of `dir/.mbs-lock` as a live `mbs` would, with
+/// this process's id in it.
+fn hold_lock(dir: &std::path::Path) -> std::fs::File {
+    std::fs::create_dir_all(dir).unwrap();
+    let file = std::fs::File::create(dir.join(".mbs-lock")).unwrap();
+    file.try_lock().unwrap();
+    std::fs::write(dir.join(".mbs-lock"), format!("{}\n", std::process::id())).unwrap();
+    file
+}
+
+#[test]
+fn a_second_run_into_a_locked_directory_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = write(dir.path(), "small.toml", SMALL);
+    let out = dir.path().join("out");
+    let lock = hold_lock(&out);
+    run_into(&cfg, &out)
+        .assert()
+        .code(1)
+        .stderr(predicates::str::contains(format!(
+            "in use by another mbs (process {})",
+            std::process::id()
+        )));
+    assert!(!out.join("transport.csv").exists() && !out.join("config.toml").exists());
+    drop(lock);
+    run_into(&cfg, &out).assert().success();
+}
+
+#[test]
+fn a_second_calibration_into_a_locked_directory_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("cal");
+    let _lock = hold_lock(&out);
+    mbs()
+        .args(["calibrate", "--quick", "--stage", "1", "--out"])
+        .arg(&out)
+        .assert()
+        .code(1)
+        .stderr(predicates::str::contains("in use by another mbs"));
+    assert!(!out.join("plan.json").exists());
+}
+
+#[test]
+fn a_stale_lock_of_a_killed_process_is_taken_over() {
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = write(dir.path(), "small.toml", SMALL);
+    let out = dir.path().join("out");
+    std::fs::create_dir_all(&out).unwrap();
+    // The file a killed holder leaves: its id, no lock (released at death).
+    std::fs::write(out.join(".mbs-lock"), "4194303\n").unwrap();
+    run_into(&cfg, &out).assert().success();
+}
