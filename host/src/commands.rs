@@ -190,7 +190,10 @@ pub fn run(
     let has_checkpoints = std::fs::read_dir(dir.join("checkpoints"))
         .map(|mut d| d.next().is_some())
         .unwrap_or(false);
-    if started.as_ref().is_some_and(|old| *old != text) && has_checkpoints {
+    // The parsed configurations are compared, not their text: a comment or a
+    // missing final newline in DIR/config.toml is the same run.
+    let same = |old: &String| Config::from_toml(old).is_ok_and(|c| c.file == config.file);
+    if started.as_ref().is_some_and(|old| !same(old)) && has_checkpoints {
         return Err(HostError::Checkpoint {
             path: dir.join("checkpoints"),
             message: format!(

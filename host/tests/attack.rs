@@ -211,3 +211,15 @@ fn a_stale_lock_of_a_killed_process_is_taken_over() {
     std::fs::write(out.join(".mbs-lock"), "4194303\n").unwrap();
     run_into(&cfg, &out).assert().success();
 }
+
+#[test]
+fn resume_after_a_cosmetic_edit_of_the_configuration() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = stopped_run(dir.path(), "out", IN_SPIN_UP);
+    let path = out.join("config.toml");
+    let text = std::fs::read_to_string(&path).unwrap();
+    let edited = format!("# a comment\n{}", text.trim_end());
+    std::fs::write(&path, edited).unwrap();
+    resume_in(&out).assert().success();
+    assert!(out.join("transport.csv").is_file());
+}
