@@ -5,18 +5,22 @@
 //! for bit, so a cell stopped anywhere gives the same result as one never
 //! stopped.
 //!
-//! Checkpoint file (version 1, little-endian): magic `MBSC`, version u16,
+//! Checkpoint file (version 2, little-endian): magic `MBSC`, version u16,
 //! the cell's key (FNV-1a of its specification) u64, phase u8, steps done in
 //! the phase u64, samples u64, Σq* (f64 bits), the class count u32 and Σq*
 //! per class, Σq* per batch (f64 bits) and batch counts (u64), the kernel
-//! checkpoint (u64 length, bytes), and an FNV-1a checksum of everything
-//! before it.
+//! checkpoint (u64 length, bytes), and a CRC-32 (IEEE) of everything before
+//! it. The CRC detects damage, not deliberate edits: a loaded state is
+//! checked field by field against the configuration ([`CellState::check`])
+//! and the restored kernel against the cell's scenario, so an edited file is
+//! refused or, if consistent, gives a cell this configuration could have
+//! produced (docs/guarantees.md).
 
 use crate::config::{Config, ConfigFile};
 use crate::error::HostError;
 use crate::sims::{with_sim, SimJob, NEIGHBOURS};
 use indicatif::ProgressBar;
-use mbs_kernel::{Fnv1a, Real, Sim, G};
+use mbs_kernel::{Fnv1a, Real, Sim, SimConfig, G};
 use serde::{Deserialize, Serialize};
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -26,7 +30,7 @@ use std::time::{Duration, Instant};
 const CHUNK: u64 = 2000;
 
 const MAGIC: [u8; 4] = *b"MBSC";
-const VERSION: u16 = 1;
+const VERSION: u16 = 2;
 
 /// Batches of the window used for the standard error of a single seed.
 pub const BATCHES: usize = 10;
@@ -81,6 +85,73 @@ pub struct CellState {
 }
 
 impl CellState {
+    /// Checks a loaded state against the configuration it claims to belong
+    /// to: `classes` size classes, phases of `phase_steps` steps, `samples`
+    /// window samples every `sample` steps. Settling and spin-up hold no
+    /// sums; in the window, the steps, samples and batch counts are exactly
+    /// those of the loop in [`CellJob`], with checked arithmetic, and the sums
+    /// are finite and agree with each other. Names the first field that does
+    /// not fit.
+    pub fn check(
+        &self,
+        classes: usize,
+        phase_steps: impl Fn(Phase) -> u64,
+        sample: u64,
+        samples: u64,
+    ) -> Result<(), CheckpointError> {
+        let bad = |what| Err(CheckpointError::Value(what));
+        if self.per_class.len() != classes {
+            return bad("size classes");
+        }
+        if self.done > phase_steps(self.phase) {
+            return bad("steps done in the phase");
+        }
+        let sums = self
+            .per_class
+            .iter()
+            .chain(&self.batch_sum)
+            .chain([&self.total]);
+        if self.phase != Phase::Window {
+            let empty = self.samples == 0
+                && self.batch_n == [0; BATCHES]
+                && sums.clone().all(|x| x.to_bits() == 0);
+            return if empty {
+                Ok(())
+            } else {
+                bad("sums before the window")
+            };
+        }
+        if self.samples > samples || self.samples.checked_mul(sample) != Some(self.done) {
+            return bad("window samples");
+        }
+        let mut expected = [0u64; BATCHES];
+        for k in 0..self.samples {
+            // The batch of sample k, as in the window loop (k < samples, so < BATCHES).
+            let b = u128::from(k) * BATCHES as u128 / u128::from(samples.max(1));
+            expected[b.min(BATCHES as u128 - 1) as usize] += 1;
+        }
+        if self.batch_n != expected {
+            return bad("batch counts");
+        }
+        if !sums.clone().all(|x| x.is_finite())
+            || self
+                .batch_sum
+                .iter()
+                .zip(self.batch_n)
+                .any(|(s, n)| n == 0 && s.to_bits() != 0)
+        {
+            return bad("sums");
+        }
+        // Σq* and the batch sums add the same samples in other groupings:
+        // equal up to rounding.
+        let batches: f64 = self.batch_sum.iter().sum();
+        let scale: f64 = self.batch_sum.iter().map(|s| s.abs()).sum::<f64>() + self.total.abs();
+        if (self.total - batches).abs() > 1e-9 * scale {
+            return bad("total");
+        }
+        Ok(())
+    }
+
     fn new(classes: usize) -> Self {
         CellState {
             phase: Phase::Settle,
@@ -168,7 +239,7 @@ impl CellCheckpoint {
         }
         b.extend_from_slice(&(self.sim.len() as u64).to_le_bytes());
         b.extend_from_slice(&self.sim);
-        let sum = Fnv1a::of(&b);
+        let sum = crc32fast::hash(&b);
         b.extend_from_slice(&sum.to_le_bytes());
         b
     }
@@ -193,11 +264,11 @@ impl CellCheckpoint {
         if version != VERSION {
             return Err(CheckpointError::Version(version));
         }
-        if bytes.len() < 8 {
+        if bytes.len() < 4 {
             return Err(CheckpointError::Truncated);
         }
-        let (body, sum) = bytes.split_at(bytes.len() - 8);
-        if Fnv1a::of(body) != u64_of(sum) {
+        let (body, sum) = bytes.split_at(bytes.len() - 4);
+        if crc32fast::hash(body).to_le_bytes() != sum {
             return Err(CheckpointError::Checksum);
         }
         if u64_of(take(8)?) != key {
@@ -330,25 +401,54 @@ impl SimJob for CellJob<'_> {
         let classes = &sc.bed.classes;
         let durations = self.config.durations;
         let (sample, samples) = (durations.sample, durations.samples);
+        let phase_steps = |p: Phase| match p {
+            Phase::Settle => durations.settle,
+            Phase::SpinUp => durations.spin_up,
+            Phase::Window => durations.window(),
+        };
+        let refuse = |message: String| HostError::Checkpoint {
+            path: self.control.path.clone().unwrap_or_default(),
+            message,
+        };
         let mut state = match self.resume {
             Some(ck) => {
                 let s = &ck.state;
-                let consistent = s.per_class.len() == classes.len()
-                    && s.samples <= samples
-                    && s.batch_n.iter().sum::<u64>() == s.samples
-                    && (s.phase != Phase::Window || s.done == s.samples * sample);
-                if !consistent {
-                    return Err(HostError::Checkpoint {
-                        path: self.control.path.clone().unwrap_or_default(),
-                        message: "its progress does not fit this configuration".into(),
-                    });
-                }
+                s.check(classes.len(), phase_steps, sample, samples)
+                    .map_err(|e| {
+                        refuse(format!("its progress does not fit this configuration: {e}"))
+                    })?;
                 sim.restore(&ck.sim).map_err(fail())?;
-                if sim.flow().is_some() != (s.phase != Phase::Settle) {
-                    return Err(HostError::Checkpoint {
-                        path: self.control.path.clone().unwrap_or_default(),
-                        message: "its flow state does not fit its phase".into(),
-                    });
+                // The steps the kernel has taken: the earlier phases' and this one's.
+                let steps = match s.phase {
+                    Phase::Settle => Some(s.done),
+                    Phase::SpinUp => durations.settle.checked_add(s.done),
+                    Phase::Window => durations
+                        .settle
+                        .checked_add(durations.spin_up)
+                        .and_then(|n| n.checked_add(s.done)),
+                };
+                let flow = (s.phase != Phase::Settle).then_some(&setup.flow);
+                // Scenario::build sets the width and the floor from the bed it builds.
+                let got = *sim.config();
+                let expected = sc.sim_config().map(|c| SimConfig {
+                    width: got.width,
+                    y_min: got.y_min,
+                    ..c
+                });
+                if expected != Ok(got) {
+                    return Err(refuse(
+                        "its kernel state has another configuration or seed than this cell".into(),
+                    ));
+                }
+                if sim.flow() != flow {
+                    return Err(refuse(
+                        "its kernel state has another flow (tau*) than this cell and phase".into(),
+                    ));
+                }
+                if steps != Some(sim.step_count()) {
+                    return Err(refuse(
+                        "its kernel state's step count does not fit its phase and progress".into(),
+                    ));
                 }
                 ck.state
             }
@@ -356,11 +456,6 @@ impl SimJob for CellJob<'_> {
                 sc.build(sim).map_err(fail())?;
                 CellState::new(classes.len())
             }
-        };
-        let phase_steps = |p: Phase| match p {
-            Phase::Settle => durations.settle,
-            Phase::SpinUp => durations.spin_up,
-            Phase::Window => durations.window(),
         };
         let (d_max, s) = (sc.bed.max_diameter(), sc.material.s);
         let mut last_checkpoint = Instant::now();

@@ -38,6 +38,12 @@ pub fn print(text: &str) -> Result<(), HostError> {
     }
 }
 
+/// Writes `text` and a newline to standard error; a closed or broken standard
+/// error is ignored (a message cannot change the outcome or the exit status).
+pub fn print_err(text: &str) {
+    let _ = writeln!(std::io::stderr().lock(), "{text}");
+}
+
 /// A progress bar over `len` integration steps on standard error (hidden
 /// when quiet or when standard error is not a terminal).
 pub fn progress(len: u64, what: &str, quiet: bool) -> ProgressBar {
@@ -61,7 +67,7 @@ pub fn progress(len: u64, what: &str, quiet: bool) -> ProgressBar {
 fn report_warnings(config: &Config, quiet: bool, under_flow: bool) {
     if !quiet {
         for w in warnings(config, under_flow) {
-            eprintln!("warning: {w}");
+            print_err(&format!("warning: {w}"));
         }
     }
 }
@@ -177,14 +183,17 @@ pub fn run(
 ) -> Result<(), HostError> {
     report_warnings(config, common.quiet, true);
     let dir = output_dir(config, out);
-    create_dir(&dir)?;
+    let _lock = crate::output::lock_dir(&dir)?;
     let text = toml::to_string(&config.file)
         .map_err(|e| HostError::io(dir.join(RUN_CONFIG))(std::io::Error::other(e)))?;
     let started = std::fs::read_to_string(dir.join(RUN_CONFIG)).ok();
     let has_checkpoints = std::fs::read_dir(dir.join("checkpoints"))
         .map(|mut d| d.next().is_some())
         .unwrap_or(false);
-    if started.as_ref().is_some_and(|old| *old != text) && has_checkpoints {
+    // The parsed configurations are compared, not their text: a comment or a
+    // missing final newline in DIR/config.toml is the same run.
+    let same = |old: &String| Config::from_toml(old).is_ok_and(|c| c.file == config.file);
+    if started.as_ref().is_some_and(|old| !same(old)) && has_checkpoints {
         return Err(HostError::Checkpoint {
             path: dir.join("checkpoints"),
             message: format!(
@@ -212,11 +221,11 @@ pub fn run(
     bar.finish_and_clear();
     let outcome = match outcome {
         Err(HostError::Interrupted { cells }) => {
-            eprintln!(
+            print_err(&format!(
                 "stopped: {cells} cell(s) checkpointed in {}/checkpoints; resume with `mbs run --resume {}`",
                 dir.display(),
                 dir.display()
-            );
+            ));
             return Err(HostError::Interrupted { cells });
         }
         other => other?,
@@ -492,7 +501,7 @@ pub fn bench_command(
     let sc = job.bed.scenario(job.bed.columns());
     if precision == Precision::F32 && !common.quiet {
         if let Some(w) = crate::config::f32_width_warning(sc.bed.width(), sc.step_dt()) {
-            eprintln!("warning: {w}");
+            print_err(&format!("warning: {w}"));
         }
     }
     let r = bench(precision, job);

@@ -25,6 +25,15 @@ pub enum HostError {
         /// Why.
         error: std::io::Error,
     },
+    /// The output directory is locked by another live `mbs` (exit status 1:
+    /// the command is valid, the directory is busy; run it again later or
+    /// choose another one).
+    Busy {
+        /// The directory.
+        dir: PathBuf,
+        /// The holder's process id, as it wrote it in the lock file.
+        holder: Option<u32>,
+    },
     /// Cells stopped (Ctrl-C or a test's step budget) after writing their checkpoints.
     Interrupted {
         /// How many.
@@ -87,6 +96,12 @@ impl fmt::Display for HostError {
             HostError::Kernel { context, error } => write!(f, "{context}: {error}"),
             HostError::Io { path, error } => write!(f, "{}: {error}", path.display()),
             HostError::Calibration(message) => write!(f, "calibration: {message}"),
+            HostError::Busy { dir, holder } => write!(
+                f,
+                "{} is in use by another mbs ({}); wait for it to finish or choose another output directory",
+                dir.display(),
+                holder.map_or_else(|| "process id unknown".into(), |p| format!("process {p}"))
+            ),
             HostError::Interrupted { cells } => write!(
                 f,
                 "interrupted: {cells} running cell(s) checkpointed; finished cells are stored"

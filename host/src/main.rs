@@ -372,7 +372,7 @@ fn main() -> ExitCode {
     match execute(Cli::parse()) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {e}");
+            commands::print_err(&format!("error: {e}"));
             ExitCode::from(e.exit_code())
         }
     }

@@ -36,6 +36,45 @@ pub fn remove_temporaries(dir: &Path) -> Result<(), HostError> {
     Ok(())
 }
 
+/// Name of the lock file of an output directory.
+pub const LOCK: &str = ".mbs-lock";
+
+/// An exclusive advisory lock on an output directory, held while the value
+/// lives; the operating system releases it when the process ends, however
+/// it ends, so a killed holder's lock is simply taken over.
+#[derive(Debug)]
+pub struct DirLock(#[allow(dead_code)] std::fs::File);
+
+/// Locks `dir` (created if missing) for this process: `DIR/.mbs-lock`,
+/// locked with the OS's advisory lock and holding this process's id. Another
+/// live process holding it is [`HostError::Busy`], naming its id.
+pub fn lock_dir(dir: &Path) -> Result<DirLock, HostError> {
+    create_dir(dir)?;
+    let path = dir.join(LOCK);
+    let mut file = std::fs::OpenOptions::new()
+        .read(true)
+        .write(true)
+        .create(true)
+        .truncate(false)
+        .open(&path)
+        .map_err(HostError::io(&path))?;
+    match file.try_lock() {
+        Ok(()) => {
+            file.set_len(0)
+                .and_then(|()| writeln!(file, "{}", std::process::id()))
+                .map_err(HostError::io(&path))?;
+            Ok(DirLock(file))
+        }
+        Err(std::fs::TryLockError::WouldBlock) => Err(HostError::Busy {
+            dir: dir.to_path_buf(),
+            holder: std::fs::read_to_string(&path)
+                .ok()
+                .and_then(|t| t.trim().parse().ok()),
+        }),
+        Err(std::fs::TryLockError::Error(e)) => Err(HostError::io(&path)(e)),
+    }
+}
+
 /// Creates `dir` (and parents) if missing.
 pub fn create_dir(dir: &Path) -> Result<(), HostError> {
     std::fs::create_dir_all(dir).map_err(HostError::io(dir))

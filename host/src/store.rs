@@ -6,7 +6,6 @@
 //! and its cell is simply computed again.
 
 use crate::error::HostError;
-use mbs_kernel::Fnv1a;
 use serde::{de::DeserializeOwned, Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::fs::{File, OpenOptions};
@@ -24,16 +23,18 @@ struct Line {
     key: String,
     /// Its result, JSON.
     value: serde_json::Value,
-    /// FNV-1a of `key` and the result's JSON text.
-    check: u64,
+    /// CRC-32 (IEEE) of `key`, a zero byte and the result's JSON text. (Lines
+    /// of the earlier format, `check` with FNV-1a, do not parse: their cells
+    /// are computed again.)
+    crc32: u32,
 }
 
-fn checksum(key: &str, value: &str) -> u64 {
-    let mut h = Fnv1a::default();
-    h.bytes(key.as_bytes());
-    h.bytes(&[0]);
-    h.bytes(value.as_bytes());
-    h.finish()
+fn checksum(key: &str, value: &str) -> u32 {
+    let mut h = crc32fast::Hasher::new();
+    h.update(key.as_bytes());
+    h.update(&[0]);
+    h.update(value.as_bytes());
+    h.finalize()
 }
 
 /// Finished cells keyed by their specification.
@@ -91,7 +92,7 @@ impl Store {
         };
         let text = value.to_string();
         let line = Line {
-            check: checksum(&key, &text),
+            crc32: checksum(&key, &text),
             key: key.clone(),
             value: value.clone(),
         };
@@ -180,7 +181,7 @@ fn load(path: &Path) -> Result<BTreeMap<String, serde_json::Value>, HostError> {
         let Ok(parsed) = serde_json::from_slice::<Line>(&line) else {
             continue;
         };
-        if checksum(&parsed.key, &parsed.value.to_string()) == parsed.check {
+        if checksum(&parsed.key, &parsed.value.to_string()) == parsed.crc32 {
             map.insert(parsed.key, parsed.value);
         }
     }

@@ -153,3 +153,46 @@ fn damaged_checkpoints_are_refused_and_change_nothing() {
         })
     ));
 }
+
+/// The offset of the flow epoch and step count (two u64 after the flow) in
+/// a checkpoint of the paper's bed run `settle` steps, flow on, `flow` steps.
+fn counters_at(saved: &[u8], settle: u64, flow: u64) -> usize {
+    let mut needle = settle.to_le_bytes().to_vec();
+    needle.extend_from_slice(&(settle + flow).to_le_bytes());
+    saved
+        .windows(16)
+        .position(|w| w == needle)
+        .expect("the counters in the checkpoint")
+}
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig { cases: 24, ..Default::default() })]
+
+    /// A restored state with extreme but well-formed counters (flow epoch and
+    /// step count up to u64::MAX) steps without an overflow panic, in any
+    /// build (overflow checks on in `cargo test` without `--release`).
+    #[test]
+    fn extreme_restored_counters_step_without_overflow(
+        epoch in proptest::prop_oneof![
+            proptest::strategy::Just(0u64),
+            proptest::strategy::Just(u64::MAX),
+            proptest::strategy::Just(u64::MAX - 1),
+            proptest::prelude::any::<u64>()
+        ],
+        to_max in 0u64..4,
+    ) {
+        let (settle, flow) = (200, 50);
+        let mut sim = Box::new(Big::<f64>::new());
+        run(&mut *sim, settle, flow);
+        let mut saved = bytes(&*sim);
+        let at = counters_at(&saved, settle, flow);
+        saved[at..at + 8].copy_from_slice(&epoch.to_le_bytes());
+        saved[at + 8..at + 16].copy_from_slice(&(u64::MAX - to_max).to_le_bytes());
+        let mut resumed = Box::new(Big::<f64>::new());
+        resumed.restore(&saved).unwrap();
+        for _ in 0..6 {
+            let _ = resumed.step();
+        }
+        proptest::prop_assert!(resumed.time().is_finite());
+    }
+}

@@ -374,7 +374,7 @@ pub fn calibrate(
         }
         None => base,
     };
-    crate::output::create_dir(dir)?;
+    let _lock = crate::output::lock_dir(dir)?;
     crate::output::remove_temporaries(dir)?;
     let store = crate::store::Store::open(&dir.join(STORE))?;
     crate::output::write_json(&dir.join("plan.json"), &plan)?;
@@ -453,7 +453,7 @@ pub fn calibrate(
 /// `mbs calibrate merge`: adds the cells of shard directories to `dir`'s
 /// store; returns how many were new.
 pub fn merge(shards: &[std::path::PathBuf], dir: &std::path::Path) -> Result<usize, HostError> {
-    crate::output::create_dir(dir)?;
+    let _lock = crate::output::lock_dir(dir)?;
     let store = crate::store::Store::open(&dir.join(STORE))?;
     let mut added = 0;
     for shard in shards {

@@ -109,7 +109,7 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
             Ok(max_v2) => {
                 // The grains moved at most max_v2^½ step_dt.
                 self.nbrs.add_travel(R::sqrt(max_v2) * self.step_dt);
-                self.step += 1;
+                self.step = self.step.saturating_add(1); // a restored count may be u64::MAX
                 if !self.count_events {
                     // Contacts and seam crossings are counted only on request.
                     events = Events {
