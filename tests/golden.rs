@@ -39,23 +39,33 @@ fn lines() -> Vec<String> {
 
 #[test]
 fn golden_digests_match() {
-    let now = lines();
+    let header = format!(
+        "Digests of Scenario::paper() after {SETTLE_STEPS} settling steps and {FLOW_STEPS} flow steps."
+    );
+    match_or_bless(&path(), &header, &lines());
+}
+
+/// Compares `now` with the digest lines of the golden file at `path`, or,
+/// with `MBS_BLESS` set, writes them there under `header`.
+fn match_or_bless(path: &std::path::Path, header: &str, now: &[String]) {
     if std::env::var_os("MBS_BLESS").is_some() {
         let text = format!(
-            "# Digests of Scenario::paper() after {SETTLE_STEPS} settling steps and {FLOW_STEPS} flow steps.\n# Re-record: MBS_BLESS=1 cargo test --test golden\n{}\n",
+            "# {header}\n# Re-record: MBS_BLESS=1 cargo test --release --test golden\n{}\n",
             now.join("\n")
         );
-        std::fs::write(path(), text).expect("write golden file");
+        std::fs::write(path, text).expect("write golden file");
         return;
     }
-    let text = std::fs::read_to_string(path()).expect("tests/golden/digests.txt exists");
+    let text = std::fs::read_to_string(path).expect("the golden file exists");
     let recorded: Vec<&str> = text
         .lines()
         .filter(|l| !l.starts_with('#') && !l.trim().is_empty())
         .collect();
     assert_eq!(
-        recorded, now,
-        "state digests changed; if on purpose, re-record (see file header)"
+        recorded,
+        now,
+        "{}: digests changed; if on purpose, re-record (see the file's header)",
+        path.display()
     );
 }
 
@@ -130,21 +140,8 @@ fn living_bed_exercises_every_path_and_matches() {
         format!("settled f64 {:#018x}", b.0),
         format!("flow f64 {:#018x}", b.1),
     ];
-    if std::env::var_os("MBS_BLESS").is_some() {
-        let text = format!(
-            "# Digests of the living bed: Scenario::paper() settled {LIVING_SETTLE_STEPS} steps, then {LIVING_FLOW_STEPS} steps at tau* = {LIVING_TAU_STAR} (tests/golden.rs).\n# Re-record: MBS_BLESS=1 cargo test --release --test golden\n{}\n",
-            now.join("\n")
-        );
-        std::fs::write(living_path(), text).expect("write golden file");
-        return;
-    }
-    let text = std::fs::read_to_string(living_path()).expect("tests/golden/living.txt exists");
-    let recorded: Vec<&str> = text
-        .lines()
-        .filter(|l| !l.starts_with('#') && !l.trim().is_empty())
-        .collect();
-    assert_eq!(
-        recorded, now,
-        "living-bed digests changed; if on purpose, re-record (see file header)"
+    let header = format!(
+        "Digests of the living bed: Scenario::paper() settled {LIVING_SETTLE_STEPS} steps, then {LIVING_FLOW_STEPS} steps at tau* = {LIVING_TAU_STAR} (tests/golden.rs)."
     );
+    match_or_bless(&living_path(), &header, &now);
 }
