@@ -30,20 +30,24 @@ fn with_closed_streams(args: &[&std::ffi::OsStr], close_stdout: bool) -> Option<
         .code()
 }
 
+/// `mbs run` of the configuration `text` into `dir/out` with both output
+/// streams closed: the exit status and the output directory.
+fn run_with_closed_streams(dir: &std::path::Path, text: &str) -> (Option<i32>, std::path::PathBuf) {
+    let cfg = write(dir, "c.toml", text);
+    let out = dir.join("out");
+    let args = [
+        "run".as_ref(),
+        cfg.as_os_str(),
+        "--out".as_ref(),
+        out.as_os_str(),
+    ];
+    (with_closed_streams(&args, true), out)
+}
+
 #[test]
 fn a_closed_stderr_keeps_the_exit_status_of_a_bad_configuration() {
     let dir = tempfile::tempdir().unwrap();
-    let cfg = write(dir.path(), "bad.toml", "[bed]\ncolumns = 0\n");
-    let out = dir.path().join("out");
-    let code = with_closed_streams(
-        &[
-            "run".as_ref(),
-            cfg.as_os_str(),
-            "--out".as_ref(),
-            out.as_os_str(),
-        ],
-        true,
-    );
+    let (code, _) = run_with_closed_streams(dir.path(), "[bed]\ncolumns = 0\n");
     assert_eq!(code, Some(2));
 }
 
@@ -51,17 +55,7 @@ fn a_closed_stderr_keeps_the_exit_status_of_a_bad_configuration() {
 fn a_closed_stderr_keeps_the_exit_status_of_a_good_run() {
     let dir = tempfile::tempdir().unwrap();
     // A warning (the f32 width) goes to stderr before the work.
-    let cfg = write(dir.path(), "small.toml", SMALL);
-    let out = dir.path().join("out");
-    let code = with_closed_streams(
-        &[
-            "run".as_ref(),
-            cfg.as_os_str(),
-            "--out".as_ref(),
-            out.as_os_str(),
-        ],
-        true,
-    );
+    let (code, out) = run_with_closed_streams(dir.path(), SMALL);
     assert_eq!(code, Some(0));
     assert!(out.join("transport.csv").is_file());
 }
