@@ -1,8 +1,7 @@
 //! `mbs digest --trace FILE --every K`: the trace file (docs/determinism.md,
 //! "Traces").
 
-mod common;
-use common::*;
+use crate::common::*;
 use mbs_kernel::Fnv1a;
 
 #[test]

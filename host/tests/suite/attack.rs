@@ -2,9 +2,7 @@
 //! crafted checkpoints, two runs in one directory, oversized files, cosmetic
 //! edits of a resumed configuration, and values that cannot finish.
 
-mod common;
-
-use common::*;
+use crate::common::*;
 use std::process::{Command, Stdio};
 
 /// Runs `mbs ARGS` with standard error (and, if `close_stdout`, standard

@@ -3,9 +3,7 @@
 //! resumed, writes the same `transport.csv`, byte for byte, as a run never
 //! stopped; damaged checkpoints are refused and change nothing.
 
-mod common;
-
-use common::*;
+use crate::common::*;
 use predicates::prelude::*;
 use std::path::{Path, PathBuf};
 

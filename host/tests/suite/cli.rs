@@ -2,9 +2,7 @@
 //! its files, thread-count independence, and bad input (exit status 2, a
 //! message naming key, value and range, nothing written).
 
-mod common;
-
-use common::*;
+use crate::common::*;
 use predicates::prelude::*;
 use std::path::Path;
 

@@ -2,9 +2,7 @@
 //! resuming after an interruption, shards merged to the serial result, and
 //! results independent of the thread count.
 
-mod common;
-
-use common::*;
+use crate::common::*;
 use std::path::Path;
 
 fn calibrate(dir: &Path, extra: &[&str]) {

@@ -1,0 +1,13 @@
+//! The `mbs` command's integration tests, in one test binary (one link
+//! instead of seven; see docs/architecture.md, "Tests"). Each module is one
+//! topic; `common` holds the shared small configurations and helpers.
+
+mod common;
+
+mod attack;
+mod calibrate;
+mod cli;
+mod hostile;
+mod paper_case;
+mod resume;
+mod trace;
