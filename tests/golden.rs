@@ -91,7 +91,17 @@ fn living_path() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/golden/living.txt")
 }
 
-/// (settled digest, flow digest, events of the flow phase).
+/// The committed settled living bed of precision `name` (`f32`, `f64`):
+/// the kernel checkpoint every target's trace starts from
+/// (firmware/golden, docs/board.md).
+fn settled_path(name: &str) -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join(format!("tests/golden/living-settled-{name}.ckpt"))
+}
+
+/// (settled digest, flow digest, events of the flow phase). Also checks
+/// the settled bed's checkpoint against the committed one (or, with
+/// `MBS_BLESS`, writes it).
 fn living<R: Real>() -> (u64, u64, mbs_kernel::Events) {
     let mut sim = Box::new(Sim::<R, 64, 8>::new());
     let sc = Scenario::paper();
@@ -99,6 +109,17 @@ fn living<R: Real>() -> (u64, u64, mbs_kernel::Events) {
     sim.count_events(true);
     sim.run(LIVING_SETTLE_STEPS).expect("settles");
     let settled = sim.digest();
+    let mut bytes = Vec::new();
+    sim.checkpoint(|b| bytes.extend_from_slice(b));
+    let path = settled_path(R::NAME);
+    if std::env::var_os("MBS_BLESS").is_some() {
+        std::fs::write(&path, &bytes).expect("write the settled bed");
+    }
+    assert!(
+        std::fs::read(&path).expect("the settled bed is committed") == bytes,
+        "{}: the settled living bed changed; if on purpose, re-record (tests/golden/living.txt's header)",
+        path.display()
+    );
     let before = sim.events();
     sim.set_flow(Some(&sc.flow(LIVING_TAU_STAR))).expect("flow");
     sim.run(LIVING_FLOW_STEPS).expect("flows");

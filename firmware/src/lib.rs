@@ -89,11 +89,14 @@ pub fn stack_use() -> (usize, usize) {
 
 /// Runs `steps` settling and `steps` flow steps of `scenario` in `sim`
 /// ([`golden::run`]), prints the report and the instructions per
-/// grain-step and the peak stack use, and exits 0; exits 1 on any kernel error.
+/// grain-step; with `living`, then the living bed's trace
+/// ([`golden::trace`]); then the peak stack use, and exits 0; exits 1 on
+/// any kernel error.
 pub fn run<R: Real, const N: usize, const K: usize>(
     sim: &mut Sim<R, N, K>,
     scenario: &Scenario,
     steps: u64,
+    living: bool,
     syst: SYST,
 ) -> ! {
     let mut ticks = Ticks::start(syst);
@@ -112,6 +115,19 @@ pub fn run<R: Real, const N: usize, const K: usize>(
                 tenths_per_tick / 10,
                 tenths_per_tick % 10
             );
+            if living {
+                let trace = golden::trace(
+                    sim,
+                    golden::TRACE_STEPS,
+                    golden::TRACE_EVERY,
+                    &mut ticks,
+                    |r| hprintln!("{}", r),
+                );
+                if let Err(e) = trace {
+                    hprintln!("error: {}", e);
+                    debug::exit(debug::EXIT_FAILURE);
+                }
+            }
             let (used, room) = stack_use();
             hprintln!("stack {} B used of {} B", used, room);
             debug::exit(debug::EXIT_SUCCESS);

@@ -1,5 +1,6 @@
 //! Runs `Scenario::paper()` (settling, then flow) in static storage and
-//! prints the state digest after each phase over semihosting, then exits 0.
+//! prints the state digest after each phase over semihosting, then the
+//! living bed's trace ([`golden::trace`]), then exits 0.
 //! Any kernel error, panic or hard fault exits 1. Compare with
 //! `mbs digest --steps 2000 --precision f32|f64` on the host.
 #![no_std]
@@ -24,7 +25,13 @@ fn main() -> ! {
     static mut SIM: Sim<Real, 64, 8> = Sim::new();
     let sim: &'static mut Sim<Real, 64, 8> = SIM;
     let peripherals = cortex_m::Peripherals::take().expect("first and only call");
-    firmware::run(sim, &Scenario::paper(), golden::STEPS, peripherals.SYST)
+    firmware::run(
+        sim,
+        &Scenario::paper(),
+        golden::STEPS,
+        true,
+        peripherals.SYST,
+    )
 }
 
 #[exception]

@@ -18,9 +18,9 @@
 
 use crate::config::{Config, ConfigFile};
 use crate::error::HostError;
-use crate::sims::{with_sim, SimJob, NEIGHBOURS};
+use crate::sims::{check_restored, with_sim, SimJob, NEIGHBOURS};
 use indicatif::ProgressBar;
-use mbs_kernel::{Fnv1a, Real, Sim, SimConfig, G};
+use mbs_kernel::{Fnv1a, Real, Sim, G};
 use serde::{Deserialize, Serialize};
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -428,28 +428,15 @@ impl SimJob for CellJob<'_> {
                         .and_then(|n| n.checked_add(s.done)),
                 };
                 let flow = (s.phase != Phase::Settle).then_some(&setup.flow);
-                // Scenario::build sets the width and the floor from the bed it builds.
-                let got = *sim.config();
-                let expected = sc.sim_config().map(|c| SimConfig {
-                    width: got.width,
-                    y_min: got.y_min,
-                    ..c
-                });
-                if expected != Ok(got) {
-                    return Err(refuse(
-                        "its kernel state has another configuration or seed than this cell".into(),
-                    ));
-                }
-                if sim.flow() != flow {
-                    return Err(refuse(
-                        "its kernel state has another flow (tau*) than this cell and phase".into(),
-                    ));
-                }
-                if steps != Some(sim.step_count()) {
-                    return Err(refuse(
-                        "its kernel state's step count does not fit its phase and progress".into(),
-                    ));
-                }
+                let Some(steps) = steps else {
+                    return Err(refuse("its progress overflows the step count".into()));
+                };
+                check_restored(sim, sc, flow, steps).map_err(|why| {
+                    refuse(format!(
+                        "{why}: it is not this cell's (phase {:?})",
+                        s.phase
+                    ))
+                })?;
                 ck.state
             }
             None => {

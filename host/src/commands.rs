@@ -386,7 +386,7 @@ pub fn snapshot(
 struct DigestJob {
     scenario: Scenario,
     tau_star: f64,
-    steps: u64,
+    steps: (u64, u64),
 }
 
 impl SimJob for DigestJob {
@@ -394,39 +394,58 @@ impl SimJob for DigestJob {
 
     fn run<R: Real, const N: usize>(self, sim: &mut Sim<R, N, NEIGHBOURS>) -> Self::Output {
         self.scenario
-            .digests(sim, self.tau_star, self.steps, self.steps)
+            .digests(sim, self.tau_star, self.steps.0, self.steps.1)
     }
 }
 
-/// `mbs digest`: state digests after `steps` settling steps and `steps`
-/// flow steps at τ* — what a board run is compared with; with `trace`
-/// (file, K), also writes the trace of that run ([`crate::trace`]).
+/// What `mbs digest --trace` records besides the digests: the file, the
+/// configuration's name, and the records' spacing, span and states.
+#[derive(Debug, Clone)]
+pub struct TraceArgs<'a> {
+    /// The trace file to write.
+    pub path: &'a Path,
+    /// The configuration file's name, `None` for the golden run.
+    pub config: Option<String>,
+    /// Steps between records.
+    pub every: u64,
+    /// The first recorded step.
+    pub from: u64,
+    /// The last step run (`None`: both phases).
+    pub until: Option<u64>,
+    /// Records carry the whole kernel state.
+    pub states: bool,
+}
+
+/// `mbs digest`: state digests after `steps.0` settling steps and
+/// `steps.1` flow steps at τ* — what a board run is compared with; with
+/// `trace`, also writes the trace of that run ([`crate::trace`]).
 pub fn digest(
     config: &Config,
-    steps: u64,
+    steps: (u64, u64),
     precision: Precision,
     tau_star: f64,
-    trace: Option<(&Path, Option<String>, u64)>,
+    trace: Option<TraceArgs<'_>>,
 ) -> Result<(), HostError> {
-    if let Some((path, config_name, every)) = trace {
+    if let Some(t) = trace {
         let run = crate::trace::TraceRun {
             scenario: config.scenario_at(config.seeds[0]),
-            config: config_name,
+            config: t.config,
             tau_star,
-            settle_steps: steps,
-            flow_steps: steps,
-            every,
+            settle_steps: steps.0,
+            flow_steps: steps.1,
+            every: t.every,
+            from: t.from,
+            until: t.until.unwrap_or(u64::MAX),
+            states: t.states,
             precision,
             capacity: config.capacity,
         };
-        let trace = run.run().map_err(HostError::kernel(format!(
-            "digest trace, tau* = {tau_star}"
-        )))?;
+        let trace = run.run().map_err(trace_error("digest trace"))?;
         let text = crate::trace::to_text(&trace).map_err(|e| HostError::Io {
-            path: path.to_path_buf(),
+            path: t.path.to_path_buf(),
             error: e.into(),
         })?;
-        write_text(path, &text)?;
+        write_text(t.path, &text)?;
     }
     let job = DigestJob {
         scenario: config.scenario_at(config.seeds[0]),
@@ -438,12 +457,34 @@ pub fn digest(
     print(&format!("settled {settled:#018x}\nflow {flow:#018x}\n"))
 }
 
-/// `mbs digest --check FILE`: re-runs the trace's scenario and compares
-/// every record; a mismatch names the first differing record's step and
-/// field groups ([`HostError::Mismatch`], exit 1); a damaged, edited,
-/// truncated or foreign trace, or one whose configuration no longer gives
-/// its scenario, is refused ([`HostError::Trace`], exit 2).
-pub fn check_trace(path: &Path) -> Result<(), HostError> {
+/// A trace run's error as the command's: the kernel's (exit 1), a nudge
+/// that cannot be applied (exit 2, `--nudge`), a trace whose state cannot
+/// start the run (exit 2, refused).
+fn trace_error(what: &'static str) -> impl Fn(crate::trace::RunError) -> HostError {
+    move |e| match e {
+        crate::trace::RunError::Kernel(e) => HostError::kernel(what.to_string())(e),
+        crate::trace::RunError::Nudge(nudge, e) => crate::ConfigError::Invalid {
+            key: "--nudge".into(),
+            value: nudge.to_string(),
+            allowed: format!(
+                "an existing grain and a value that stays finite and inside the domain (here {e})"
+            ),
+        }
+        .into(),
+        crate::trace::RunError::State(message) => HostError::Trace {
+            path: what.into(),
+            message,
+        },
+    }
+}
+
+/// `mbs digest --check FILE [--nudge N]`: re-runs the trace's scenario
+/// (changing one value by `nudge`, if given) and compares every record; a
+/// mismatch is located ([`crate::trace::check`]) and reported as
+/// [`HostError::Mismatch`] (exit 1); a damaged, edited, truncated or
+/// foreign trace, or one whose configuration no longer gives its scenario,
+/// is refused ([`HostError::Trace`], exit 2).
+pub fn check_trace(path: &Path, nudge: Option<crate::trace::Nudge>) -> Result<(), HostError> {
     let refuse = |message: String| HostError::Trace {
         path: path.to_path_buf(),
         message,
@@ -461,6 +502,9 @@ pub fn check_trace(path: &Path) -> Result<(), HostError> {
         settle_steps: recorded.settle_steps,
         flow_steps: recorded.flow_steps,
         every: recorded.every,
+        from: recorded.from,
+        until: recorded.until,
+        states: false,
         precision: recorded.precision,
         capacity: config.capacity,
     };
@@ -471,15 +515,15 @@ pub fn check_trace(path: &Path) -> Result<(), HostError> {
             recorded.scenario_hash
         )));
     }
-    let now = run
-        .run()
-        .map_err(HostError::kernel("digest --check".to_string()))?;
-    match crate::trace::first_mismatch(&recorded.records, &now.records) {
-        Some(message) => Err(HostError::Mismatch(message)),
-        None => print(&format!(
-            "trace matches: {} records, steps 0 to {}\n",
-            now.records.len(),
-            now.records.last().map_or(0, |r| r.step)
+    let verdict = crate::trace::check(&run, &recorded, nudge).map_err(|e| match e {
+        crate::trace::RunError::State(message) => refuse(message),
+        e => trace_error("digest --check")(e),
+    })?;
+    match verdict {
+        crate::trace::Verdict::Mismatch(message) => Err(HostError::Mismatch(message)),
+        crate::trace::Verdict::Matches(records, last) => print(&format!(
+            "trace matches: {records} records, steps {} to {last}\n",
+            recorded.from
         )),
     }
 }

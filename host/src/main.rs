@@ -83,9 +83,12 @@ enum Command {
         /// Configuration file (TOML); without one, the golden-digest run: the
         /// paper's case on its 5 columns, as the firmware runs it.
         config: Option<PathBuf>,
-        /// Steps of each phase.
+        /// Steps of each phase (of settling only, with --flow-steps).
         #[arg(long, default_value_t = 2000)]
         steps: u64,
+        /// Steps of the flow phase (default: --steps).
+        #[arg(long)]
+        flow_steps: Option<u64>,
         /// Working precision.
         #[arg(long, value_enum, default_value_t = Precision::F64)]
         precision: Precision,
@@ -98,10 +101,25 @@ enum Command {
         /// Integration steps between the trace's records.
         #[arg(long, default_value_t = 1000, requires = "trace")]
         every: u64,
+        /// The trace's first recorded step (the run starts at 0 regardless).
+        #[arg(long, default_value_t = 0, requires = "trace")]
+        from: u64,
+        /// The trace's last step (default: the end of the flow phase).
+        #[arg(long, requires = "trace")]
+        until: Option<u64>,
+        /// Each record of the trace keeps the whole kernel state (base64), so
+        /// that a check can name the grains and fields that differ.
+        #[arg(long, requires = "trace")]
+        states: bool,
         /// Re-run a trace's scenario and compare: exit 0 if every record
-        /// matches, 1 naming the first mismatch, 2 for a damaged or foreign trace.
+        /// matches, 1 locating the first mismatch, 2 for a damaged or foreign trace.
         #[arg(long, value_name = "TRACE", conflicts_with_all = ["config", "trace"])]
         check: Option<PathBuf>,
+        /// With --check: change one grain's field by ULPS units in the last
+        /// place after STEP integration steps (ULPS 1 if omitted; fields x, y,
+        /// u, v, spin, draw_u, draw_v), to see how the check locates a difference.
+        #[arg(long, value_name = "STEP:GRAIN:FIELD[:ULPS]", requires = "check")]
+        nudge: Option<mbs::trace::Nudge>,
     },
     /// The paper's parameter optimisation, automated: α_m, α_cn, β, constants_dt(d, nvd), mixed sizes → report.md.
     #[command(args_conflicts_with_subcommands = true)]
@@ -273,14 +291,19 @@ fn execute(cli: Cli) -> Result<(), HostError> {
         Command::Digest {
             config,
             steps,
+            flow_steps,
             precision,
             tau,
             trace,
             every,
+            from,
+            until,
+            states,
             check,
+            nudge,
         } => {
             if let Some(file) = check {
-                return commands::check_trace(&file);
+                return commands::check_trace(&file, nudge);
             }
             if every == 0 {
                 return Err(mbs::ConfigError::Invalid {
@@ -295,7 +318,15 @@ fn execute(cli: Cli) -> Result<(), HostError> {
                 Some(_) => load(&config)?,
                 None => mbs::Config::golden()?,
             };
-            let trace = trace.as_deref().map(|path| (path, name, every));
+            let trace = trace.as_deref().map(|path| commands::TraceArgs {
+                path,
+                config: name,
+                every,
+                from,
+                until,
+                states,
+            });
+            let steps = (steps, flow_steps.unwrap_or(steps));
             commands::digest(&config, steps, precision, tau_arg(tau)?, trace)
         }
         Command::Calibrate {

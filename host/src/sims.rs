@@ -4,7 +4,7 @@
 
 use crate::config::Precision;
 use indicatif::ProgressBar;
-use mbs_kernel::{Real, Sim};
+use mbs_kernel::{FlowConfig, Real, Scenario, Sim, SimConfig};
 
 /// Neighbour slots per grain of every host simulation (the kernel's `K`).
 pub const NEIGHBOURS: usize = 8;
@@ -41,6 +41,35 @@ pub fn with_sim<J: SimJob>(precision: Precision, capacity: usize, job: J) -> J::
         (Precision::F64, 257..=4096) => job.run(&mut *boxed_sim::<f64, 4096, NEIGHBOURS>()),
         (Precision::F64, _) => job.run(&mut *boxed_sim::<f64, 65536, NEIGHBOURS>()),
     }
+}
+
+/// Whether a restored kernel state belongs where it is used: `scenario`'s
+/// configuration and seed (its width and floor are set by the bed it
+/// built), the `flow` expected (`None` while settling) and `steps`
+/// integration steps taken. Else why not: a crafted or foreign state is
+/// refused, never trusted.
+pub fn check_restored<R: Real, const N: usize>(
+    sim: &Sim<R, N, NEIGHBOURS>,
+    scenario: &Scenario,
+    flow: Option<&FlowConfig>,
+    steps: u64,
+) -> Result<(), &'static str> {
+    let got = *sim.config();
+    let expected = scenario.sim_config().map(|c| SimConfig {
+        width: got.width,
+        y_min: got.y_min,
+        ..c
+    });
+    if expected != Ok(got) {
+        return Err("its kernel state has another configuration or seed");
+    }
+    if sim.flow() != flow {
+        return Err("its kernel state has another flow (tau*) or phase");
+    }
+    if sim.step_count() != steps {
+        return Err("its kernel state's step count does not fit");
+    }
+    Ok(())
 }
 
 /// Runs `steps` steps in chunks, reporting progress.

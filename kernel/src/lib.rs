@@ -84,8 +84,9 @@
 //!    add `impl Sim` blocks, one topic each: `step` ([`Sim::step`],
 //!    [`Sim::run`]: the dispatch to the two paths), `bed` (the initial bed,
 //!    settling, the mean bed level), `observe` ([`Observation`]),
-//!    `checkpoint` ([`Sim::checkpoint`], [`Sim::restore`]) and `digest`
-//!    ([`Sim::digest`]).
+//!    `checkpoint` ([`Sim::checkpoint`], [`Sim::restore`]), `digest`
+//!    ([`Sim::digest`]) and `fields` ([`GrainField`]: one grain's field
+//!    read or moved by ULPs, [`Sim::nudge`]).
 //! 6. **Scenario** (`scenario`): [`Scenario`], a complete run set-up (the
 //!    paper's by default) from which the host, the golden tests and the
 //!    firmware all build their simulations.
@@ -107,6 +108,7 @@ pub mod contact;
 mod digest;
 mod error;
 mod events;
+mod fields;
 pub mod flow;
 mod grains;
 mod neighbours;
@@ -126,6 +128,7 @@ pub use constants::{
 pub use digest::{FieldGroup, Fnv1a};
 pub use error::{Capacity, CheckpointFault, Error, Quantity};
 pub use events::Events;
+pub use fields::GrainField;
 pub use flow::{shear_velocity, FlowConfig};
 pub use grains::{GrainSpec, MAX_CLASSES};
 pub use observe::{q_star, Observation};

@@ -84,6 +84,23 @@ pub trait Real:
     fn to_raw(self) -> u64;
     /// The value of raw IEEE bits (the low `BYTES` bytes).
     fn from_raw(bits: u64) -> Self;
+    /// The value's place in the order of all values of this type: adjacent
+    /// values differ by 1 (one unit in the last place, ULP), −0.0 and +0.0
+    /// are both 0, negative values are negative. The distance between two
+    /// values in ULPs is the difference of their ordinals.
+    ///
+    /// ```
+    /// use mbs_kernel::Real;
+    ///
+    /// assert_eq!(1.0f64.ordinal() + 1, f64::from_ordinal(1.0f64.ordinal() + 1).ordinal());
+    /// assert_eq!(f64::from_ordinal(1.0f64.ordinal() + 1), 1.0 + f64::EPSILON);
+    /// assert_eq!((-0.0f32).ordinal(), 0.0f32.ordinal());
+    /// assert_eq!(f32::from_ordinal(-1), -f32::from_bits(1));
+    /// ```
+    fn ordinal(self) -> i64;
+    /// The value whose [`Real::ordinal`] is `o` (saturating beyond the
+    /// type's range, where only NaNs are).
+    fn from_ordinal(o: i64) -> Self;
     /// The larger of two values (the first if they compare equal or unordered).
     #[inline]
     fn max(a: Self, b: Self) -> Self {
@@ -134,7 +151,7 @@ fn logf(x: f32) -> f32 {
 /// NaN pattern it hashes every NaN as, and the functions behind `sqrt`,
 /// `exp`, `ln` and `abs`.
 macro_rules! real {
-    ($R:ident, $Bits:ident, $nan:literal, $sqrt:path, $exp:path, $ln:path, $abs:path) => {
+    ($R:ident, $Bits:ident, $Signed:ident, $nan:literal, $sqrt:path, $exp:path, $ln:path, $abs:path) => {
         impl Real for $R {
             const ZERO: Self = 0.0;
             const ONE: Self = 1.0;
@@ -149,6 +166,24 @@ macro_rules! real {
             fn from_raw(bits: u64) -> Self {
                 // The low BYTES bytes: a no-op for f64.
                 $R::from_bits(bits as $Bits)
+            }
+            fn ordinal(self) -> i64 {
+                // Sign-magnitude bits to a two's-complement order.
+                let b = self.to_bits() as $Signed;
+                i64::from(if b < 0 {
+                    $Signed::MIN.wrapping_sub(b)
+                } else {
+                    b
+                })
+            }
+            fn from_ordinal(o: i64) -> Self {
+                let o = o.clamp(i64::from($Signed::MIN), i64::from($Signed::MAX)) as $Signed;
+                let b = if o < 0 {
+                    $Signed::MIN.wrapping_sub(o)
+                } else {
+                    o
+                };
+                $R::from_bits(b as $Bits)
             }
             #[inline]
             fn from_f64(x: f64) -> Self {
@@ -196,13 +231,23 @@ macro_rules! real {
 real!(
     f64,
     u64,
+    i64,
     0x7ff8_0000_0000_0000,
     libm::sqrt,
     libm::exp,
     libm::log,
     libm::fabs
 );
-real!(f32, u32, 0x7fc0_0000, libm::sqrtf, expf, logf, libm::fabsf);
+real!(
+    f32,
+    u32,
+    i32,
+    0x7fc0_0000,
+    libm::sqrtf,
+    expf,
+    logf,
+    libm::fabsf
+);
 
 #[cfg(test)]
 mod tests {

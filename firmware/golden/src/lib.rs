@@ -1,12 +1,12 @@
 //! The golden run, shared by every board and runner in `firmware/`: build
 //! a scenario's bed, settle it, run it under the flow, and report the state
 //! digest after each phase in the lines `mbs digest` prints (`settled 0x…`,
-//! `flow 0x…`), so that a run on any target compares with the host's bit
-//! for bit (docs/board.md).
+//! `flow 0x…`); then the living bed's trace ([`trace`]): so that a run on
+//! any target compares with the host's bit for bit (docs/board.md).
 #![no_std]
 
 use core::fmt;
-use mbs_kernel::{BedSpec, Error, Real, Scenario, Sim};
+use mbs_kernel::{BedSpec, Error, FieldGroup, Real, Scenario, Sim};
 
 /// Steps of each phase of the paper's run (`mbs digest`'s default).
 pub const STEPS: u64 = 2000;
@@ -142,4 +142,119 @@ pub fn run<R: Real, const N: usize, const K: usize>(
         flow,
         cost,
     })
+}
+
+/// Settling steps of the living bed (tests/golden.rs): its committed
+/// settled states are taken after them.
+pub const LIVING_SETTLE_STEPS: u64 = 80_000;
+
+/// Shields number of the living bed's flow, where grains saltate.
+pub const LIVING_TAU_STAR: f64 = 0.5;
+
+/// Steps between the trace's records.
+pub const TRACE_EVERY: u64 = 500;
+
+/// Flow steps of the trace: 2 000 (what CI runs on every target), or
+/// `MBS_TRACE_STEPS` at build time (e.g. 400 000, the living bed's whole
+/// flow phase). A multiple of [`TRACE_EVERY`] keeps the records the host's.
+pub const TRACE_STEPS: u64 = match option_env!("MBS_TRACE_STEPS") {
+    Some(text) => parse(text),
+    None => 2000,
+};
+
+/// A decimal number (a build-time constant: a bad one fails the build).
+const fn parse(text: &str) -> u64 {
+    let bytes = text.as_bytes();
+    let mut i = 0;
+    let mut n: u64 = 0;
+    while i < bytes.len() {
+        assert!(bytes[i].is_ascii_digit(), "MBS_TRACE_STEPS: digits only");
+        n = n * 10 + (bytes[i] - b'0') as u64;
+        i += 1;
+    }
+    n
+}
+
+/// The paper's bed after [`LIVING_SETTLE_STEPS`] settling steps, as kernel
+/// checkpoints (tests/golden/living-settled-f32.ckpt, …-f64.ckpt; the
+/// golden test proves them equal to a fresh settle on the host).
+const SETTLED_F32: &[u8] = include_bytes!("../../../tests/golden/living-settled-f32.ckpt");
+const SETTLED_F64: &[u8] = include_bytes!("../../../tests/golden/living-settled-f64.ckpt");
+
+/// One record of the trace: the line `trace STEP PHASE DIGEST` and the
+/// digests of the field groups in [`FieldGroup::ALL`] order, as
+/// `.ci/trace-lines.py` writes the records of the host's trace file.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Record {
+    /// Integration steps since the bed was built.
+    pub step: u64,
+    /// `settle` (the settled bed) or `flow`.
+    pub phase: &'static str,
+    /// The state digest.
+    pub digest: u64,
+    /// The field groups' digests.
+    pub groups: [u64; 5],
+}
+
+impl fmt::Display for Record {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "trace {} {} {:#018x}",
+            self.step, self.phase, self.digest
+        )?;
+        for g in self.groups {
+            write!(f, " {g:#018x}")?;
+        }
+        Ok(())
+    }
+}
+
+fn record<R: Real, const N: usize, const K: usize>(
+    sim: &Sim<R, N, K>,
+    phase: &'static str,
+) -> Record {
+    let mut groups = [0; 5];
+    for (g, group) in groups.iter_mut().zip(FieldGroup::ALL) {
+        *g = sim.group_digest(group);
+    }
+    Record {
+        step: sim.step_count(),
+        phase,
+        digest: sim.digest(),
+        groups,
+    }
+}
+
+/// The living bed's trace: restores the committed settled bed, records it,
+/// switches the flow on at [`LIVING_TAU_STAR`] and runs `steps` steps,
+/// recording every `every` and at the end; hands each record to `out` and
+/// returns the meter's count over the steps. The host's
+/// `mbs digest --steps 80000 --flow-steps STEPS --tau 0.5 --every EVERY
+/// --from 80000 --trace FILE` records the same.
+pub fn trace<R: Real, const N: usize, const K: usize>(
+    sim: &mut Sim<R, N, K>,
+    steps: u64,
+    every: u64,
+    meter: &mut impl Meter,
+    mut out: impl FnMut(&Record),
+) -> Result<u64, Error> {
+    sim.restore(if R::BYTES == 4 {
+        SETTLED_F32
+    } else {
+        SETTLED_F64
+    })?;
+    out(&record(sim, "settle"));
+    sim.set_flow(Some(&Scenario::paper().flow(LIVING_TAU_STAR)))?;
+    let end = sim.step_count().saturating_add(steps);
+    let mut cost = 0;
+    while sim.step_count() < end {
+        for _ in 0..every.max(1).min(end - sim.step_count()) {
+            let start = meter.now();
+            sim.step()?;
+            cost += meter.now().wrapping_sub(start);
+        }
+        out(&record(sim, "flow"));
+    }
+    Ok(cost)
 }

@@ -46,12 +46,15 @@ fn paint_stack() {
 }
 
 /// Runs `steps` settling and `steps` flow steps of `scenario` in `sim`
-/// ([`golden::run`]), prints the report, the instructions per grain-step
-/// and the peak stack use, and exits 0; exits 1 on any kernel error.
+/// ([`golden::run`]), prints the report and the instructions per
+/// grain-step; with `living`, then the living bed's trace
+/// ([`golden::trace`]); then the peak stack use, and exits 0; exits 1 on
+/// any kernel error.
 pub fn run<R: Real, const N: usize, const K: usize>(
     sim: &mut Sim<R, N, K>,
     scenario: &Scenario,
     steps: u64,
+    living: bool,
 ) -> ! {
     paint_stack();
     match golden::run(sim, scenario, steps, &mut Instret) {
@@ -61,6 +64,19 @@ pub fn run<R: Real, const N: usize, const K: usize>(
                 "instructions per grain-step {}",
                 (report.cost + report.grain_steps() / 2) / report.grain_steps().max(1)
             );
+            if living {
+                let trace = golden::trace(
+                    sim,
+                    golden::TRACE_STEPS,
+                    golden::TRACE_EVERY,
+                    &mut Instret,
+                    |r| hprintln!("{}", r),
+                );
+                if let Err(e) = trace {
+                    hprintln!("error: {}", e);
+                    debug::exit(debug::EXIT_FAILURE);
+                }
+            }
             let (bottom, top) = stack_room();
             // SAFETY: painted by `paint_stack`.
             let used = unsafe { golden::stack::used(bottom, top) };

@@ -19,5 +19,5 @@ static mut SIM: Sim<Real, 64, 8> = Sim::new();
 fn main() -> ! {
     // SAFETY: the only reference to SIM, taken once.
     let sim = unsafe { &mut *core::ptr::addr_of_mut!(SIM) };
-    firmware_riscv::run(sim, &Scenario::paper(), golden::STEPS)
+    firmware_riscv::run(sim, &Scenario::paper(), golden::STEPS, true)
 }

@@ -35,7 +35,13 @@ fn main() -> ! {
     static mut SIM: Sim<f32, GRAINS, SLOTS> = Sim::new();
     let sim: &'static mut Sim<f32, GRAINS, SLOTS> = SIM;
     let peripherals = cortex_m::Peripherals::take().expect("first and only call");
-    firmware::run(sim, &golden::bed(COLUMNS, ROWS), STEPS, peripherals.SYST)
+    firmware::run(
+        sim,
+        &golden::bed(COLUMNS, ROWS),
+        STEPS,
+        false,
+        peripherals.SYST,
+    )
 }
 
 #[exception]

@@ -1,7 +1,7 @@
 //! `golden-std [f32|f64] [STEPS]`: runs `Scenario::paper()` ([`golden::run`],
 //! `STEPS` settling then `STEPS` flow steps, 2000 by default) in `f64` (the
 //! default) or `f32`, prints its report and the wall-clock time per
-//! grain-step, and exits 0; exits 1 on a kernel error, 2 on bad arguments.
+//! grain-step, then the living bed's trace ([`golden::trace`]), and exits 0; exits 1 on a kernel error, 2 on bad arguments.
 //! Compare with `mbs digest --steps STEPS --precision f32|f64` on the host.
 //!
 //! The golden run on the targets with std that the host build does not
@@ -35,6 +35,17 @@ fn run<R: Real>(steps: u64) -> ExitCode {
                 "ns per grain-step {:.1}",
                 report.cost as f64 / report.grain_steps().max(1) as f64
             );
+            let trace = golden::trace(
+                &mut sim,
+                golden::TRACE_STEPS,
+                golden::TRACE_EVERY,
+                &mut Clock(Instant::now()),
+                |r| println!("{r}"),
+            );
+            if let Err(e) = trace {
+                eprintln!("error: {e}");
+                return ExitCode::FAILURE;
+            }
             ExitCode::SUCCESS
         }
         Err(e) => {

@@ -1,8 +1,17 @@
-//! `mbs digest --trace FILE --every K`: the trace file (docs/determinism.md,
-//! "Traces").
+//! `mbs digest --trace FILE --every K`: the trace file, and `mbs digest
+//! --check`, which compares a run with it and locates where they part
+//! (docs/determinism.md, "Traces").
 
 use crate::common::*;
-use mbs_kernel::Fnv1a;
+use std::path::{Path, PathBuf};
+
+/// The trace checksum: CRC-32 of the body's compact JSON.
+fn checksum(body: &serde_json::Value) -> String {
+    format!(
+        "{:#010x}",
+        crc32fast::hash(serde_json::to_string(body).unwrap().as_bytes())
+    )
+}
 
 #[test]
 fn digest_writes_a_trace_of_the_run() {
@@ -21,9 +30,11 @@ fn digest_writes_a_trace_of_the_run() {
     let file: serde_json::Value = serde_json::from_str(&text).unwrap();
     let body = &file["body"];
     // The checksum covers the body's compact JSON.
-    let checksum = Fnv1a::of(serde_json::to_string(body).unwrap().as_bytes());
-    assert_eq!(file["checksum"], format!("{checksum:#018x}"));
-    assert_eq!(body["format"], "mbs-trace 1");
+    assert_eq!(file["checksum"], checksum(body));
+    assert_eq!(body["format"], "mbs-trace 2");
+    assert_eq!(body["from"], 0);
+    assert_eq!(body["until"], 400);
+    assert_eq!(body["states"], false);
     assert_eq!(body["precision"], "f64");
     assert_eq!(body["settle_steps"], 200);
     assert_eq!(body["flow_steps"], 200);
@@ -42,6 +53,7 @@ fn digest_writes_a_trace_of_the_run() {
     assert_eq!(records[4]["phase"], "settle");
     assert_eq!(records[5]["phase"], "flow");
     for r in records {
+        assert!(r.get("state").is_none(), "no states unless asked");
         let groups = r["groups"].as_object().unwrap();
         let names: Vec<&str> = groups.keys().map(String::as_str).collect();
         assert_eq!(
@@ -66,7 +78,7 @@ fn every_must_be_positive() {
 }
 
 /// Writes a trace of 200 + 200 steps every 50 into `dir`.
-fn trace_in(dir: &std::path::Path) -> std::path::PathBuf {
+fn trace_in(dir: &Path) -> PathBuf {
     let file = dir.join("trace.json");
     mbs()
         .args(["digest", "--steps", "200", "--every", "50", "--trace"])
@@ -77,12 +89,11 @@ fn trace_in(dir: &std::path::Path) -> std::path::PathBuf {
 }
 
 /// Rewrites a trace's body with `edit` and a checksum that matches.
-fn edit_with_checksum(file: &std::path::Path, edit: impl FnOnce(&mut serde_json::Value)) {
+fn edit_with_checksum(file: &Path, edit: impl FnOnce(&mut serde_json::Value)) {
     let mut trace: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(file).unwrap()).unwrap();
     edit(&mut trace["body"]);
-    let checksum = Fnv1a::of(serde_json::to_string(&trace["body"]).unwrap().as_bytes());
-    trace["checksum"] = format!("{checksum:#018x}").into();
+    trace["checksum"] = checksum(&trace["body"]).into();
     std::fs::write(file, serde_json::to_string_pretty(&trace).unwrap()).unwrap();
 }
 
@@ -154,4 +165,169 @@ fn check_refuses_damaged_edited_truncated_and_foreign_traces() {
         .assert()
         .code(2)
         .stderr(predicates::str::contains("scenario hash"));
+}
+
+/// `mbs digest --check TRACE [--nudge N]`: its exit status and standard error.
+fn check(trace: &Path, nudge: Option<&str>) -> (Option<i32>, String) {
+    let mut c = mbs();
+    c.args(["digest", "--check"]).arg(trace);
+    if let Some(n) = nudge {
+        c.args(["--nudge", n]);
+    }
+    let out = c.output().unwrap();
+    (out.status.code(), String::from_utf8(out.stderr).unwrap())
+}
+
+/// Records `mbs digest ARGS --trace FILE` in `dir`.
+fn record(dir: &Path, name: &str, args: &[&str]) -> PathBuf {
+    let file = dir.join(name);
+    mbs()
+        .arg("digest")
+        .args(args)
+        .arg("--trace")
+        .arg(&file)
+        .assert()
+        .success();
+    file
+}
+
+/// The locator, tested honestly: a run changed by one ULP of one grain's
+/// field at a known step (`--nudge`, through the kernel's `Sim::nudge`) is
+/// located to that integration step, that grain and that field, with the
+/// size of the change, in both precisions and for three fields.
+#[test]
+fn a_one_ulp_change_is_located_to_its_step_grain_and_field() {
+    let dir = tempfile::tempdir().unwrap();
+    for (precision, from, until, nudge, grain_line) in [
+        ("f64", "270", "300", "290:7:y", "grain 7 y: "),
+        ("f32", "340", "360", "350:12:spin:-2", "grain 12 spin: "),
+        ("f64", "390", "400", "395:20:draw_u", "grain 20 draw_u: "),
+    ] {
+        let trace = record(
+            dir.path(),
+            &format!("dense-{precision}-{from}.json"),
+            &[
+                "--steps",
+                "200",
+                "--precision",
+                precision,
+                "--every",
+                "1",
+                "--from",
+                from,
+                "--until",
+                until,
+                "--states",
+            ],
+        );
+        assert_eq!(
+            check(&trace, None).0,
+            Some(0),
+            "{precision}: unchanged, it matches"
+        );
+        let (code, err) = check(&trace, Some(nudge));
+        assert_eq!(code, Some(1), "{err}");
+        let step = nudge.split(':').next().unwrap();
+        for expected in [
+            format!("first mismatch at integration step {step}"),
+            format!("the runs part at integration step {step}"),
+            "1 grain value differs in 1 grain\n".to_string(),
+            grain_line.to_string(),
+        ] {
+            assert!(
+                err.contains(&expected),
+                "{precision} {nudge}: no {expected:?} in\n{err}"
+            );
+        }
+        let ulps = nudge.split(':').nth(3).unwrap_or("+1");
+        let ulps = if ulps.starts_with('-') {
+            ulps.to_string()
+        } else {
+            format!("+{}", ulps.trim_start_matches('+'))
+        };
+        assert!(err.contains(&format!("({ulps} ULP, difference ")), "{err}");
+    }
+}
+
+/// A coarse trace says between which records the runs part and prints the
+/// two commands that narrow it down; run as printed, they locate the step.
+#[test]
+fn a_coarse_mismatch_prints_the_commands_that_locate_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let coarse = record(
+        dir.path(),
+        "coarse.json",
+        &["--steps", "300", "--every", "100"],
+    );
+    let (code, err) = check(&coarse, Some("290:7:y"));
+    assert_eq!(code, Some(1), "{err}");
+    assert!(
+        err.contains("first mismatch at integration step 300 (settle phase)"),
+        "{err}"
+    );
+    assert!(err.contains("differing groups: positions"), "{err}");
+    assert!(
+        err.contains("between integration steps 200 (equal) and 300"),
+        "{err}"
+    );
+    // The printed recording command, run as printed (in `dir`).
+    let command = err
+        .lines()
+        .map(str::trim)
+        .find(|l| l.starts_with("mbs digest ") && l.contains("--trace dense.json"))
+        .unwrap_or_else(|| panic!("no command in\n{err}"));
+    assert!(
+        command.contains("--every 1 --from 200 --until 300 --states"),
+        "{command}"
+    );
+    let args: Vec<&str> = command.split_whitespace().skip(1).collect();
+    mbs().current_dir(dir.path()).args(&args).assert().success();
+    let (code, err) = check(&dir.path().join("dense.json"), Some("290:7:y"));
+    assert_eq!(code, Some(1), "{err}");
+    assert!(
+        err.contains("the runs part at integration step 290"),
+        "{err}"
+    );
+    assert!(err.contains("grain 7 y: "), "{err}");
+}
+
+#[test]
+fn a_nudge_that_cannot_apply_is_a_usage_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let trace = record(dir.path(), "t.json", &["--steps", "20", "--every", "10"]);
+    for (nudge, why) in [
+        ("5:100000:x", "nudge grain = 100000"),
+        ("5:1:mass", "field \"mass\""),
+        ("5:1:x:0", "ULPS 0 changes nothing"),
+    ] {
+        let (code, err) = check(&trace, Some(nudge));
+        assert_eq!(code, Some(2), "{nudge}: {err}");
+        assert!(err.contains(why), "{nudge}: {err}");
+    }
+}
+
+/// A trace's states are state from outside: a state moved to another
+/// record (checksum recomputed) is refused, not trusted.
+#[test]
+fn a_trace_with_a_foreign_first_state_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let trace = record(
+        dir.path(),
+        "dense.json",
+        &[
+            "--steps", "100", "--every", "1", "--from", "150", "--until", "155", "--states",
+        ],
+    );
+    edit_with_checksum(&trace, |body| {
+        body["records"][0]["state"] = body["records"][1]["state"].clone();
+    });
+    let (code, err) = check(&trace, None);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("first record's state"), "{err}");
+    edit_with_checksum(&trace, |body| {
+        body["records"][0]["state"] = "not base64!".into()
+    });
+    let (code, err) = check(&trace, None);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("not base64"), "{err}");
 }

@@ -25,5 +25,5 @@ static mut SIM: Sim<f32, GRAINS, SLOTS> = Sim::new();
 fn main() -> ! {
     // SAFETY: the only reference to SIM, taken once.
     let sim = unsafe { &mut *core::ptr::addr_of_mut!(SIM) };
-    firmware_riscv::run(sim, &golden::bed(COLUMNS, ROWS), STEPS)
+    firmware_riscv::run(sim, &golden::bed(COLUMNS, ROWS), STEPS, false)
 }
