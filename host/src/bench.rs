@@ -150,12 +150,11 @@ fn prepare_columns<R: Real, const N: usize, const K: usize>(
     flow: bool,
     beds: Option<&Path>,
 ) -> Result<(), HostError> {
-    if let Some(dir) = beds {
-        if let Ok(bytes) = std::fs::read(bed.file::<R>(dir, columns, flow)) {
-            if sim.restore(&bytes).is_ok() {
-                return Ok(());
-            }
-        }
+    if let Some(dir) = beds
+        && let Ok(bytes) = std::fs::read(bed.file::<R>(dir, columns, flow))
+        && sim.restore(&bytes).is_ok()
+    {
+        return Ok(());
     }
     let sc = bed.scenario(columns);
     if flow {

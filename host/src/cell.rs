@@ -491,7 +491,8 @@ impl SimJob for CellJob<'_> {
                 state.batch_sum[b] += q;
                 state.batch_n[b] += 1;
                 for (c, sum) in state.per_class.iter_mut().enumerate() {
-                    *sum += o.q_star_class(c, classes[c].diameter, s, G);
+                    // Each class on the total's scale d_max: the classes add up to q*.
+                    *sum += o.q_star_class(c, d_max, s, G);
                 }
                 state.samples += 1;
                 state.done += sample;

@@ -330,9 +330,10 @@ pub fn pack(
         sc.rule.beta
     );
     write_packing(&dir, &samples, &title)?;
-    if !common.quiet {
-        if let (Some(first), Some(last)) = (samples.first(), samples.last()) {
-            print(&format!(
+    if !common.quiet
+        && let (Some(first), Some(last)) = (samples.first(), samples.last())
+    {
+        print(&format!(
                 "y_gc {:.4} mm -> {:.4} mm over {:.3} s; kinetic energy at the end {:.3e} J; wrote {}/packing.csv, packing.png, packing.svg\n",
                 first.y_gc * 1e3,
                 last.y_gc * 1e3,
@@ -340,7 +341,6 @@ pub fn pack(
                 last.kinetic_energy,
                 dir.display()
             ))?;
-        }
     }
     Ok(())
 }
@@ -543,10 +543,11 @@ pub fn bench_command(
     spinner.enable_steady_tick(std::time::Duration::from_millis(200));
     let (case, beta) = (job.case, job.bed.beta);
     let sc = job.bed.scenario(job.bed.columns());
-    if precision == Precision::F32 && !common.quiet {
-        if let Some(w) = crate::config::f32_width_warning(sc.bed.width(), sc.step_dt()) {
-            print_err(&format!("warning: {w}"));
-        }
+    if precision == Precision::F32
+        && !common.quiet
+        && let Some(w) = crate::config::f32_width_warning(sc.bed.width(), sc.step_dt())
+    {
+        print_err(&format!("warning: {w}"));
     }
     let r = bench(precision, job);
     spinner.finish_and_clear();

@@ -170,8 +170,60 @@ pub enum Precision {
 pub struct ClassEntry {
     /// Diameter (mm).
     pub diameter_mm: f64,
-    /// Fraction of the lattice sites.
+    /// Fraction of the bed: by volume (a sieve fraction) or by number of
+    /// grains, as [`GrainsSection::fractions`] says.
     pub fraction: f64,
+}
+
+/// What the classes' fractions measure (`grains.fractions`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum FractionBasis {
+    /// Volume (mass) fractions, as a sieve analysis gives them.
+    Volume,
+    /// Fractions of the number of grains (of the lattice sites).
+    Number,
+}
+
+/// The fraction of the lattice sites (by number) of each class that gives
+/// the volume fractions `volume` to grains of `diameters` (spheres, volume
+/// ∝ d³): n_k ∝ f_k / d_k³ (docs/model.md §7).
+///
+/// ```
+/// use mbs::config::number_fractions;
+///
+/// // 0.7 and 0.5 mm, half and half by volume: 0.267 and 0.733 by number.
+/// let n = number_fractions(&[0.7, 0.5], &[0.5, 0.5]);
+/// assert!((n[0] - 0.125 / 0.468).abs() < 1e-12 && (n[1] - 0.343 / 0.468).abs() < 1e-12);
+/// ```
+pub fn number_fractions(diameters: &[f64], volume: &[f64]) -> Vec<f64> {
+    let weights: Vec<f64> = diameters
+        .iter()
+        .zip(volume)
+        .map(|(d, f)| f / (d * d * d))
+        .collect();
+    let total: f64 = weights.iter().sum();
+    weights.iter().map(|w| w / total).collect()
+}
+
+/// The volume fractions of classes of `diameters` present in the fractions
+/// `number` by number: f_k ∝ n_k d_k³ (the inverse of [`number_fractions`]).
+///
+/// ```
+/// use mbs::config::volume_fractions;
+///
+/// // The issue's case: 0.7/0.5 mm at 0.5/0.5 by number is 0.733/0.267 by volume.
+/// let f = volume_fractions(&[0.7, 0.5], &[0.5, 0.5]);
+/// assert!((f[0] - 0.343 / 0.468).abs() < 1e-12 && (f[1] - 0.125 / 0.468).abs() < 1e-12);
+/// ```
+pub fn volume_fractions(diameters: &[f64], number: &[f64]) -> Vec<f64> {
+    let weights: Vec<f64> = diameters
+        .iter()
+        .zip(number)
+        .map(|(d, n)| n * d * d * d)
+        .collect();
+    let total: f64 = weights.iter().sum();
+    weights.iter().map(|w| w / total).collect()
 }
 
 /// `[grains]`.
@@ -182,6 +234,8 @@ pub struct GrainsSection {
     pub diameter_mm: Option<f64>,
     /// Size classes of a mixed bed.
     pub classes: Option<Vec<ClassEntry>>,
+    /// What the classes' fractions measure: `volume` (default) or `number`.
+    pub fractions: FractionBasis,
     /// Specific gravity s.
     pub specific_gravity: f64,
 }
@@ -314,6 +368,7 @@ impl Default for GrainsSection {
         GrainsSection {
             diameter_mm: None,
             classes: None,
+            fractions: FractionBasis::Volume,
             specific_gravity: p.material.s,
         }
     }
@@ -666,7 +721,6 @@ fn bed_spec(file: &ConfigFile) -> Result<BedSpec, ConfigError> {
         &format!("1 to {MAX_CLASSES} classes"),
     )?;
     let single = g.classes.is_none();
-    let mut classes = heapless::Vec::<SizeClass, MAX_CLASSES>::new();
     for (k, c) in entries.iter().enumerate() {
         let key = |field: &str| {
             if single {
@@ -687,10 +741,27 @@ fn bed_spec(file: &ConfigFile) -> Result<BedSpec, ConfigError> {
             c.fraction,
             "in (0, 1]",
         )?;
+    }
+    let given: f64 = entries.iter().map(|c| c.fraction).sum();
+    need(
+        (given - 1.0).abs() < 1e-9,
+        "grains.classes (sum of fractions)",
+        given,
+        "= 1",
+    )?;
+    // The kernel draws each lattice site's class by number.
+    let diameters: Vec<f64> = entries.iter().map(|c| c.diameter_mm).collect();
+    let fractions: Vec<f64> = entries.iter().map(|c| c.fraction).collect();
+    let by_number = match g.fractions {
+        FractionBasis::Volume => number_fractions(&diameters, &fractions),
+        FractionBasis::Number => fractions,
+    };
+    let mut classes = heapless::Vec::<SizeClass, MAX_CLASSES>::new();
+    for (d, n) in diameters.iter().zip(by_number) {
         // Capacity checked above; a failed push cannot happen.
         let _ = classes.push(SizeClass {
-            diameter: c.diameter_mm * 1e-3,
-            fraction: c.fraction,
+            diameter: d * 1e-3,
+            fraction: n,
         });
     }
     let b = &file.bed;
@@ -1001,6 +1072,36 @@ mod tests {
         // Two windows of 25 d are 50 d: 48 columns (50.4 d) suffice.
         assert!(warned(47, 25.0, true));
         assert!(!warned(48, 25.0, true));
+    }
+
+    #[test]
+    fn mixed_fractions_are_by_volume_unless_said_otherwise() {
+        let mixed = "[grains]\nclasses = [{ diameter_mm = 0.7, fraction = 0.5 }, { diameter_mm = 0.5, fraction = 0.5 }]\n";
+        let sites = |text: &str| -> Vec<f64> {
+            let c = Config::from_toml(text).unwrap();
+            c.scenario.bed.classes.iter().map(|k| k.fraction).collect()
+        };
+        // Half and half by volume: n_k ∝ f_k/d_k³, 0.125/0.468 and 0.343/0.468 by number.
+        let by_volume = sites(mixed);
+        assert!(
+            (by_volume[0] - 0.125 / 0.468).abs() < 1e-12,
+            "{by_volume:?}"
+        );
+        assert!(
+            (by_volume[1] - 0.343 / 0.468).abs() < 1e-12,
+            "{by_volume:?}"
+        );
+        assert_eq!(
+            sites(&format!("{mixed}fractions = \"volume\"\n")),
+            by_volume
+        );
+        assert_eq!(
+            sites(&format!("{mixed}fractions = \"number\"\n")),
+            [0.5, 0.5]
+        );
+        // A single size is one class of fraction 1 either way: the same bits.
+        assert_eq!(sites(""), [1.0]);
+        assert!(Config::from_toml("[grains]\nfractions = \"mass\"\n").is_err());
     }
 
     #[test]

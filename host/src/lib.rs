@@ -9,6 +9,7 @@
 //! | [`experiment`] | q*(τ*) over seeds, in parallel, thread-count independent |
 //! | [`store`] | append-only file of finished cells |
 //! | [`references`] | bed-load relations of docs/model.md §10 |
+//! | [`mixture`] | fractional transport of a mixture with hiding (Wilcock & Crowe 2003) |
 //! | [`pack`] | packing test (docs/model.md §9 step 1) |
 //! | [`snapshot`] | bed pictures and VTK series |
 //! | [`bench`] | hot-loop benchmark shared with criterion |
@@ -24,6 +25,7 @@ pub mod commands;
 pub mod config;
 pub mod error;
 pub mod experiment;
+pub mod mixture;
 pub mod output;
 pub mod pack;
 pub mod plot;

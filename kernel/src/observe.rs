@@ -46,7 +46,11 @@ impl Observation {
         q_star(self.q_b(d), d, s, g)
     }
 
-    /// q* of size class `class` of diameter `d`.
+    /// q* of size class `class` on the scale `d`: its flux over the slice
+    /// thickness `d`, made dimensionless with `d` (docs/model.md §8). With
+    /// the `d` given to [`Observation::q_star`] (the largest diameter), the
+    /// classes add up to the total; a class's own-scale q* is this times
+    /// (d/d_k)^(3/2).
     pub fn q_star_class(&self, class: usize, d: f64, s: f64, g: f64) -> f64 {
         let flux = self.volume_flux.get(class).copied().unwrap_or(0.0);
         q_star(flux / d, d, s, g)

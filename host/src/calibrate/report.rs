@@ -307,22 +307,28 @@ pub fn write_report(
     }
     let _ = writeln!(
         o,
-        "\n## Stage 5: mixed sizes\n\nClasses {:?} (mm, fraction), constants for the largest grain, {} substeps per constants_dt. Fractional transport q*_k/f_k of each class against the reference at the class's Shields number τ*_k = τ* d_max/d_k.\n\n![](stage5.png)\n\n| τ* | d (mm) | τ*_k | q*_k / f_k | reference | ratio |\n|---|---|---|---|---|---|",
+        "\n## Stage 5: mixed sizes\n\nClasses {:?} (mm, fraction), constants for the largest grain, {} substeps per constants_dt. Fractional transport q*_k/f_k of each class (f_k its volume fraction, q*_k on its own diameter) against the reference at the class's Shields number τ*_k = τ* d_max/d_k (no hiding), and against Wilcock & Crowe (2003) for this mixture (hiding; the bulk's fractions stand for the surface's).\n\n![](stage5.png)\n\n| τ* | d (mm) | τ*_k | q*_k / f_k | reference | ratio | Wilcock & Crowe | ratio |\n|---|---|---|---|---|---|---|---|",
         plan.mixed, s.mixed.substeps
     );
     for p in &s.mixed.points {
         let _ = writeln!(
             o,
-            "| {} | {} | {:.3} | {:.4} | {:.4} | {:.2} |",
+            "| {} | {} | {:.3} | {:.4} | {:.4} | {:.2} | {:.4} | {:.2} |",
             p.tau_star,
             p.diameter_mm,
             p.tau_star_class,
             p.q_star_fraction,
             p.reference,
-            p.ratio()
+            p.ratio(),
+            p.wilcock_crowe,
+            p.ratio_hiding()
         );
     }
-    let _ = writeln!(o, "\nWorst factor per class: {:.2}.", s.mixed.worst_factor);
+    let _ = writeln!(
+        o,
+        "\nWorst factor per class: {:.2} against the reference, {:.2} against Wilcock & Crowe.",
+        s.mixed.worst_factor, s.mixed.worst_factor_hiding
+    );
     let _ = writeln!(o, "\n{}", class_ratios(s.mixed));
     if !s.mixed.curve.failures.is_empty() {
         let _ = writeln!(o, "\nFailed cells: {}.", s.mixed.curve.failures.join("; "));

@@ -108,6 +108,15 @@ fn mixed_beds_get_columns_per_size_class() {
         csv.starts_with("tau_star,q_star,q_star_stderr,seeds,mpm,wong_parker,q_star_1mm,q_star_1mm_stderr,q_star_0.7mm,q_star_0.7mm_stderr\n"),
         "{csv}"
     );
+    // The classes are on the total's scale (d_max): they add up to q*.
+    for line in csv.lines().skip(1) {
+        let v: Vec<f64> = line.split(',').map(|x| x.parse().unwrap()).collect();
+        let (total, classes) = (v[1], v[6] + v[8]);
+        assert!(
+            (total - classes).abs() <= 1e-12 * total.abs().max(1e-9),
+            "q* {total} is not the sum of its classes {classes}: {line}"
+        );
+    }
 }
 
 #[test]

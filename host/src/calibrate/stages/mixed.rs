@@ -1,6 +1,8 @@
 //! Stage 5 (docs/model.md §9 step 6): a mixed bed with the constants of
 //! stage 3 set for the largest grain; fractional transport per size class
-//! against the reference relation evaluated per class. The integration step is refined
+//! (volume fractions, each class on its own scale) against the reference
+//! relation evaluated per class (no hiding) and against Wilcock & Crowe
+//! (2003), a surface-based relation with hiding. The integration step is refined
 //! by (d_max/d_min)³ so that the finest grains stay inside the explicit
 //! damping limit (docs/findings/explicit-damping-limit.md).
 
@@ -8,6 +10,7 @@ use super::{save_stage, slot_of};
 use crate::calibrate::{Context, Curve, Q_FLOOR};
 use crate::config::ClassEntry;
 use crate::error::HostError;
+use crate::mixture::{geometric_mean, wilcock_crowe};
 use crate::output::{decimal, write_csv};
 use crate::plot::{save, TransportFigure};
 use serde::{Deserialize, Serialize};
@@ -19,14 +22,17 @@ pub struct ClassPoint {
     pub tau_star: f64,
     /// Class diameter (mm).
     pub diameter_mm: f64,
-    /// Its fraction of the bed.
+    /// Its volume fraction of the bed.
     pub fraction: f64,
     /// Shields number of the class: τ* d_max/d.
     pub tau_star_class: f64,
-    /// Fractional transport q*_k / f_k.
+    /// Fractional transport q*_k / f_k, q*_k on the class's own scale
+    /// (q_Bk/√((s − 1) g d_k³)) and f_k its volume fraction.
     pub q_star_fraction: f64,
-    /// Reference at the class's Shields number.
+    /// Reference at the class's Shields number (no hiding).
     pub reference: f64,
+    /// Wilcock & Crowe (2003) for this class in this mixture (hiding).
+    pub wilcock_crowe: f64,
 }
 
 impl ClassPoint {
@@ -35,6 +41,25 @@ impl ClassPoint {
     pub fn ratio(&self) -> f64 {
         self.q_star_fraction.max(Q_FLOOR) / self.reference.max(Q_FLOOR)
     }
+
+    /// q*_k/f_k over Wilcock & Crowe, floored alike.
+    pub fn ratio_hiding(&self) -> f64 {
+        self.q_star_fraction.max(Q_FLOOR) / self.wilcock_crowe.max(Q_FLOOR)
+    }
+}
+
+/// The worst factor max(r, 1/r) of `ratios`; a failed cell (NaN) counts as
+/// an infinite factor, never as a good one.
+fn worst(ratios: impl Iterator<Item = f64>) -> f64 {
+    ratios
+        .map(|r| {
+            if r.is_finite() {
+                r.max(1.0 / r)
+            } else {
+                f64::INFINITY
+            }
+        })
+        .fold(1.0, f64::max)
 }
 
 /// The outcome of stage 5.
@@ -48,6 +73,8 @@ pub struct MixedStage {
     pub points: Vec<ClassPoint>,
     /// Worst factor between fractional transport and reference per class.
     pub worst_factor: f64,
+    /// Worst factor between fractional transport and Wilcock & Crowe.
+    pub worst_factor_hiding: f64,
 }
 
 /// Runs stage 5.
@@ -76,43 +103,38 @@ pub fn run(
     let Some(curve) = ctx.curve(&c, &plan.fit_points(), plan.window, &slot_of(0, 0))? else {
         return Ok(None);
     };
+    // Volume fractions (the configuration's `grains.fractions` is "volume"),
+    // the surface's mean for Wilcock & Crowe (taken as the bulk's) and its
+    // sand fraction (< 2 mm).
+    let (diameters, fractions): (Vec<f64>, Vec<f64>) = plan.mixed.iter().copied().unzip();
+    let d_sm = geometric_mean(&diameters, &fractions);
+    let sand: f64 = plan.mixed.iter().filter(|c| c.0 < 2.0).map(|c| c.1).sum();
     let mut points = Vec::new();
     for (k, &(d, f)) in plan.mixed.iter().enumerate() {
+        // From the total's scale d_max (on which the classes add up) to the class's own.
+        let own_scale = (d_max / d).powf(1.5);
         for (i, &t) in curve.tau_stars.iter().enumerate() {
             let tau_k = t * d_max / d;
+            let q_k = curve.classes.get(k).and_then(|q| q.get(i)).copied();
             points.push(ClassPoint {
                 tau_star: t,
                 diameter_mm: d,
                 fraction: f,
                 tau_star_class: tau_k,
-                q_star_fraction: curve
-                    .classes
-                    .get(k)
-                    .and_then(|q| q.get(i))
-                    .copied()
-                    .unwrap_or(f64::NAN)
-                    / f,
+                q_star_fraction: q_k.unwrap_or(f64::NAN) * own_scale / f,
                 reference: ctx.reference.q_star(tau_k),
+                wilcock_crowe: wilcock_crowe(tau_k, d, d_sm, sand),
             });
         }
     }
-    // A failed cell (NaN) counts as an infinite factor, never as a good one.
-    let worst_factor = points
-        .iter()
-        .map(|p| {
-            let r = p.ratio();
-            if r.is_finite() {
-                r.max(1.0 / r)
-            } else {
-                f64::INFINITY
-            }
-        })
-        .fold(1.0, f64::max);
+    let worst_factor = worst(points.iter().map(ClassPoint::ratio));
+    let worst_factor_hiding = worst(points.iter().map(ClassPoint::ratio_hiding));
     let result = MixedStage {
         substeps: c.time.substeps,
         curve,
         points,
         worst_factor,
+        worst_factor_hiding,
     };
     write_outputs(ctx, &result)?;
     Ok(Some(result))
@@ -133,6 +155,8 @@ struct ClassLine {
     q_star_fraction: f64,
     #[serde(serialize_with = "decimal")]
     reference: f64,
+    #[serde(serialize_with = "decimal")]
+    wilcock_crowe: f64,
 }
 
 fn write_outputs(ctx: &Context<'_>, r: &MixedStage) -> Result<(), HostError> {
@@ -146,6 +170,7 @@ fn write_outputs(ctx: &Context<'_>, r: &MixedStage) -> Result<(), HostError> {
             tau_star_class: p.tau_star_class,
             q_star_fraction: p.q_star_fraction,
             reference: p.reference,
+            wilcock_crowe: p.wilcock_crowe,
         })
         .collect();
     write_csv(&ctx.dir.join("stage5.csv"), None, &lines)?;
