@@ -59,14 +59,75 @@ pub struct BedInfo {
     pub y_min: f64,
 }
 
-/// The outcome of [`Sim::settle`].
+/// The outcome of [`Sim::settle`] and [`Sim::settle_to_rest`].
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Settled {
     /// Steps taken.
     pub steps: u64,
-    /// Whether the speed criterion was met within the step budget.
+    /// Whether the criterion was met within the step budget.
     pub at_rest: bool,
+    /// The largest mobile-grain speed at the last check (m/s).
+    pub speed: f64,
+    /// How far the mobile grains' centre of gravity moved over the last
+    /// check's window (m; 0 for [`Sim::settle`], which does not watch it).
+    pub drift: f64,
+}
+
+/// When a settling bed is at rest (docs/model.md §7 step 3): checked every
+/// `window` integration steps, for `checks` checks in a row every mobile
+/// grain slower than `speed` and the mobile grains' centre of gravity y_gc
+/// moved by less than `drift` over the window.
+///
+/// ```
+/// use mbs_kernel::{Rest, Scenario, G};
+///
+/// let sc = Scenario::paper();
+/// let rest = Rest::for_bed(sc.bed.max_diameter(), sc.material.s, G, sc.step_dt());
+/// // 1 % of √((s − 1) g d), d/1000 per 0.05 s.
+/// assert!((rest.speed - 0.01 * (1.65f64 * 9.81 * 0.5e-3).sqrt()).abs() < 1e-15);
+/// assert!((rest.drift - 0.5e-6).abs() < 1e-18);
+/// assert_eq!((rest.window, rest.checks), (20_000, 4));
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Rest {
+    /// Every mobile grain slower than this (m/s).
+    pub speed: f64,
+    /// y_gc moved by less than this over a window (m).
+    pub drift: f64,
+    /// Integration steps between checks (> 0).
+    pub window: u64,
+    /// Checks in a row that must pass (≥ 1).
+    pub checks: u32,
+}
+
+impl Rest {
+    /// Speed of a check as a fraction of √((s − 1) g d_max).
+    pub const SPEED: f64 = 0.01;
+    /// Drift per window as a fraction of d_max.
+    pub const DRIFT: f64 = 1e-3;
+    /// The window's length (s).
+    pub const WINDOW: f64 = 0.05;
+    /// Checks in a row: the bed stays still for 0.2 s.
+    pub const CHECKS: u32 = 4;
+
+    /// The default criterion for a bed of largest diameter `d_max` (m) and
+    /// specific gravity `s` under gravity `g` (m/s²), integrated with steps
+    /// of `step_dt` (s): grains
+    /// slower than 1 % of √((s − 1) g d_max), y_gc drifting less than d_max/1000
+    /// per 0.05 s (0.02 d/s), four windows in a row (0.2 s): the creep of a
+    /// bed still compacting at 0.05 d/s is not rest, nor a pause before a
+    /// collapse.
+    pub fn for_bed(d_max: f64, s: f64, g: f64, step_dt: f64) -> Rest {
+        let window = libm::round(Self::WINDOW / step_dt);
+        Rest {
+            speed: Self::SPEED * libm::sqrt((s - 1.0) * g * d_max),
+            drift: Self::DRIFT * d_max,
+            window: if window >= 1.0 { window as u64 } else { 1 },
+            checks: Self::CHECKS,
+        }
+    }
 }
 
 impl BedSpec {
@@ -284,23 +345,54 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
     }
 
     /// Steps until every mobile grain moves slower than `speed_tol` (m/s),
-    /// checked every 100 steps, or until `max_steps` (docs/model.md §7 step 3).
+    /// checked every 100 steps, or until `max_steps` (docs/model.md §7 step
+    /// 3): [`Sim::settle_to_rest`] without the centre-of-gravity condition.
     pub fn settle(&mut self, max_steps: u64, speed_tol: f64) -> Result<Settled, Error> {
+        let rest = Rest {
+            speed: speed_tol,
+            drift: f64::INFINITY,
+            window: 100,
+            checks: 1,
+        };
+        self.settle_to_rest(max_steps, &rest)
+    }
+
+    /// Steps until the bed is at `rest` or `max_steps` have been taken
+    /// (docs/model.md §7 step 3), checking every `rest.window` steps; the
+    /// outcome says which, with the speed and drift of the last check.
+    pub fn settle_to_rest(&mut self, max_steps: u64, rest: &Rest) -> Result<Settled, Error> {
         let start = self.step;
+        let window = rest.window.max(1);
+        let mut y_gc = self.observe().y_gc;
+        let mut last = Settled {
+            steps: 0,
+            at_rest: false,
+            speed: self.max_speed(),
+            drift: 0.0,
+        };
+        let mut passed = 0;
         while self.step - start < max_steps {
-            let chunk = (max_steps - (self.step - start)).min(100);
+            let chunk = (max_steps - (self.step - start)).min(window);
             self.run(chunk)?;
-            if self.max_speed() < speed_tol {
-                return Ok(Settled {
-                    steps: self.step - start,
-                    at_rest: true,
-                });
+            let now = self.observe().y_gc;
+            last = Settled {
+                steps: self.step - start,
+                at_rest: false,
+                speed: self.max_speed(),
+                drift: libm::fabs(now - y_gc),
+            };
+            y_gc = now;
+            passed = if last.speed < rest.speed && last.drift < rest.drift {
+                passed + 1
+            } else {
+                0
+            };
+            if passed >= rest.checks.max(1) {
+                last.at_rest = true;
+                return Ok(last);
             }
         }
-        Ok(Settled {
-            steps: self.step - start,
-            at_rest: false,
-        })
+        Ok(last)
     }
 
     /// Recomputes the mean bed level (docs/model.md §6, \[choice\]): the paper's

@@ -3,7 +3,7 @@
 
 mod common;
 
-use mbs_kernel::{BedSpec, Real, Scenario, Sim, SizeClass};
+use mbs_kernel::{BedSpec, Real, Rest, Scenario, Sim, SizeClass, G};
 
 type Bed<R> = Sim<R, 512, 8>;
 
@@ -283,3 +283,43 @@ fn bits_do_not_depend_on_skin_or_capacity() {
             .unwrap()
     );
 }
+
+/// Settling until at rest (docs/model.md §7 step 3) on the paper's bed as
+/// the host integrates it: the criterion is met within the cap, each check
+/// is a whole window, and the bed is then really at rest: over a further
+/// 0.25 s its centre of gravity moves less than five windows' tolerance
+/// and no grain speeds up past the threshold. A cap too short to settle
+/// ends not at rest, with the speed that says so.
+fn settles_to_rest<R: Real>(_tol: f64) {
+    let sc = Scenario::paper();
+    let (d, dt) = (sc.bed.max_diameter(), sc.step_dt());
+    let rest = Rest::for_bed(d, sc.material.s, G, dt);
+    let mut sim = boxed::<R>();
+    sc.build(&mut *sim).unwrap();
+    let mut early = sim.clone();
+    let capped = early.settle_to_rest(2 * rest.window, &rest).unwrap();
+    assert!(!capped.at_rest && capped.speed > rest.speed, "{capped:?}");
+    assert_eq!(capped.steps, 2 * rest.window);
+    let settled = sim.settle_to_rest(2 * 400_000, &rest).unwrap();
+    assert!(settled.at_rest, "{settled:?}");
+    assert!(settled.speed < rest.speed && settled.drift < rest.drift);
+    assert_eq!(settled.steps % rest.window, 0);
+    let y_gc = sim.observe().y_gc;
+    sim.run(100_000).unwrap();
+    let later = sim.observe();
+    assert!(
+        (later.y_gc - y_gc).abs() < 5.0 * rest.drift,
+        "still compacting: y_gc {y_gc} -> {}",
+        later.y_gc
+    );
+    assert!(later.max_speed < rest.speed, "{}", later.max_speed);
+    println!(
+        "{}: at rest after {} steps ({:.3} s), speed {:.2e} m/s, drift {:.2e} m per window",
+        R::NAME,
+        settled.steps,
+        settled.steps as f64 * dt,
+        settled.speed,
+        settled.drift
+    );
+}
+both_precisions!(settling_to_rest, settles_to_rest);
