@@ -4,7 +4,7 @@
 
 use mbs_kernel::{
     contact_constants, explicit_damping_number, BedSpec, ContactConstants, FlowConfig, FlowSpec,
-    Material, Scenario, SizeClass, TimeStepRule, MAX_CLASSES,
+    Material, Scenario, SizeClass, Tension, TimeStepRule, MAX_CLASSES,
 };
 use serde::{Deserialize, Serialize};
 use std::fmt;
@@ -202,6 +202,34 @@ pub struct BedSection {
     pub fixed_spread: f64,
 }
 
+/// `contact.tension`: what part of the normal force may pull a separating
+/// pair (docs/model.md (8), (8')), the kernel's [`Tension`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum TensionRule {
+    /// The paper's rule (8): the spring never pulls, the dashpot may.
+    #[default]
+    Dashpot,
+    /// No tension (8'): f_n = max(0, e_n + d_n).
+    None,
+}
+
+impl TensionRule {
+    /// The kernel's rule.
+    pub fn kernel(self) -> Tension {
+        match self {
+            TensionRule::Dashpot => Tension::Dashpot,
+            TensionRule::None => Tension::None,
+        }
+    }
+
+    /// The paper's rule: not written out, so that the keys of cells (and
+    /// the echoed configuration) of the paper's law stay as they were.
+    fn is_paper(&self) -> bool {
+        *self == TensionRule::Dashpot
+    }
+}
+
 /// `[contact]` (docs/model.md §4–§5).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -220,6 +248,9 @@ pub struct ContactSection {
     pub k_n: Option<f64>,
     /// Explicit η_n (N s/m), with `k_n`.
     pub eta_n: Option<f64>,
+    /// What part of the normal force may pull.
+    #[serde(skip_serializing_if = "TensionRule::is_paper")]
+    pub tension: TensionRule,
 }
 
 /// `[time]`.
@@ -349,6 +380,7 @@ impl Default for ContactSection {
             poisson: p.material.nu,
             k_n: None,
             eta_n: None,
+            tension: TensionRule::Dashpot,
         }
     }
 }
@@ -592,6 +624,7 @@ impl Config {
             material,
             rule,
             explicit_contact,
+            tension: file.contact.tension.kernel(),
             substeps: t.substeps,
             bed,
             flow,

@@ -123,6 +123,7 @@ pub use checkpoint::CHECKPOINT_VERSION;
 pub use constants::{
     contact_constants, explicit_damping_number, ContactConstants, Material, TimeStepRule, A2, A3,
 };
+pub use contact::Tension;
 pub use digest::{FieldGroup, Fnv1a};
 pub use error::{Capacity, CheckpointFault, Error, Quantity};
 pub use events::Events;

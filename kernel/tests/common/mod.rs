@@ -1,7 +1,7 @@
 //! Helpers shared by the kernel's integration tests.
 #![allow(dead_code)]
 
-use mbs_kernel::{ContactConstants, GrainSpec, Material, Real, Sim, SimConfig};
+use mbs_kernel::{ContactConstants, GrainSpec, Material, Real, Sim, SimConfig, Tension};
 
 /// Grain diameter used throughout (m).
 pub const D: f64 = 0.5e-3;
@@ -36,6 +36,7 @@ pub fn config(dt: f64, k_n: f64, eta_n: f64, mu: f64) -> SimConfig {
             eta_n,
             eta_s: eta_n / two_one_plus_nu.sqrt(),
         },
+        tension: Tension::Dashpot,
         gravity: [0.0, 0.0],
         width: 40.0 * D,
         y_min: -20.0 * D,
