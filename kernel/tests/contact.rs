@@ -197,7 +197,10 @@ fn oblique_impact<R: Real, const K: usize>(_tol: f64) {
         worst_rise < rise_bound,
         "energy rose by {worst_rise:e} J in one step (bound {rise_bound:e} J)"
     );
-    assert!(previous < 0.999 * e0 && previous > 0.5 * e0, "{previous} of {e0}");
+    assert!(
+        previous < 0.999 * e0 && previous > 0.5 * e0,
+        "{previous} of {e0}"
+    );
     assert!(l_bound < 0.01 * scale, "bound {l_bound:e}, scale {scale:e}");
     let dl = angular(&g) - l0;
     assert!(dl.abs() < 2.0 * l_bound, "ΔL_P = {dl:e}, bound {l_bound:e}");
@@ -297,7 +300,6 @@ fn sliding_down_an_incline<R: Real, const K: usize>(_tol: f64) {
         let got = on_an_incline::<R, K>(30.0, mu, tension);
         let a_exact = g_red() * (theta.sin() - mu * theta.cos()) + mu * got.centripetal;
         let alpha_exact = -mu * (g_red() * theta.cos() - got.centripetal) * lever;
-        println!("slide {tension:?}: a {:.5} exact {a_exact:.5} ({:.2e}) alpha {:.5e} exact {alpha_exact:.5e} ({:.2e}) slip {:.3e} v {:.3e}", got.a, got.a / a_exact - 1.0, got.alpha, got.alpha / alpha_exact - 1.0, got.slip, got.v);
         assert!(
             (got.a / a_exact - 1.0).abs() < 2e-4,
             "{tension:?}: a = {}, exact {a_exact}",
@@ -331,14 +333,22 @@ fn rolling_down_an_incline<R: Real, const K: usize>(_tol: f64) {
     let alpha_exact = -a_exact / (0.5 * D);
     for tension in [Tension::Dashpot, Tension::None] {
         let got = on_an_incline::<R, K>(20.0, 0.577, tension);
-        println!("roll {tension:?}: a {:.5} exact {a_exact:.5} ({:.2e}) alpha {:.5e} exact {alpha_exact:.5e} ({:.2e}) slip {:.3e} v {:.3e}", got.a, got.a / a_exact - 1.0, got.alpha, got.alpha / alpha_exact - 1.0, got.slip, got.v);
-        assert!((got.a / a_exact - 1.0).abs() < 2e-4, "{tension:?}: a = {}, exact {a_exact}", got.a);
+        assert!(
+            (got.a / a_exact - 1.0).abs() < 2e-4,
+            "{tension:?}: a = {}, exact {a_exact}",
+            got.a
+        );
         assert!(
             (got.alpha / alpha_exact - 1.0).abs() < 2e-4,
             "{tension:?}: dω/dt = {}, exact {alpha_exact}",
             got.alpha
         );
-        assert!(got.slip.abs() < 1e-3 * got.v, "rolls: slip {} at speed {}", got.slip, got.v);
+        assert!(
+            got.slip.abs() < 1e-3 * got.v,
+            "rolls: slip {} at speed {}",
+            got.slip,
+            got.v
+        );
     }
 }
 both_paths!(rolling, rolling_down_an_incline);
@@ -349,8 +359,17 @@ both_paths!(rolling, rolling_down_an_incline);
 /// gravity, and the rule `tension`.
 fn calibrated(paper: bool, tension: Tension) -> mbs_kernel::SimConfig {
     let mat = Material::default();
-    let (alpha_m, alpha_cn, beta) = if paper { (20.0, 1.3, 15.8) } else { (25.0, 1.0, 3.868) };
-    let rule = TimeStepRule { alpha_m, alpha_cn, beta, constants_dt: 2e-5 };
+    let (alpha_m, alpha_cn, beta) = if paper {
+        (20.0, 1.3, 15.8)
+    } else {
+        (25.0, 1.0, 3.868)
+    };
+    let rule = TimeStepRule {
+        alpha_m,
+        alpha_cn,
+        beta,
+        constants_dt: 2e-5,
+    };
     let c = contact_constants(&rule, D, &mat).unwrap();
     let mut cfg = config(2e-5 / 8.0, c.k_n, c.eta_n, mat.mu);
     cfg.contact = c;
@@ -408,21 +427,41 @@ fn no_tension_never_pulls<R: Real, const K: usize>(tol: f64) {
     let rounding = if tol > 1e-6 { 1e-3 } else { 1e-6 };
     for speed in [0.01, 0.2] {
         let free = lift::<R, K>(false, Tension::None, speed);
-        println!("none {speed}: pull {:.3e} rise {:.4}", free.pull, free.rise);
         assert!(free.pull < rounding, "pulls {} weights", free.pull);
         let glued = lift::<R, K>(false, Tension::Dashpot, speed);
-        println!("dashpot {speed}: pull {:.3e} rise {:.4}", glued.pull, glued.rise);
         if speed > 0.1 {
-            assert!((free.rise - 1.0).abs() < 5e-3, "rises {} of its height", free.rise);
-            assert!(glued.pull > 600.0 && glued.rise < 0.8, "{} {}", glued.pull, glued.rise);
+            assert!(
+                (free.rise - 1.0).abs() < 5e-3,
+                "rises {} of its height",
+                free.rise
+            );
+            assert!(
+                glued.pull > 600.0 && glued.rise < 0.8,
+                "{} {}",
+                glued.pull,
+                glued.rise
+            );
         } else {
-            assert!(glued.pull > 30.0 && glued.rise < 0.1, "{} {}", glued.pull, glued.rise);
+            assert!(
+                glued.pull > 30.0 && glued.rise < 0.1,
+                "{} {}",
+                glued.pull,
+                glued.rise
+            );
         }
     }
     let paper = lift::<R, K>(true, Tension::Dashpot, 0.2);
-    println!("paper dashpot: pull {:.3e} rise {:.4}", paper.pull, paper.rise);
-    assert!(paper.pull > 1000.0 && paper.rise < 0.01, "{} {}", paper.pull, paper.rise);
+    assert!(
+        paper.pull > 1000.0 && paper.rise < 0.01,
+        "{} {}",
+        paper.pull,
+        paper.rise
+    );
     let paper = lift::<R, K>(true, Tension::None, 0.2);
-    assert!((paper.rise - 1.0).abs() < 5e-3, "rises {} of its height", paper.rise);
+    assert!(
+        (paper.rise - 1.0).abs() < 5e-3,
+        "rises {} of its height",
+        paper.rise
+    );
 }
 both_paths!(no_tension, no_tension_never_pulls);

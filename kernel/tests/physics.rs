@@ -251,7 +251,10 @@ fn pocket_pivot<R: Real, const K: usize>(_tol: f64) {
         "θ = 25°: moved to {}",
         g.x - mid
     );
-    assert!(g.u.abs() < 1e-4 && g.v.abs() < 1e-4, "θ = 25°: still moving");
+    assert!(
+        g.u.abs() < 1e-4 && g.v.abs() < 1e-4,
+        "θ = 25°: still moving"
+    );
     let (escaped, g, mid) = pocket_run::<R, K>(35.0);
     assert!(escaped, "θ = 35°: should roll out, at {}", g.x - mid);
     let (mut stays, mut rolls) = (25.0, 35.0);
@@ -263,7 +266,6 @@ fn pocket_pivot<R: Real, const K: usize>(_tol: f64) {
             stays = theta;
         }
     }
-    println!("pivot in [{stays}, {rolls}]");
     assert!(
         stays >= 29.5 && rolls <= 30.5,
         "pivot between {stays}° and {rolls}°, not within ±0.5° of 30°"
