@@ -999,6 +999,25 @@ mod tests {
         assert_eq!(c.scenario, default_scenario());
     }
 
+    /// `contact.tension` picks the kernel's rule; the paper's is not written
+    /// out, so the keys of its cells are those of before the option, and
+    /// the other rule's cells have keys of their own.
+    #[test]
+    fn tension_is_the_paper_rule_unless_none() {
+        let paper = Config::load(None).unwrap();
+        assert_eq!(paper.scenario.tension, Tension::Dashpot);
+        let text = toml::to_string(&paper.file).unwrap();
+        assert!(!text.contains("tension"), "{text}");
+        let none = Config::from_toml("[contact]\ntension = \"none\"\n").unwrap();
+        assert_eq!(none.scenario.tension, Tension::None);
+        assert_eq!(none.scenario.sim_config().unwrap().tension, Tension::None);
+        assert!(toml::to_string(&none.file)
+            .unwrap()
+            .contains("tension = \"none\""));
+        let bad = Config::from_toml("[contact]\ntension = \"glue\"\n").unwrap_err();
+        assert!(bad.to_string().contains("dashpot"), "{bad}");
+    }
+
     #[test]
     fn f32_on_a_wide_bed_is_warned_about() {
         let warned = |columns: u32, precision: &str| {

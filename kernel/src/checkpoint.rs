@@ -2,8 +2,8 @@
 //!
 //! Little-endian whatever the machine, floats as their raw IEEE bits in the
 //! working precision, so a checkpoint written on x86_64 restores on a
-//! Cortex-M and continues bit for bit. Layout (version 3; version 2 had no
-//! tension byte and is refused):
+//! Cortex-M and continues bit for bit. Layout (version 3; version 2, read
+//! too, has no tension byte: the paper's rule):
 //!
 //! | field | bytes |
 //! |---|---|
@@ -137,7 +137,8 @@ fn read_head<R: Real>(r: &mut Reader<'_>) -> Result<Head, Error> {
         r.at = 0;
         return Err(r.fail(CheckpointFault::Magic));
     }
-    if r.uint(2)? != u64::from(CHECKPOINT_VERSION) {
+    let version = r.uint(2)?;
+    if version != u64::from(CHECKPOINT_VERSION) && version != 2 {
         return Err(r.fail(CheckpointFault::Version));
     }
     if usize::from(r.u8()?) != R::BYTES {
@@ -150,7 +151,8 @@ fn read_head<R: Real>(r: &mut Reader<'_>) -> Result<Head, Error> {
     }
     let seed = r.u64()?;
     let at = r.at;
-    let tension = Tension::from_code(r.u8()?).ok_or(Error::BadCheckpoint {
+    let code = if version == 2 { 0 } else { r.u8()? };
+    let tension = Tension::from_code(code).ok_or(Error::BadCheckpoint {
         fault: CheckpointFault::Value,
         offset: at,
     })?;
