@@ -249,8 +249,10 @@ fn on_an_incline<R: Real, const K: usize>(theta_deg: f64, mu: f64, tension: Tens
     })
     .unwrap();
     let (t1, t2) = (5e-3f64, 10e-3f64);
-    let a_guess = g_red() * (theta.sin() - mu * theta.cos()).max(theta.sin() / 1.34);
-    let mean_travel = a_guess / 6.0 * (t2.powi(3) - t1.powi(3)) / (t2 - t1);
+    // The grain slides if that is faster than rolling, and rolls otherwise.
+    let sliding = theta.sin() - mu * theta.cos();
+    let a = g_red() * sliding.max(theta.sin() / (1.0 + inertia_ratio()));
+    let mean_travel = a / 6.0 * (t2.powi(3) - t1.powi(3)) / (t2 - t1);
     let reach = 0.5 * (big + D) - m * g_red() * theta.cos() / k_n;
     let start = -mean_travel / reach;
     s.add_grain(&mobile(
@@ -268,7 +270,7 @@ fn on_an_incline<R: Real, const K: usize>(theta_deg: f64, mu: f64, tension: Tens
         ((g.u * dy - g.v * dx) / d, g.spin)
     };
     s.run((t1 / dt).round() as u64).unwrap();
-    let (v1, w1, time1) = (motion(&s).0, motion(&s).1, s.time());
+    let ((v1, w1), time1) = (motion(&s), s.time());
     s.run(((t2 - t1) / dt).round() as u64).unwrap();
     let (v2, w2) = motion(&s);
     let span = s.time() - time1;
