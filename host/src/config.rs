@@ -4,7 +4,7 @@
 
 use mbs_kernel::{
     contact_constants, explicit_damping_number, BedSpec, ContactConstants, FlowConfig, FlowSpec,
-    Material, Scenario, SizeClass, TimeStepRule, MAX_CLASSES,
+    Material, Scenario, SizeClass, Tension, TimeStepRule, MAX_CLASSES,
 };
 use serde::{Deserialize, Serialize};
 use std::fmt;
@@ -256,6 +256,34 @@ pub struct BedSection {
     pub fixed_spread: f64,
 }
 
+/// `contact.tension`: what part of the normal force may pull a separating
+/// pair (docs/model.md (8), (8')), the kernel's [`Tension`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum TensionRule {
+    /// The paper's rule (8): the spring never pulls, the dashpot may.
+    #[default]
+    Dashpot,
+    /// No tension (8'): f_n = max(0, e_n + d_n).
+    None,
+}
+
+impl TensionRule {
+    /// The kernel's rule.
+    pub fn kernel(self) -> Tension {
+        match self {
+            TensionRule::Dashpot => Tension::Dashpot,
+            TensionRule::None => Tension::None,
+        }
+    }
+
+    /// The paper's rule: not written out, so that the keys of cells (and
+    /// the echoed configuration) of the paper's law stay as they were.
+    fn is_paper(&self) -> bool {
+        *self == TensionRule::Dashpot
+    }
+}
+
 /// `[contact]` (docs/model.md §4–§5).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -274,6 +302,9 @@ pub struct ContactSection {
     pub k_n: Option<f64>,
     /// Explicit η_n (N s/m), with `k_n`.
     pub eta_n: Option<f64>,
+    /// What part of the normal force may pull.
+    #[serde(skip_serializing_if = "TensionRule::is_paper")]
+    pub tension: TensionRule,
 }
 
 /// `[time]`.
@@ -404,6 +435,7 @@ impl Default for ContactSection {
             poisson: p.material.nu,
             k_n: None,
             eta_n: None,
+            tension: TensionRule::Dashpot,
         }
     }
 }
@@ -647,6 +679,7 @@ impl Config {
             material,
             rule,
             explicit_contact,
+            tension: file.contact.tension.kernel(),
             substeps: t.substeps,
             bed,
             flow,
@@ -1035,6 +1068,25 @@ mod tests {
         assert_eq!(parsed, expected);
         let c = Config::load(None).unwrap();
         assert_eq!(c.scenario, default_scenario());
+    }
+
+    /// `contact.tension` picks the kernel's rule; the paper's is not written
+    /// out, so the keys of its cells are those of before the option, and
+    /// the other rule's cells have keys of their own.
+    #[test]
+    fn tension_is_the_paper_rule_unless_none() {
+        let paper = Config::load(None).unwrap();
+        assert_eq!(paper.scenario.tension, Tension::Dashpot);
+        let text = toml::to_string(&paper.file).unwrap();
+        assert!(!text.contains("tension"), "{text}");
+        let none = Config::from_toml("[contact]\ntension = \"none\"\n").unwrap();
+        assert_eq!(none.scenario.tension, Tension::None);
+        assert_eq!(none.scenario.sim_config().unwrap().tension, Tension::None);
+        assert!(toml::to_string(&none.file)
+            .unwrap()
+            .contains("tension = \"none\""));
+        let bad = Config::from_toml("[contact]\ntension = \"glue\"\n").unwrap_err();
+        assert!(bad.to_string().contains("dashpot"), "{bad}");
     }
 
     #[test]

@@ -2,12 +2,13 @@
 //!
 //! Little-endian whatever the machine, floats as their raw IEEE bits in the
 //! working precision, so a checkpoint written on x86_64 restores on a
-//! Cortex-M and continues bit for bit. Layout (version 1):
+//! Cortex-M and continues bit for bit. Layout (version 3; version 2, read
+//! too, has no tension byte: the paper's rule):
 //!
 //! | field | bytes |
 //! |---|---|
 //! | magic `MBSK`, version u16, precision bytes u8 (4/8), 0 u8 | 8 |
-//! | `SimConfig`: step_dt, ρ, s, C_M, C_D, μ, ν, k_n, k_s, η_n, η_s, g_x, g_y, L, y_min, y_max, skin (f64), seed (u64) | 144 |
+//! | `SimConfig`: step_dt, ρ, s, C_M, C_D, μ, ν, k_n, k_s, η_n, η_s, g_x, g_y, L, y_min, y_max, skin (f64), seed (u64), tension (u8: 0 the paper's rule (8), 1 none (8')) | 145 |
 //! | flow on (u8); `FlowConfig`: u*, κ, h, ε0, k_s, d (f64), turbulence (u8), hold, bed-level interval (u32), bed-level window (f64) | 66 |
 //! | flow epoch, step (u64), bed level (R) | 16 + R |
 //! | grains n (u32); per grain x, y, u, v, ω, d/2, z_u, z_v, 1/m, 1/I, drag factor (R), fixed, class (u8) | 4 + n (11R + 2) |
@@ -22,7 +23,7 @@
 //! real one, so a refused checkpoint leaves the simulation unchanged.
 
 use crate::constants::{ContactConstants, Material};
-use crate::contact::Spring;
+use crate::contact::{Spring, Tension};
 use crate::error::{Capacity, CheckpointFault, Error};
 use crate::flow::FlowConfig;
 use crate::grains::{GrainSpec, MAX_CLASSES};
@@ -30,7 +31,7 @@ use crate::real::Real;
 use crate::sim::{check_grain, Sim, SimConfig};
 
 /// Format version written by [`Sim::checkpoint`].
-pub const CHECKPOINT_VERSION: u16 = 2;
+pub const CHECKPOINT_VERSION: u16 = 3;
 
 const MAGIC: [u8; 4] = *b"MBSK";
 
@@ -136,7 +137,8 @@ fn read_head<R: Real>(r: &mut Reader<'_>) -> Result<Head, Error> {
         r.at = 0;
         return Err(r.fail(CheckpointFault::Magic));
     }
-    if r.uint(2)? != u64::from(CHECKPOINT_VERSION) {
+    let version = r.uint(2)?;
+    if version != u64::from(CHECKPOINT_VERSION) && version != 2 {
         return Err(r.fail(CheckpointFault::Version));
     }
     if usize::from(r.u8()?) != R::BYTES {
@@ -147,6 +149,13 @@ fn read_head<R: Real>(r: &mut Reader<'_>) -> Result<Head, Error> {
     for x in f.iter_mut() {
         *x = r.f64()?;
     }
+    let seed = r.u64()?;
+    let at = r.at;
+    let code = if version == 2 { 0 } else { r.u8()? };
+    let tension = Tension::from_code(code).ok_or(Error::BadCheckpoint {
+        fault: CheckpointFault::Value,
+        offset: at,
+    })?;
     let config = SimConfig {
         step_dt: f[0],
         material: Material {
@@ -163,12 +172,13 @@ fn read_head<R: Real>(r: &mut Reader<'_>) -> Result<Head, Error> {
             eta_n: f[9],
             eta_s: f[10],
         },
+        tension,
         gravity: [f[11], f[12]],
         width: f[13],
         y_min: f[14],
         y_max: f[15],
         skin: f[16],
-        seed: r.u64()?,
+        seed,
     };
     let at = r.at;
     config.validate().map_err(|_| Error::BadCheckpoint {
@@ -240,6 +250,7 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
             w.f64(x);
         }
         w.uint(c.seed, 8);
+        w.uint(u64::from(c.tension.code()), 1);
         let f = &self.flow;
         w.uint(u64::from(self.flow_on), 1);
         for x in [

@@ -1,5 +1,6 @@
 //! The contact law, docs/model.md (6)–(9): normal and tangential springs with
-//! per-pair history, dashpots, no tension, Coulomb sliding.
+//! per-pair history, dashpots, no tension, Coulomb sliding; and what may
+//! pull ([`Tension`]: the paper's rule (8), or no tension at all (8')).
 //!
 //! Geometry and signs (docs/model.md §2): n = (cos α, sin α) points from grain i to
 //! grain j and t = (sin α, −cos α). The force on i is −f_n n + f_s t, on j its
@@ -28,12 +29,54 @@ impl<R: Real> Spring<R> {
     };
 }
 
+/// What part of the normal force may pull a separating pair (docs/model.md
+/// (8), (8')). Fieldless, the paper's rule 0: an all-zero [`crate::Sim`]
+/// stays valid.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[repr(u8)]
+pub enum Tension {
+    /// The paper's rule (8), the default: the contact breaks when its
+    /// normal spring e_n would pull, but while the spring pushes the normal
+    /// dashpot may pull, f_n = e_n + d_n < 0, and the Coulomb cap is μ e_n.
+    #[default]
+    Dashpot = 0,
+    /// No tension (8'): the normal force never pulls, f_n = max(0, e_n + d_n),
+    /// and the Coulomb cap is μ f_n (LIGGGHTS' `limitForce`). The contact
+    /// still breaks when e_n turns negative.
+    None = 1,
+}
+
+impl Tension {
+    /// Its code in a checkpoint: 0 the paper's rule, 1 no tension.
+    pub fn code(self) -> u8 {
+        self as u8
+    }
+
+    /// The rule of checkpoint code `code`, if any.
+    pub fn from_code(code: u8) -> Option<Self> {
+        match code {
+            0 => Some(Tension::Dashpot),
+            1 => Some(Tension::None),
+            _ => None,
+        }
+    }
+}
+
 /// The constants of the contact law in the working precision.
 ///
 /// ```
-/// use mbs_kernel::contact::{ContactLaw, Spring};
+/// use mbs_kernel::contact::{ContactLaw, Spring, Tension};
 ///
-/// let law = ContactLaw { k_n: 100.0, k_s: 40.0, eta_n: 0.1, eta_s: 0.05, mu: 0.5, step_dt: 1e-4 };
+/// let law = ContactLaw {
+///     k_n: 100.0,
+///     k_s: 40.0,
+///     eta_n: 0.1,
+///     eta_s: 0.05,
+///     mu: 0.5,
+///     step_dt: 1e-4,
+///     tension: Tension::Dashpot,
+/// };
 /// let mut history = Spring::ZERO;
 /// // A new contact overlapping by 10 µm, approaching at 0.2 m/s: the
 /// // normal spring takes the overlap, the dashpot the speed (6).
@@ -42,6 +85,14 @@ impl<R: Real> Spring<R> {
 /// // Pulled apart: tension breaks it (8), its history is dropped.
 /// assert_eq!(law.apply(&mut history, 1e-6, -1.0, 0.0), None);
 /// assert_eq!(history, Spring::ZERO);
+/// // Separating: the spring still pushes (e_n = 0.1 mN) and the
+/// // paper's dashpot pulls (f_n < 0); without tension f_n is 0.
+/// let mut history = Spring { e_n: 1.1e-3, e_s: 0.0 };
+/// let (f_n, _) = law.apply(&mut history, 1e-5, -0.1, 0.0).unwrap();
+/// assert!(f_n < 0.0);
+/// let mut history = Spring { e_n: 1.1e-3, e_s: 0.0 };
+/// let law = ContactLaw { tension: Tension::None, ..law };
+/// assert_eq!(law.apply(&mut history, 1e-5, -0.1, 0.0), Some((0.0, 0.0)));
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ContactLaw<R: Real> {
@@ -57,6 +108,8 @@ pub struct ContactLaw<R: Real> {
     pub mu: R,
     /// The integration step (s), [`crate::SimConfig::step_dt`].
     pub step_dt: R,
+    /// What may pull, [`crate::SimConfig::tension`].
+    pub tension: Tension,
 }
 
 impl<R: Real> ContactLaw<R> {
@@ -68,6 +121,7 @@ impl<R: Real> ContactLaw<R> {
         eta_s: R::ZERO,
         mu: R::ZERO,
         step_dt: R::ZERO,
+        tension: Tension::Dashpot,
     };
 
     /// Advances the history of one overlapping contact by one step and returns
@@ -80,7 +134,9 @@ impl<R: Real> ContactLaw<R> {
     ///   approach after touching, so e_n = k_n·overlap for a central impact.
     /// - (7) e_s += k_s Δξ_s, f_s = e_s + η_s v_s.
     /// - (8) e_n < 0: the contact breaks, f_n = f_s = 0, history dropped.
-    /// - (9) |e_s| > μ e_n: e_s = μ e_n sign(e_s), f_s = e_s (no tangential
+    /// - (8') with [`Tension::None`], f_n = max(0, e_n + η_n v_n), and the
+    ///   Coulomb cap N of (9) is this f_n instead of e_n.
+    /// - (9) |e_s| > μ N: e_s = μ N sign(e_s), f_s = e_s (no tangential
     ///   dashpot while sliding) **[choice, Cundall–Strack]**.
     #[inline]
     pub fn apply(&self, h: &mut Spring<R>, overlap: R, v_n: R, v_s: R) -> Option<(R, R)> {
@@ -108,9 +164,17 @@ impl<R: Real> ContactLaw<R> {
             *h = Spring::ZERO;
             return None;
         }
-        let f_n = h.e_n + self.eta_n * v_n;
+        let mut f_n = h.e_n + self.eta_n * v_n;
+        let mut normal = h.e_n;
+        if self.tension == Tension::None {
+            // (8'): a select in the batched step (−0 and NaN kept alike).
+            if f_n < R::ZERO {
+                f_n = R::ZERO;
+            }
+            normal = f_n;
+        }
         h.e_s += self.k_s * v_s * self.step_dt;
-        let limit = self.mu * h.e_n;
+        let limit = self.mu * normal;
         let slides = R::abs(h.e_s) > limit;
         let f_s = if slides {
             h.e_s = if h.e_s > R::ZERO { limit } else { -limit };
@@ -134,6 +198,7 @@ mod tests {
             eta_s: 0.05,
             mu: 0.5,
             step_dt: 1e-4,
+            tension: Tension::Dashpot,
         }
     }
 
@@ -148,6 +213,51 @@ mod tests {
         // Separating faster than the spring can hold: e_n < 0, history dropped.
         assert!(l.apply(&mut h, 1e-6, -1.0, 0.3).is_none());
         assert_eq!(h, Spring::default());
+    }
+
+    /// (8'): without tension the normal force is clamped at zero and the
+    /// Coulomb cap follows it; where the total pushes, both rules agree
+    /// but for the cap (μ f_n instead of μ e_n).
+    #[test]
+    fn without_tension_the_dashpot_never_pulls_and_caps_friction() {
+        let paper = law();
+        let none = ContactLaw {
+            tension: Tension::None,
+            ..paper
+        };
+        let start = Spring {
+            e_n: 2e-3,
+            e_s: 5e-4,
+        };
+        // Separating at 0.05 m/s: e_n = 2e-3 − 100·5e-6 = 1.5e-3 N, the
+        // dashpot −5e-3 N.
+        let (mut a, mut b) = (start, start);
+        let (f_paper, s_paper) = paper.apply(&mut a, 1e-5, -0.05, 0.0).unwrap();
+        let (f_none, s_none) = none.apply(&mut b, 1e-5, -0.05, 0.0).unwrap();
+        assert!((f_paper - (1.5e-3 - 5e-3)).abs() < 1e-15, "{f_paper}");
+        assert_eq!(f_none, 0.0);
+        // The paper caps e_s at μ e_n = 7.5e-4 N (not reached: it sticks);
+        // without tension at μ·0: it slides with f_s = 0.
+        assert_eq!(s_paper, 5e-4);
+        assert_eq!((s_none, b.e_s), (0.0, 0.0));
+        assert_eq!(a.e_n, b.e_n);
+        // Approaching: the same normal force; the cap μ f_n = μ(e_n + d_n) is
+        // larger than μ e_n, so a push that slides under (9) sticks under (8').
+        let start = Spring {
+            e_n: 2e-3,
+            e_s: 1.2e-3,
+        };
+        let (mut a, mut b) = (start, start);
+        let (f_paper, s_paper) = paper.apply(&mut a, 1e-5, 0.01, 0.0).unwrap();
+        let (f_none, s_none) = none.apply(&mut b, 1e-5, 0.01, 0.0).unwrap();
+        assert_eq!(f_paper, f_none);
+        assert_eq!(s_paper, 0.5 * a.e_n);
+        assert_eq!(s_none, 1.2e-3);
+        assert_eq!(
+            Tension::from_code(Tension::None.code()),
+            Some(Tension::None)
+        );
+        assert_eq!(Tension::from_code(2), None);
     }
 
     /// docs/model.md §11 Coulomb check: a grain of mass m pressed by a normal spring

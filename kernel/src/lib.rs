@@ -49,7 +49,7 @@
 //! |---|---|---|
 //! | (1)–(3) | equations of motion, symplectic Euler | [`Sim::step`] |
 //! | (4)–(5) | drag | [`flow::Profile::drag`] |
-//! | (6)–(9) | contact law with history | [`contact::ContactLaw::apply`] |
+//! | (6)–(9), (8') | contact law with history; what may pull, [`Tension`] | [`contact::ContactLaw::apply`] |
 //! | (10)–(13), (17), (18) | constants from Δt | [`contact_constants`] |
 //! | (11) | stability bound of the integration step | [`ContactConstants::stable_dt_limit`] |
 //! | (14)–(16) | log law, turbulence, sheltering | [`flow::Profile`] |
@@ -125,6 +125,7 @@ pub use checkpoint::CHECKPOINT_VERSION;
 pub use constants::{
     contact_constants, explicit_damping_number, ContactConstants, Material, TimeStepRule, A2, A3,
 };
+pub use contact::Tension;
 pub use digest::{FieldGroup, Fnv1a};
 pub use error::{Capacity, CheckpointFault, Error, Quantity};
 pub use events::Events;

@@ -4,6 +4,7 @@
 
 use crate::bed::{BedInfo, BedSpec};
 use crate::constants::{contact_constants, ContactConstants, Material, TimeStepRule};
+use crate::contact::Tension;
 use crate::error::Error;
 use crate::flow::{shear_velocity, FlowConfig};
 use crate::real::Real;
@@ -80,6 +81,8 @@ pub struct Scenario {
     pub rule: TimeStepRule,
     /// Contact constants given explicitly instead of derived from `rule`.
     pub explicit_contact: Option<ContactConstants>,
+    /// What part of the normal force may pull (docs/model.md (8), (8')).
+    pub tension: Tension,
     /// Integration steps per constants' time step: the kernel integrates
     /// with step_dt = constants_dt/substeps and keeps every constant derived
     /// from constants_dt.
@@ -119,6 +122,7 @@ impl Scenario {
                 constants_dt: 2.0e-5,
             },
             explicit_contact: None,
+            tension: Tension::Dashpot,
             substeps: SUBSTEPS,
             bed: BedSpec::uniform(D, 5, 10),
             flow: FlowSpec {
@@ -155,6 +159,7 @@ impl Scenario {
             step_dt: self.step_dt(),
             material: self.material,
             contact: self.contact()?,
+            tension: self.tension,
             gravity: [0.0, -G],
             width: self.bed.width(),
             y_min: -10.0 * d,

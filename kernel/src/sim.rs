@@ -5,7 +5,7 @@
 //! checkpoints and the digest.
 
 use crate::constants::{ContactConstants, Material, A2};
-use crate::contact::{ContactLaw, Spring};
+use crate::contact::{ContactLaw, Spring, Tension};
 use crate::error::{check, finite, positive, Capacity, Error};
 use crate::events::Events;
 use crate::flow::{FlowConfig, Profile};
@@ -38,6 +38,9 @@ pub struct SimConfig {
     pub material: Material,
     /// Contact springs and dashpots, e.g. from [`crate::contact_constants`].
     pub contact: ContactConstants,
+    /// What part of the normal force may pull: the paper's rule (8) by
+    /// default, or none (8').
+    pub tension: Tension,
     /// Gravity (g_x, g_y) (m/s²); (0, −9.81) by default. Tilt it to incline the bed.
     pub gravity: [f64; 2],
     /// Periodic width L (m); grains live in 0 ≤ x < L.
@@ -211,6 +214,7 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
                     eta_n: 0.0,
                     eta_s: 0.0,
                 },
+                tension: Tension::Dashpot,
                 gravity: [0.0; 2],
                 width: 0.0,
                 y_min: 0.0,
@@ -255,6 +259,7 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
             eta_s: R::from_f64(config.contact.eta_s),
             mu: R::from_f64(m.mu),
             step_dt: R::from_f64(config.step_dt),
+            tension: config.tension,
         };
         self.step_dt = R::from_f64(config.step_dt);
         let reduce = (m.s - 1.0) / (m.s + m.c_m);

@@ -2,7 +2,9 @@
 //! another capacity) continues bit for bit; every damaged checkpoint is
 //! refused with a named fault and leaves the simulation unchanged.
 
-use mbs_kernel::{Capacity, CheckpointFault, Error, Real, Scenario, Sim, CHECKPOINT_VERSION};
+use mbs_kernel::{
+    Capacity, CheckpointFault, Error, Real, Scenario, Sim, Tension, CHECKPOINT_VERSION,
+};
 
 type Big<R> = Sim<R, 256, 8>;
 type Other<R> = Sim<R, 64, 10>;
@@ -122,10 +124,15 @@ fn damaged_checkpoints_are_refused_and_change_nothing() {
     let mut bad = good.clone();
     bad.push(0);
     assert_eq!(fault(refused(&mut sim, &bad)), CheckpointFault::Trailing);
-    // A NaN where the first grain's x is: after the header (8 + 144 + 66
+    // A tension rule that does not exist, after the header (8) and the
+    // configuration's numbers (144).
+    let mut bad = good.clone();
+    bad[8 + 144] = 2;
+    assert_eq!(fault(refused(&mut sim, &bad)), CheckpointFault::Value);
+    // A NaN where the first grain's x is: after the header (8 + 145 + 66
     // (flow) + 16 + 8 (bed level) + 4 (grain count)) bytes.
     let mut bad = good.clone();
-    let x0 = 8 + 144 + 66 + 16 + 8 + 4;
+    let x0 = 8 + 145 + 66 + 16 + 8 + 4;
     bad[x0..x0 + 8].copy_from_slice(&f64::NAN.to_bits().to_le_bytes());
     assert_eq!(fault(refused(&mut sim, &bad)), CheckpointFault::Value);
     // Every single flipped byte is refused or restores to a valid state:
@@ -195,4 +202,35 @@ proptest::proptest! {
         }
         proptest::prop_assert!(resumed.time().is_finite());
     }
+}
+
+/// The contact's tension rule is part of the checkpoint (docs/model.md
+/// (8')): a run without tension restores without tension and continues bit
+/// for bit; a version-2 checkpoint (no tension byte) restores with the
+/// paper's rule, the only one it knew.
+#[test]
+fn the_tension_rule_is_restored() {
+    let mut sc = Scenario::paper();
+    sc.tension = Tension::None;
+    let mut uninterrupted = Box::new(Big::<f64>::new());
+    sc.build(&mut *uninterrupted).unwrap();
+    uninterrupted.run(1500).unwrap();
+    let saved = bytes(&*uninterrupted);
+    assert_eq!(saved[8 + 144], 1);
+    let mut resumed = Box::new(Other::<f64>::new());
+    resumed.restore(&saved).unwrap();
+    assert_eq!(resumed.config().tension, Tension::None);
+    uninterrupted.run(1500).unwrap();
+    resumed.run(1500).unwrap();
+    assert_eq!(resumed.digest(), uninterrupted.digest());
+
+    let mut paper = Box::new(Big::<f64>::new());
+    run(&mut *paper, 1500, 0);
+    let mut old = bytes(&*paper);
+    assert_eq!(old.remove(8 + 144), 0);
+    old[4..6].copy_from_slice(&2u16.to_le_bytes());
+    let mut restored = Box::new(Other::<f64>::new());
+    restored.restore(&old).unwrap();
+    assert_eq!(restored.config(), paper.config());
+    assert_eq!(restored.digest(), paper.digest());
 }

@@ -199,61 +199,79 @@ fn settling_velocity<R: Real>(_tol: f64) {
 }
 both_precisions!(settling, settling_velocity);
 
-/// A grain in the pocket of two touching fixed grains, gravity tilted by θ,
-/// stays for θ below the 30° pivot angle and rolls out above it.
-fn pocket_pivot<R: Real>(_tol: f64) {
-    for (theta_deg, stays) in [(25.0f64, true), (35.0, false)] {
-        let mat = mbs_kernel::Material::default();
-        let c = mbs_kernel::contact_constants(
-            &mbs_kernel::TimeStepRule {
-                alpha_m: 20.0,
-                alpha_cn: 1.3,
-                beta: 1.0,
-                constants_dt: 2e-5,
-            },
-            D,
-            &mat,
-        )
+/// A grain in the pocket of two touching fixed grains of its size, gravity
+/// tilted by `theta_deg`, for at most 0.5 s: whether it rolled out (more
+/// than 0.75 d sideways), and where it is. Stiff springs: the paper's
+/// rule with β = 1 (k_n = 25 N/m, the pocket grain's overlap 5e-5 d, which
+/// moves the pivot by ~3e-3°), integrated at Δt/8. The pocket lies near
+/// x = 0 (coordinates ~d): in f32 a grain 20 d from the origin would not
+/// move at the speeds it starts to roll with (a step's travel below half a
+/// unit in the last place of x).
+fn pocket_run<R: Real, const K: usize>(theta_deg: f64) -> (bool, mbs_kernel::GrainSpec, f64) {
+    let mat = mbs_kernel::Material::default();
+    let c = mbs_kernel::contact_constants(
+        &mbs_kernel::TimeStepRule {
+            alpha_m: 20.0,
+            alpha_cn: 1.3,
+            beta: 1.0,
+            constants_dt: 2e-5,
+        },
+        D,
+        &mat,
+    )
+    .unwrap();
+    let mut cfg = config(2e-5 / 8.0, c.k_n, c.eta_n, mat.mu);
+    cfg.contact = c;
+    let th = theta_deg.to_radians();
+    cfg.gravity = [9.81 * th.sin(), -9.81 * th.cos()];
+    let mut s = sim::<R, K>(&cfg);
+    let mid = D;
+    s.add_grain(&fixed(mid - 0.5 * D, 0.0)).unwrap();
+    s.add_grain(&fixed(mid + 0.5 * D, 0.0)).unwrap();
+    s.add_grain(&mobile(mid, D * 3f64.sqrt() / 2.0, 0.0, 0.0))
         .unwrap();
-        let mut cfg = config(2e-5, c.k_n, c.eta_n, mat.mu);
-        cfg.contact = c;
-        let th = theta_deg.to_radians();
-        cfg.gravity = [9.81 * th.sin(), -9.81 * th.cos()];
-        let mut s = small::<R>(&cfg);
-        let mid = cfg.width / 2.0;
-        s.add_grain(&fixed(mid - 0.5 * D, 0.0)).unwrap();
-        s.add_grain(&fixed(mid + 0.5 * D, 0.0)).unwrap();
-        s.add_grain(&mobile(mid, D * 3f64.sqrt() / 2.0, 0.0, 0.0))
-            .unwrap();
-        let mut escaped = false;
-        for _ in 0..10_000 {
-            s.step().unwrap();
-            if (s.grain(2).unwrap().x - mid).abs() > 0.75 * D {
-                escaped = true;
-                break;
-            }
-        }
-        let g = s.grain(2).unwrap();
-        if stays {
-            assert!(
-                !escaped && (g.x - mid).abs() < 0.05 * D,
-                "θ = {theta_deg}: moved to {}",
-                g.x - mid
-            );
-            assert!(
-                g.u.abs() < 1e-4 && g.v.abs() < 1e-4,
-                "θ = {theta_deg}: still moving"
-            );
-        } else {
-            assert!(
-                escaped,
-                "θ = {theta_deg}: should roll out, at {}",
-                g.x - mid
-            );
+    for _ in 0..(0.5 / cfg.step_dt) as u64 {
+        s.step().unwrap();
+        if (s.grain(2).unwrap().x - mid).abs() > 0.75 * D {
+            return (true, s.grain(2).unwrap(), mid);
         }
     }
+    (false, s.grain(2).unwrap(), mid)
 }
-both_precisions!(pocket, pocket_pivot);
+
+/// A grain in the pocket of two touching fixed grains, gravity tilted by θ,
+/// stays for θ below the 30° pivot angle (where gravity passes through the
+/// downhill support) and rolls out above it: it stays at 25°, rolls out at
+/// 35°, and bisection between them, five halvings, finds the pivot within
+/// ±0.5° of 30° (the final bracket is 0.31° wide).
+fn pocket_pivot<R: Real, const K: usize>(_tol: f64) {
+    let (escaped, g, mid) = pocket_run::<R, K>(25.0);
+    assert!(
+        !escaped && (g.x - mid).abs() < 0.05 * D,
+        "θ = 25°: moved to {}",
+        g.x - mid
+    );
+    assert!(
+        g.u.abs() < 1e-4 && g.v.abs() < 1e-4,
+        "θ = 25°: still moving"
+    );
+    let (escaped, g, mid) = pocket_run::<R, K>(35.0);
+    assert!(escaped, "θ = 35°: should roll out, at {}", g.x - mid);
+    let (mut stays, mut rolls) = (25.0, 35.0);
+    for _ in 0..5 {
+        let theta = 0.5 * (stays + rolls);
+        if pocket_run::<R, K>(theta).0 {
+            rolls = theta;
+        } else {
+            stays = theta;
+        }
+    }
+    assert!(
+        stays >= 29.5 && rolls <= 30.5,
+        "pivot between {stays}° and {rolls}°, not within ±0.5° of 30°"
+    );
+}
+both_paths!(pocket, pocket_pivot);
 
 /// A grain crossing x = L keeps its contact and history; contacts across
 /// the seam are found; the collision equals the same one away from the seam.

@@ -187,6 +187,7 @@ macro_rules! lanes {
         #[allow(unsafe_code)]
         mod $module {
             use super::{BatchStep, Grains, PairIndex, Params, CHUNK, PAIRS};
+            use crate::contact::Tension;
             use crate::error::Error;
             use crate::events::Events;
             use crate::real::Real;
@@ -217,10 +218,14 @@ macro_rules! lanes {
                     if let Some(drag) = step.drag {
                         drag_pass(step, &drag);
                     }
-                    if p.count_events {
-                        pair_pass::<N, K, true>(step);
-                    } else {
-                        pair_pass::<N, K, false>(step);
+                    // One copy of the pair pass per (counting, tension
+                    // rule): the paper's rule keeps its instructions.
+                    let no_tension = p.law.tension == Tension::None;
+                    match (p.count_events, no_tension) {
+                        (true, false) => pair_pass::<N, K, true, false>(step),
+                        (false, false) => pair_pass::<N, K, false, false>(step),
+                        (true, true) => pair_pass::<N, K, true, true>(step),
+                        (false, true) => pair_pass::<N, K, false, true>(step),
                     }
                     grain_pass(step)
                 }
@@ -439,9 +444,16 @@ macro_rules! lanes {
 
             /// Every listed pair's geometry and law, L pairs at a time, lane by
             /// lane as `State::contact` and `ContactLaw::apply`; each pair's force
-            /// and torques added to its grains' sums in pair order.
+            /// and torques added to its grains' sums in pair order. The
+            /// events are counted if `COUNT`; `NO_TENSION`: the law (8')
+            /// ([`Tension::None`]), else the paper's (8).
             #[target_feature(enable = "avx2")]
-            fn pair_pass<const N: usize, const K: usize, const COUNT: bool>(
+            fn pair_pass<
+                const N: usize,
+                const K: usize,
+                const COUNT: bool,
+                const NO_TENSION: bool,
+            >(
                 s: &mut BatchStep<'_, $R, N, K>,
             ) {
                 let splat = $set1;
@@ -591,8 +603,16 @@ macro_rules! lanes {
                         let e_n = add(e_n0, mul(k_n, select(mul(v_n, dt), overlap, first)));
                         let broken = $cmp(e_n, zero, _CMP_LT_OQ);
                         let f_n = add(e_n, mul(eta_n, v_n));
+                        // (8'): f_n < 0 becomes +0 (−0 and NaN kept, as
+                        // the scalar step), and the cap follows f_n.
+                        let (f_n, normal) = if NO_TENSION {
+                            let f_n = $andnot($cmp(f_n, zero, _CMP_LT_OQ), f_n);
+                            (f_n, f_n)
+                        } else {
+                            (f_n, e_n)
+                        };
                         let e_s = add(e_s0, mul(mul(k_s, v_s), dt));
-                        let limit = mul(mu, e_n);
+                        let limit = mul(mu, normal);
                         let slides = $cmp($andnot(sign, e_s), limit, _CMP_GT_OQ);
                         let e_s_slid = select(neg(limit), limit, $cmp(e_s, zero, _CMP_GT_OQ));
                         let e_s_new = select(e_s, e_s_slid, slides);

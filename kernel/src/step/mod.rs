@@ -186,15 +186,20 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::{GrainSpec, Scenario};
+    use crate::{GrainSpec, Scenario, Tension};
 
-    /// The paper's scenario, settling then flow, stepped with the batched
-    /// step where it has lanes (`BATCHED`) or the scalar step with the pair
-    /// geometry found ahead (`BUFFER` > 0) or not: (settled, flow) digests
-    /// and the events.
-    fn digests<R: Real, const BUFFER: usize, const BATCHED: bool>() -> (u64, u64, Events) {
+    /// The paper's scenario with the `tension` rule, settling then flow,
+    /// stepped with the batched step where it has lanes (`BATCHED`) or the
+    /// scalar step with the pair geometry found ahead (`BUFFER` > 0) or
+    /// not: (settled, flow) digests and the events.
+    fn digests<R: Real, const BUFFER: usize, const BATCHED: bool>(
+        tension: Tension,
+    ) -> (u64, u64, Events) {
         let mut sim = Sim::<R, 64, 8>::new();
-        let sc = Scenario::paper();
+        let sc = Scenario {
+            tension,
+            ..Scenario::paper()
+        };
         sc.build(&mut sim).unwrap();
         sim.count_events(true);
         for _ in 0..1500 {
@@ -232,15 +237,22 @@ mod tests {
 
     /// The host's loop shapes (batched step in lanes; scalar step with the
     /// geometry one grain ahead) and the microcontroller's (scalar step, in
-    /// order) give the same bits.
+    /// order) give the same bits, with either tension rule; the rules differ.
     #[test]
     fn batched_and_scalar_ahead_or_not_give_the_same_bits() {
-        let scalar = digests::<f64, 0, false>();
-        assert_eq!(digests::<f64, 8, false>(), scalar);
-        assert_eq!(digests::<f64, 8, true>(), scalar);
-        let scalar = digests::<f32, 0, false>();
-        assert_eq!(digests::<f32, 8, false>(), scalar);
-        assert_eq!(digests::<f32, 8, true>(), scalar);
+        let mut paper = None;
+        for tension in [Tension::Dashpot, Tension::None] {
+            let scalar = digests::<f64, 0, false>(tension);
+            assert_eq!(digests::<f64, 8, false>(tension), scalar);
+            assert_eq!(digests::<f64, 8, true>(tension), scalar);
+            let scalar32 = digests::<f32, 0, false>(tension);
+            assert_eq!(digests::<f32, 8, false>(tension), scalar32);
+            assert_eq!(digests::<f32, 8, true>(tension), scalar32);
+            match paper {
+                None => paper = Some((scalar, scalar32)),
+                Some((a, b)) => assert!(a.1 != scalar.1 && b.1 != scalar32.1),
+            }
+        }
     }
 
     /// A grain in many pairs (a large grain ringed by 14 small ones, as
@@ -307,12 +319,12 @@ mod tests {
         }
     }
 
-    /// An empty 0.02 m wide box of the paper's constants, floor at −0.01 m,
-    /// room for 64 grains of up to 16 neighbours.
-    fn small_box<R: Real>() -> Sim<R, 64, 16> {
+    /// An empty 0.02 m wide box of the paper's constants and the `tension`
+    /// rule, floor at −0.01 m, room for 64 grains of up to 16 neighbours.
+    fn small_box<R: Real>(tension: Tension) -> Sim<R, 64, 16> {
         let mut sim = Sim::new();
         let mut config = Scenario::paper().sim_config().unwrap();
-        (config.width, config.y_min) = (0.02, -0.01);
+        (config.width, config.y_min, config.tension) = (0.02, -0.01, tension);
         sim.reset(&config).unwrap();
         sim.count_events(true);
         sim
@@ -328,7 +340,7 @@ mod tests {
     }
 
     fn ring_digest<R: Real>(big_first: bool, batched: bool) -> u64 {
-        let mut sim = small_box::<R>();
+        let mut sim = small_box::<R>(Tension::Dashpot);
         let big = GrainSpec {
             x: 0.01,
             y: 0.005,
@@ -388,20 +400,24 @@ mod tests {
                 1..60,
             ),
             flow: bool,
+            no_tension: bool,
         ) {
-            proptest::prop_assert_eq!(cluster::<f64>(&grains, flow, true), cluster::<f64>(&grains, flow, false));
-            proptest::prop_assert_eq!(cluster::<f32>(&grains, flow, true), cluster::<f32>(&grains, flow, false));
+            let t = if no_tension { Tension::None } else { Tension::Dashpot };
+            proptest::prop_assert_eq!(cluster::<f64>(&grains, flow, t, true), cluster::<f64>(&grains, flow, t, false));
+            proptest::prop_assert_eq!(cluster::<f32>(&grains, flow, t, true), cluster::<f32>(&grains, flow, t, false));
         }
     }
 
-    /// Steps a random cluster 40 times, batched or scalar: each step's
-    /// outcome, digest and events so far, up to the first error.
+    /// Steps a random cluster 40 times with the `tension` rule, batched or
+    /// scalar: each step's outcome, digest and events so far, up to the
+    /// first error.
     fn cluster<R: Real>(
         grains: &[Loose],
         flow: bool,
+        tension: Tension,
         batched: bool,
     ) -> std::vec::Vec<(Result<(), Error>, u64, Events)> {
-        let mut sim = small_box::<R>();
+        let mut sim = small_box::<R>(tension);
         for &(x, y, u, v, spin, class, fixed) in grains {
             let spec = GrainSpec {
                 x,

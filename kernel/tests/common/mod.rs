@@ -1,13 +1,29 @@
 //! Helpers shared by the kernel's integration tests.
 #![allow(dead_code)]
 
-use mbs_kernel::{ContactConstants, GrainSpec, Material, Real, Sim, SimConfig};
+use mbs_kernel::{ContactConstants, GrainSpec, Material, Real, Sim, SimConfig, Tension};
 
 /// Grain diameter used throughout (m).
 pub const D: f64 = 0.5e-3;
 
 /// A small simulation on the heap.
 pub type Small<R> = Sim<R, 256, 8>;
+
+/// Neighbour slots of a simulation that runs the **batched step** where
+/// it has lanes (x86-64 with AVX2): a power of two.
+pub const BATCHED: usize = 8;
+
+/// Neighbour slots of a simulation that always runs the **scalar step**:
+/// not a power of two, so the batched step's lanes do not fit.
+pub const SCALAR: usize = 6;
+
+/// A boxed, reset simulation of 256 grains with `K` neighbour slots per
+/// grain: [`BATCHED`] or [`SCALAR`] picks the step path.
+pub fn sim<R: Real, const K: usize>(config: &SimConfig) -> Box<Sim<R, 256, K>> {
+    let mut s = Box::new(Sim::<R, 256, K>::new());
+    s.reset(config).expect("valid config");
+    s
+}
 
 /// A boxed, reset simulation.
 pub fn small<R: Real>(config: &SimConfig) -> Box<Small<R>> {
@@ -36,6 +52,7 @@ pub fn config(dt: f64, k_n: f64, eta_n: f64, mu: f64) -> SimConfig {
             eta_n,
             eta_s: eta_n / two_one_plus_nu.sqrt(),
         },
+        tension: Tension::Dashpot,
         gravity: [0.0, 0.0],
         width: 40.0 * D,
         y_min: -20.0 * D,
@@ -66,6 +83,32 @@ pub fn fixed(x: f64, y: f64) -> GrainSpec {
         fixed: true,
         ..GrainSpec::default()
     }
+}
+
+/// Runs a test body `$body::<R, K>(tol)` for f32 and f64 (`tol` as in
+/// [`both_precisions`]) through both step paths ([`BATCHED`], [`SCALAR`]).
+#[macro_export]
+macro_rules! both_paths {
+    ($name:ident, $body:ident) => {
+        mod $name {
+            #[test]
+            fn f64_batched() {
+                super::$body::<f64, 8>(1e-9);
+            }
+            #[test]
+            fn f64_scalar() {
+                super::$body::<f64, 6>(1e-9);
+            }
+            #[test]
+            fn f32_batched() {
+                super::$body::<f32, 8>(1e-4);
+            }
+            #[test]
+            fn f32_scalar() {
+                super::$body::<f32, 6>(1e-4);
+            }
+        }
+    };
 }
 
 /// Runs a test body for f32 and f64.
