@@ -452,7 +452,7 @@ impl TransportFigure {
 
     /// The axes' limits: whole decades around the points, τ* at least over
     /// [0.03, 0.5], q* from 10⁻⁴ (lower for smaller positive values, not
-    /// below 10⁻⁶) to at least 1.
+    /// below 10⁻⁶) to at least 1 and twice the highest error bar.
     fn limits(&self) -> ((f64, f64), (f64, f64)) {
         let points = || {
             self.series
@@ -466,8 +466,9 @@ impl TransportFigure {
             .map(|p| p.1)
             .filter(|&q| q > 0.0)
             .fold(1e-4, f64::min);
+        // Headroom: a factor 2 above the highest error bar.
         let q_max = points()
-            .map(|p| p.1 + p.2.max(0.0))
+            .map(|p| 2.0 * (p.1 + p.2.max(0.0)))
             .filter(|q| q.is_finite())
             .fold(1.0, f64::max);
         let (t_lo, t_hi) = decades(t_lo, t_hi);
