@@ -251,7 +251,12 @@ pub fn run(
         &class_labels,
         format!(
             "q* against τ*: d = {} mm, {}×{} bed, β = {}, {} seed(s)",
-            sc.bed.max_diameter() * 1e3,
+            sc.bed
+                .classes
+                .iter()
+                .map(|c| (c.diameter * 1e3).to_string())
+                .collect::<Vec<_>>()
+                .join(", "),
             sc.bed.columns,
             sc.bed.rows,
             sc.rule.beta,

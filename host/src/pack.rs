@@ -94,6 +94,9 @@ pub fn write_packing(dir: &Path, samples: &[PackSample], title: &str) -> Result<
         y_label: "centre of gravity y_gc (mm)".into(),
         log_axes: false,
         markers: false,
+        dots: Vec::new(),
+        x_ticks: Vec::new(),
+        marks: Vec::new(),
     };
     save(&figure, dir, "packing")
 }

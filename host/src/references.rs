@@ -28,28 +28,42 @@ impl Reference {
         Reference::Nielsen,
     ];
 
-    /// Label for plots and reports.
-    pub fn label(self) -> &'static str {
+    /// The relation's authors and year.
+    pub fn name(self) -> &'static str {
         match self {
             Reference::MeyerPeterMuller => "Meyer-Peter & Müller 1948",
             Reference::WongParker => "Wong & Parker 2006",
-            Reference::FernandezLuqueVanBeek => "Fernandez Luque & van Beek 1976 (τ*c 0.037)",
-            Reference::AshidaMichiue => "Ashida & Michiue 1972 (τ*c 0.05)",
+            Reference::FernandezLuqueVanBeek => "Fernandez Luque & van Beek 1976",
+            Reference::AshidaMichiue => "Ashida & Michiue 1972",
             Reference::Nielsen => "Nielsen 1992",
         }
     }
 
+    /// The critical Shields number τ*c used (docs/model.md §10).
+    pub fn tau_star_c(self) -> f64 {
+        match self {
+            Reference::MeyerPeterMuller => 0.047,
+            Reference::WongParker => 0.0495,
+            Reference::FernandezLuqueVanBeek => 0.037,
+            Reference::AshidaMichiue | Reference::Nielsen => 0.05,
+        }
+    }
+
+    /// Label for plots and reports: the name and τ*c.
+    pub fn label(self) -> String {
+        format!("{} (τ*c {})", self.name(), self.tau_star_c())
+    }
+
     /// q* at Shields number `tau`; 0 below the relation's threshold.
     pub fn q_star(self, tau: f64) -> f64 {
-        let excess = |tc: f64| (tau - tc).max(0.0);
+        let tc = self.tau_star_c();
+        let excess = (tau - tc).max(0.0);
         match self {
-            Reference::MeyerPeterMuller => 8.0 * excess(0.047).powf(1.5),
-            Reference::WongParker => 3.97 * excess(0.0495).powf(1.5),
-            Reference::FernandezLuqueVanBeek => 5.7 * excess(0.037).powf(1.5),
-            Reference::AshidaMichiue => {
-                17.0 * excess(0.05) * (tau.max(0.0).sqrt() - 0.05f64.sqrt()).max(0.0)
-            }
-            Reference::Nielsen => 12.0 * tau.max(0.0).sqrt() * excess(0.05),
+            Reference::MeyerPeterMuller => 8.0 * excess.powf(1.5),
+            Reference::WongParker => 3.97 * excess.powf(1.5),
+            Reference::FernandezLuqueVanBeek => 5.7 * excess.powf(1.5),
+            Reference::AshidaMichiue => 17.0 * excess * (tau.max(0.0).sqrt() - tc.sqrt()).max(0.0),
+            Reference::Nielsen => 12.0 * tau.max(0.0).sqrt() * excess,
         }
     }
 }

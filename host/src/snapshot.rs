@@ -7,7 +7,8 @@ use crate::output::{create_dir, write_json, write_text};
 use crate::plot::{save, BedFigure, Disc};
 use crate::sims::{run_steps, with_sim, SimJob, NEIGHBOURS};
 use indicatif::ProgressBar;
-use mbs_kernel::{GrainSpec, Real, Sim};
+use mbs_kernel::flow::Profile;
+use mbs_kernel::{FlowConfig, GrainSpec, Real, Sim};
 use serde::Serialize;
 use std::fmt::Write;
 use std::path::Path;
@@ -21,6 +22,11 @@ pub struct Frame {
     pub width: f64,
     /// Every grain.
     pub grains: Vec<GrainSpec>,
+    /// The flow, if on.
+    pub flow: Option<FlowConfig>,
+    /// The mean bed level (m) the flow last used (docs/model.md §6), once
+    /// the flow has stepped.
+    pub bed_level: Option<f64>,
 }
 
 /// What a snapshot run is asked to do.
@@ -54,15 +60,17 @@ impl SimJob for Snapshots<'_> {
         setup.scenario.build(sim).map_err(fail())?;
         run_steps(sim, config.durations.settle, self.progress).map_err(fail())?;
         sim.set_flow(Some(&setup.flow)).map_err(fail())?;
-        let frame = |sim: &Sim<R, N, NEIGHBOURS>| Frame {
+        let frame = |sim: &Sim<R, N, NEIGHBOURS>, flowed: bool| Frame {
             time: sim.time(),
             width: sim.config().width,
             grains: (0..sim.len()).filter_map(|i| sim.grain(i)).collect(),
+            flow: sim.flow().copied(),
+            bed_level: flowed.then(|| sim.bed_level()),
         };
-        let mut out = vec![frame(sim)];
+        let mut out = vec![frame(sim, false)];
         for _ in 0..self.frames {
             run_steps(sim, self.every, self.progress).map_err(fail())?;
-            out.push(frame(sim));
+            out.push(frame(sim, self.every > 0));
         }
         Ok(out)
     }
@@ -125,6 +133,31 @@ struct Series {
     files: Vec<SeriesEntry>,
 }
 
+/// The mean flow velocity U (14) from the zero level of the log law up to
+/// the highest grain: (y (m), U (m/s)); empty before the flow has stepped.
+fn flow_profile(frame: &Frame) -> Vec<(f64, f64)> {
+    const POINTS: u32 = 300;
+    let (Some(flow), Some(bed)) = (frame.flow, frame.bed_level) else {
+        return Vec::new();
+    };
+    let profile = Profile::<f64>::new(&flow);
+    let top = frame
+        .grains
+        .iter()
+        .map(|g| g.y + g.diameter)
+        .fold(bed, f64::max);
+    // Where (14) starts: 30.1 (y + 0.25 d)/k_s = 1.
+    let zero = flow.roughness / 30.1 - 0.25 * flow.reference_diameter;
+    // Denser near the bed, where U changes fastest.
+    (0..=POINTS)
+        .map(|k| {
+            let f = f64::from(k) / f64::from(POINTS);
+            let y = zero + (top - bed - zero) * f * f;
+            (bed + y, profile.mean_velocity(y))
+        })
+        .collect()
+}
+
 /// Writes `dir/snapshot/bed_NNNN.vtk` for every frame, the ParaView series
 /// file `dir/snapshot/bed.vtk.series`, and the last frame as
 /// `dir/snapshot.png`/`.svg`.
@@ -160,6 +193,8 @@ pub fn write_snapshots(dir: &Path, frames: &[Frame], title: &str) -> Result<(), 
             discs: &discs,
             width: last.width,
             title: format!("{title}, t = {:.3} s", last.time),
+            bed_level: last.bed_level,
+            flow_profile: flow_profile(last),
         };
         save(&figure, dir, "snapshot")?;
     }

@@ -53,6 +53,19 @@ fn quick_calibration_writes_every_stage_and_the_report() {
     );
     let beta = s3["beta"].as_f64().unwrap();
     assert!(report.contains(&format!("| β | {beta:.3} | 15.8 |")));
+    // The figures: the chosen β marked, q*_k/f_k named, narrow axes labelled.
+    let misfit = read(dir.path(), "stage3_misfit.svg");
+    assert!(misfit.contains(&format!("chosen β = {beta:.3}")));
+    assert!(read(dir.path(), "stage5.svg").contains("fractional transport q*_k / f_k"));
+    for f in ["stage4_dt.svg", "stage4_dt_layers.svg"] {
+        let svg = read(dir.path(), f);
+        let dt_labels = svg
+            .split("</text>")
+            .filter_map(|t| t.rsplit('>').next()?.trim().parse::<f64>().ok())
+            .filter(|v| *v > 0.0 && *v < 1e-3)
+            .count();
+        assert!(dt_labels >= 2, "{f}: y tick labels");
+    }
     assert!(beta > 1.0 && beta < 30.0);
     let dt01 = s4["rows"][0]["constants_dt"].as_f64().unwrap();
     assert_eq!(s4["rows"][0]["diameter_mm"], 0.1);

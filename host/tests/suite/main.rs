@@ -7,6 +7,7 @@ mod common;
 mod attack;
 mod calibrate;
 mod cli;
+mod figures;
 mod hostile;
 mod paper_case;
 mod resume;

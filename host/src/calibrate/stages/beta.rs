@@ -8,7 +8,7 @@ use crate::calibrate::optimise::{grid_then_golden, Search};
 use crate::calibrate::{Context, Curve};
 use crate::error::HostError;
 use crate::output::{decimal, write_csv};
-use crate::plot::{save, LinesFigure, TransportFigure};
+use crate::plot::{save, LinesFigure, TransportFigure, Q_STAR_AXIS, TAU_STAR_AXIS};
 use serde::{Deserialize, Serialize};
 
 /// The outcome of stage 3.
@@ -129,17 +129,22 @@ fn write_outputs(ctx: &Context<'_>, r: &BetaStage) -> Result<(), HostError> {
             "Stage 3: q* before and after β (α_m = {}, α_cn = {})",
             r.alpha_m, r.alpha_cn
         ),
+        x_label: TAU_STAR_AXIS.into(),
+        y_label: Q_STAR_AXIS.into(),
     };
     save(&figure, &ctx.dir, "stage3")?;
-    let mut sorted = evaluations;
-    sorted.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let mut grid = r.search.grid.clone();
+    grid.sort_by(|a, b| a.0.total_cmp(&b.0));
     let misfit = LinesFigure {
-        series: vec![(String::new(), sorted)],
+        x_ticks: grid.iter().map(|p| p.0).collect(),
+        series: vec![("grid".into(), grid)],
+        dots: vec![("golden-section search".into(), r.search.refinement.clone())],
         title: format!("Stage 3: misfit to {} against β", ctx.reference.label()),
         x_label: "β".into(),
-        y_label: "mean squared ln(q*/q*_ref)".into(),
+        y_label: "misfit: mean squared ln(q*/q*_ref)".into(),
         log_axes: true,
         markers: true,
+        marks: vec![(r.beta, format!("chosen β = {:.3}", r.beta))],
     };
     save(&misfit, &ctx.dir, "stage3_misfit")?;
     save_stage(&ctx.dir, "stage3", r)

@@ -185,13 +185,22 @@ fn write_outputs(ctx: &Context<'_>, r: &MixedStage) -> Result<(), HostError> {
                 .filter(|p| p.diameter_mm == d)
                 .map(|p| (p.tau_star_class, p.q_star_fraction, 0.0))
                 .collect();
-            (format!("d = {d} mm: q*_k / f_k at τ*_k"), pts)
+            (format!("class d = {d} mm"), pts)
         })
         .collect();
     let figure = TransportFigure {
         series,
         references: vec![ctx.reference],
-        title: "Stage 5: fractional transport per size class (mixed bed)".into(),
+        title: format!(
+            "Stage 5: fractional transport per size class, mixed bed of d = {} mm",
+            diameters
+                .iter()
+                .map(f64::to_string)
+                .collect::<Vec<_>>()
+                .join(", ")
+        ),
+        x_label: "class Shields number τ*_k = τ* d_max / d_k".into(),
+        y_label: "fractional transport q*_k / f_k (q*_k: class k's q*, f_k: its fraction)".into(),
     };
     save(&figure, &ctx.dir, "stage5")?;
     save_stage(&ctx.dir, "stage5", r)

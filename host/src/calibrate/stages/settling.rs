@@ -208,6 +208,9 @@ fn write_outputs(ctx: &Context<'_>, stage: usize, r: &SettlingStage) -> Result<(
         y_label: "centre of gravity y_gc (mm)".into(),
         log_axes: false,
         markers: false,
+        dots: Vec::new(),
+        x_ticks: Vec::new(),
+        marks: Vec::new(),
     };
     save(&figure, &ctx.dir, &name)?;
     save_stage(&ctx.dir, &name, r)

@@ -9,7 +9,7 @@ use crate::calibrate::optimise::grid_then_golden;
 use crate::calibrate::{Context, Curve};
 use crate::error::HostError;
 use crate::output::{decimal, write_csv};
-use crate::plot::{save, LinesFigure, TransportFigure};
+use crate::plot::{save, LinesFigure, TransportFigure, Q_STAR_AXIS, TAU_STAR_AXIS};
 use serde::{Deserialize, Serialize};
 
 /// One (d, nvd) search.
@@ -206,6 +206,9 @@ fn write_outputs(ctx: &Context<'_>, r: &TimestepStage) -> Result<(), HostError> 
         y_label: "constants' time step constants_dt (s)".into(),
         log_axes: true,
         markers: true,
+        dots: Vec::new(),
+        x_ticks: Vec::new(),
+        marks: Vec::new(),
     };
     save(
         &chart(
@@ -260,6 +263,8 @@ fn write_outputs(ctx: &Context<'_>, r: &TimestepStage) -> Result<(), HostError> 
             series,
             references: vec![ctx.reference],
             title,
+            x_label: TAU_STAR_AXIS.into(),
+            y_label: Q_STAR_AXIS.into(),
         };
         save(&figure, &ctx.dir, name)?;
     }

@@ -1,0 +1,102 @@
+//! The figures a run leaves behind carry what a reader needs (issue 28):
+//! every decade labelled, q* and τ* defined, τ*c of every relation, the
+//! size classes of a mixed bed, and the snapshot's colour bar, bed level,
+//! flow profile and periodic edges. (How they look is checked by eye.)
+
+use crate::common::*;
+use mbs::plot::{Q_STAR_AXIS, TAU_STAR_AXIS};
+use mbs::references::Reference;
+use std::path::Path;
+
+/// The text of every `<text>` element of `dir/name`, after checking that
+/// it and the PNG of the same name exist.
+fn svg_texts(dir: &Path, stem: &str) -> Vec<String> {
+    let png = std::fs::read(dir.join(format!("{stem}.png"))).unwrap();
+    assert_eq!(&png[1..4], b"PNG", "{stem}.png");
+    let svg = std::fs::read_to_string(dir.join(format!("{stem}.svg"))).unwrap();
+    svg.split("<text")
+        .skip(1)
+        .filter_map(|t| t.split_once('>').map(|(_, rest)| rest))
+        .filter_map(|t| {
+            t.split_once("</text>")
+                .map(|(text, _)| text.trim().replace("&amp;", "&"))
+        })
+        .collect()
+}
+
+fn assert_has(texts: &[String], wanted: &[&str]) {
+    for w in wanted {
+        assert!(texts.iter().any(|t| t == w), "{w:?} not in {texts:?}");
+    }
+}
+
+#[test]
+fn the_transport_figure_labels_decades_thresholds_definitions_and_classes() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = SMALL.replace(
+        "[bed]",
+        "[grains]\nclasses = [{ diameter_mm = 1.0, fraction = 0.5 }, { diameter_mm = 0.7, fraction = 0.5 }]\n[bed]",
+    ) + "[contact]\nbeta = 4.0\n";
+    let cfg = write(
+        dir.path(),
+        "mixed.toml",
+        &text.replace("[time]", "[time]\nsubsteps = 8"),
+    );
+    let out = dir.path().join("out");
+    run_into(&cfg, &out).assert().success();
+    let texts = svg_texts(&out, "transport");
+    // Both axes: every decade, and 0.02, 0.03, 0.05 on the short τ* axis.
+    assert_has(
+        &texts,
+        &[
+            "0.0001", "0.001", "0.01", "0.02", "0.03", "0.05", "0.1", "1",
+        ],
+    );
+    assert_has(&texts, &[Q_STAR_AXIS, TAU_STAR_AXIS]);
+    for r in Reference::ALL {
+        let label = r.label();
+        assert!(
+            label.contains(&format!("τ*c {}", r.tau_star_c())),
+            "{label}"
+        );
+        assert_has(&texts, &[&label]);
+    }
+    assert_has(
+        &texts,
+        &[
+            "mbs (mean ± standard error)",
+            "mbs, class d = 1 mm",
+            "mbs, class d = 0.7 mm",
+        ],
+    );
+    let title = &texts[0];
+    assert!(title.contains("d = 1, 0.7 mm"), "{title}");
+}
+
+#[test]
+fn the_snapshot_has_a_colour_bar_the_bed_level_the_flow_and_the_periodic_edges() {
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = write(dir.path(), "small.toml", SMALL);
+    mbs()
+        .arg("snapshot")
+        .arg(&cfg)
+        .args(["--frames", "1", "--every", "0.005", "--out"])
+        .arg(dir.path())
+        .assert()
+        .success();
+    let texts = svg_texts(dir.path(), "snapshot");
+    assert_has(
+        &texts,
+        &[
+            "grain speed |v| (m/s)",
+            "mean flow U (m/s)",
+            "U(y), (14)",
+            "periodic edge x = 0",
+            "x = L",
+        ],
+    );
+    assert!(
+        texts.iter().any(|t| t.starts_with("mean bed level ")),
+        "{texts:?}"
+    );
+}
