@@ -359,11 +359,16 @@ fn execute(cli: Cli) -> Result<(), HostError> {
             };
             let message = match commands::on_pool(cli.threads, || calibrate(base, &out, options))??
             {
-                Progress::Done { stages: 5 } => {
-                    format!("calibration done: {}/report.md\n", out.display())
-                }
-                Progress::Done { stages } => {
-                    format!("stages 1-{stages} done in {}\n", out.display())
+                Progress::Done { stages, calibrated } => {
+                    let done = if stages == 5 {
+                        format!("calibration done: {}/report.md\n", out.display())
+                    } else {
+                        format!("stages 1-{stages} done in {}\n", out.display())
+                    };
+                    match calibrated {
+                        Some(c) => format!("{done}{c}\n"),
+                        None => done,
+                    }
                 }
                 Progress::Waiting { stage } => format!(
                     "stage {stage}: this shard's cells are done; merge the shards \

@@ -14,6 +14,7 @@
 //! interrupted calibration resumes where it stopped and a sharded one is
 //! completed by merging the shards' stores.
 
+pub mod calibrated;
 pub mod cells;
 pub mod optimise;
 pub mod report;
@@ -346,6 +347,9 @@ pub enum Progress {
     Done {
         /// Stages finished.
         stages: usize,
+        /// The calibrated constants, written to `calibrated.toml` (from
+        /// stage 3 on).
+        calibrated: Option<calibrated::Calibrated>,
     },
     /// Stage `stage` waits for cells of other shards: merge and rerun.
     Waiting {
@@ -406,28 +410,44 @@ pub fn calibrate(
         return waiting(1);
     };
     if options.last_stage < 2 {
-        return Ok(Progress::Done { stages: 1 });
+        return Ok(Progress::Done {
+            stages: 1,
+            calibrated: None,
+        });
     }
     bar.set_message("stage 2 (α_cn)");
     let Some(s2) = settling::run(&ctx, 2, s1.chosen)? else {
         return waiting(2);
     };
     if options.last_stage < 3 {
-        return Ok(Progress::Done { stages: 2 });
+        return Ok(Progress::Done {
+            stages: 2,
+            calibrated: None,
+        });
     }
     bar.set_message("stage 3 (β)");
     let Some(s3) = beta::run(&ctx, s1.chosen, s2.chosen)? else {
         return waiting(3);
     };
+    let write_calibrated = |timestep| {
+        let file = ctx.configure(s3.alpha_m, s3.alpha_cn, s3.beta);
+        calibrated::write(dir, &file, &s3, timestep, options.reference)
+    };
     if options.last_stage < 4 {
-        return Ok(Progress::Done { stages: 3 });
+        return Ok(Progress::Done {
+            stages: 3,
+            calibrated: Some(write_calibrated(None)?),
+        });
     }
     bar.set_message("stage 4 (constants_dt for d and nvd)");
     let Some(s4) = timestep::run(&ctx, s1.chosen, s2.chosen, s3.beta)? else {
         return waiting(4);
     };
     if options.last_stage < 5 {
-        return Ok(Progress::Done { stages: 4 });
+        return Ok(Progress::Done {
+            stages: 4,
+            calibrated: Some(write_calibrated(Some(&s4))?),
+        });
     }
     bar.set_message("stage 5 (mixed sizes)");
     let Some(s5) = mixed::run(&ctx, s1.chosen, s2.chosen, s3.beta)? else {
@@ -447,7 +467,10 @@ pub fn calibrate(
             mixed: &s5,
         },
     )?;
-    Ok(Progress::Done { stages: 5 })
+    Ok(Progress::Done {
+        stages: 5,
+        calibrated: Some(write_calibrated(Some(&s4))?),
+    })
 }
 
 /// `mbs calibrate merge`: adds the cells of shard directories to `dir`'s

@@ -87,6 +87,32 @@ fn quick_calibration_writes_every_stage_and_the_report() {
         .collect();
     assert_eq!(before.len(), after.len());
     assert!(s3["misfit"].as_f64().unwrap() < s3["search"]["grid"][0][1].as_f64().unwrap());
+    // calibrated.toml: what `mbs run` reads as it is, with the fitted constants.
+    let calibrated = mbs::Config::load(Some(&dir.path().join("calibrated.toml")))
+        .expect("mbs run accepts calibrated.toml");
+    let rule = calibrated.scenario.rule;
+    assert_eq!(
+        (rule.alpha_m, rule.alpha_cn, rule.beta),
+        (
+            alpha_m,
+            json(dir.path(), "stage2.json")["chosen"].as_f64().unwrap(),
+            beta
+        )
+    );
+    // Run again (every cell stored): it ends by printing the values.
+    let out = assert_cmd::Command::cargo_bin("mbs")
+        .unwrap()
+        .args(["calibrate", "--quick", "--out"])
+        .arg(dir.path())
+        .output()
+        .unwrap();
+    let printed = String::from_utf8(out.stdout).unwrap();
+    assert!(
+        printed.contains(&format!("calibrated: alpha_m = {alpha_m}, "))
+            && printed.contains(&format!("beta = {beta} "))
+            && printed.contains("calibrated.toml"),
+        "{printed}"
+    );
 }
 
 #[test]
