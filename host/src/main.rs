@@ -41,7 +41,8 @@ enum Command {
         /// Continue an interrupted run in DIR with the configuration it started with.
         #[arg(long, value_name = "DIR")]
         resume: Option<PathBuf>,
-        /// Checkpoint every running cell every SECONDS of wall time (Ctrl-C always checkpoints).
+        /// Checkpoint every running cell every SECONDS of wall time, and at most once per
+        /// 2000 integration steps of a cell (Ctrl-C always checkpoints).
         #[arg(long, value_name = "SECONDS")]
         checkpoint_every: Option<f64>,
         /// Stop every cell after N steps as if interrupted (for tests of resuming).
@@ -226,15 +227,16 @@ fn execute(cli: Cli) -> Result<(), HostError> {
                 }
                 .into());
             }
-            let (config, out) = match resume {
-                Some(dir) => (Some(dir.join(commands::RUN_CONFIG)), Some(dir)),
-                None => (config, out),
-            };
             let options = commands::RunOptions {
                 checkpoint_every,
                 stop_after_steps,
+                resuming: resume.is_some(),
             };
-            commands::run(&load(&config)?, out.as_deref(), options, common)
+            let (config, out) = match resume {
+                Some(dir) => (commands::resumed_config(&dir)?, Some(dir)),
+                None => (load(&config)?, out),
+            };
+            commands::run(&config, out.as_deref(), options, common)
         }
         Command::Config => commands::config(),
         Command::Pack {

@@ -4,6 +4,7 @@
 //! is in docs/determinism.md ("Traces").
 
 use crate::config::Precision;
+use crate::input::Bound;
 use crate::sims::{with_sim, SimJob, NEIGHBOURS};
 use mbs_kernel::{FieldGroup, Fnv1a, Real, Scenario, Sim};
 use serde::Serialize;
@@ -11,6 +12,21 @@ use std::collections::BTreeMap;
 
 /// The trace format's name and version (the `format` field).
 pub const FORMAT: &str = "mbs-trace 1";
+
+/// The most records a trace holds (`mbs digest --trace` refuses an `--every`
+/// that would give more): far more than a comparison needs.
+pub const MAX_RECORDS: u64 = 100_000;
+
+/// The most bytes one record takes in a trace file (test
+/// `a_record_fits_its_bound`).
+const MAX_RECORD_BYTES: u64 = 1024;
+
+/// The longest trace file: [`MAX_RECORDS`] records and 64 KiB for the rest
+/// (the configuration's path included).
+pub const TRACE_BOUND: Bound = Bound {
+    bytes: MAX_RECORDS * MAX_RECORD_BYTES + (64 << 10),
+    reason: "the largest trace (100000 records of at most 1 KiB)",
+};
 
 /// What a trace records: the digest run of `scenario` (`settle_steps`
 /// without flow, then `flow_steps` at `tau_star`), every `every` steps.
@@ -129,6 +145,13 @@ pub fn step_path() -> &'static str {
 }
 
 impl TraceRun {
+    /// At most the records this run writes: step 0, then every `every` steps
+    /// and at the end of each phase.
+    pub fn max_records(&self) -> u64 {
+        let every = self.every.max(1);
+        2 + self.settle_steps.div_ceil(every) + self.flow_steps.div_ceil(every)
+    }
+
     /// FNV-1a of the scenario, τ* and step counts (their `Debug` text:
     /// shortest round-trip floats, the same on every machine).
     pub fn scenario_hash(&self) -> u64 {

@@ -207,7 +207,17 @@ fn read_head<R: Real>(r: &mut Reader<'_>) -> Result<Head, Error> {
     })
 }
 
+/// Bytes of a checkpoint before its grains: header 8, `SimConfig` 144, flow
+/// 66, flow epoch and step 16 (the bed level, `R`, follows).
+const HEAD_LEN: usize = 8 + 144 + 66 + 16;
+
 impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
+    /// The length of the largest checkpoint this simulation can write or
+    /// restore: every grain slot used, every neighbour slot a contact. A
+    /// longer file is no checkpoint of it, and can be refused unread.
+    pub const MAX_CHECKPOINT_LEN: usize =
+        HEAD_LEN + R::BYTES + 4 + N * (11 * R::BYTES + 2) + 4 + N * K * (8 + 2 * R::BYTES);
+
     /// Writes the complete state to `sink` in the format of this module.
     pub fn checkpoint(&self, mut sink: impl FnMut(&[u8])) {
         let mut w = Writer { sink: &mut sink };
