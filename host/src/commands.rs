@@ -13,7 +13,7 @@ use crate::pack::{packing, write_packing, Packing};
 use crate::plot::{save, TransportFigure};
 use crate::sims::{with_sim, SimJob, NEIGHBOURS};
 use crate::snapshot::{snapshots, write_snapshots, Snapshots};
-use crate::text::excerpt;
+use crate::text::{excerpt, MESSAGE};
 use crate::trace::{MAX_RECORDS, TRACE_BOUND};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use mbs_kernel::{explicit_damping_number, Real, Scenario, Sim};
@@ -43,11 +43,11 @@ pub fn print(text: &str) -> Result<(), HostError> {
 }
 
 /// Writes `text` and a newline to standard error, long lines as excerpts
-/// ([`excerpt`]: a message quoting a 1 MB line stays short); a closed or
-/// broken standard error is ignored (a message cannot change the outcome or
-/// the exit status).
+/// ([`excerpt`] of [`MESSAGE`] characters: a message quoting a 1 MB line
+/// stays short); a closed or broken standard error is ignored (a message
+/// cannot change the outcome or the exit status).
 pub fn print_err(text: &str) {
-    let _ = writeln!(std::io::stderr().lock(), "{}", excerpt(text));
+    let _ = writeln!(std::io::stderr().lock(), "{}", excerpt(text, MESSAGE));
 }
 
 /// A progress bar over `len` integration steps on standard error (hidden

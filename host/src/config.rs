@@ -3,7 +3,7 @@
 //! parameters. Every invalid value is reported as `key = value: must be …`.
 
 use crate::input::{read_text_bounded, Bound};
-use crate::text::{excerpt, number, shown};
+use crate::text::{excerpt, number, shown, QUOTE};
 use mbs_kernel::{
     contact_constants, explicit_damping_number, BedSpec, ContactConstants, FlowConfig, FlowSpec,
     Material, Scenario, SizeClass, TimeStepRule, MAX_CLASSES,
@@ -122,7 +122,7 @@ const RENAMED: [(&str, &str); 1] = [(
 /// toml's message, long lines quoted as excerpts; for a key that was
 /// renamed, also its new name.
 fn parse_message(text: &str, e: &toml::de::Error) -> String {
-    let message = excerpt(e.to_string().trim_end());
+    let message = excerpt(e.to_string().trim_end(), QUOTE);
     let Some(span) = e
         .span()
         .filter(|_| e.message().starts_with("unknown field"))
@@ -649,9 +649,8 @@ impl Config {
             cell <= MAX_CELL_STEPS,
             "time.settle + time.spin_up + time.window",
             format!(
-                "{} s = {:e} integration steps",
-                t.settle + t.spin_up + t.window,
-                cell as f64
+                "{} + {} + {} s = {:e} integration steps",
+                t.settle, t.spin_up, t.window, cell as f64
             ),
             &format!(
                 "<= {MAX_CELL_STEPS:e} integration steps of step_dt = {step_dt:e} s per cell \
@@ -1109,6 +1108,22 @@ mod tests {
         // Two windows of 25 d are 50 d: 48 columns (50.4 d) suffice.
         assert!(warned(47, 25.0, true));
         assert!(!warned(48, 25.0, true));
+    }
+
+    #[test]
+    fn the_density_and_diameter_limits_keep_inverse_inertias_finite_in_f32() {
+        let paper = Scenario::paper().material;
+        for rho in [1e-3, 1e5] {
+            for s in [1.0 + 1e-9, 20.0] {
+                for d in [MIN_DIAMETER_MM * 1e-3, 0.1] {
+                    let m = Material { rho, s, ..paper };
+                    for x in [m.translational_mass(d), m.moment_of_inertia(d)] {
+                        let inverse = (1.0 / x) as f32;
+                        assert!(inverse.is_normal(), "rho {rho}, s {s}, d {d}: {x}");
+                    }
+                }
+            }
+        }
     }
 
     #[test]

@@ -181,6 +181,14 @@ fn ends_with_newline(path: &Path) -> std::io::Result<bool> {
     Ok(last[0] == b'\n')
 }
 
+/// The (key, value) of a store line (without its newline), if it is one
+/// whose checksum matches; else None (a torn or damaged line).
+pub fn parse_line(line: &[u8]) -> Option<(String, serde_json::Value)> {
+    let parsed = serde_json::from_slice::<Line>(line).ok()?;
+    (checksum(&parsed.key, &parsed.value.to_string()) == parsed.crc32)
+        .then_some((parsed.key, parsed.value))
+}
+
 /// Loads every intact line of a store file (a missing file is empty).
 fn load(path: &Path) -> Result<BTreeMap<String, serde_json::Value>, HostError> {
     let mut map = BTreeMap::new();
@@ -196,11 +204,8 @@ fn load(path: &Path) -> Result<BTreeMap<String, serde_json::Value>, HostError> {
         .map_err(HostError::io(path))?
     {
         number += 1;
-        let Ok(parsed) = serde_json::from_slice::<Line>(&line) else {
-            continue;
-        };
-        if checksum(&parsed.key, &parsed.value.to_string()) == parsed.crc32 {
-            map.insert(parsed.key, parsed.value);
+        if let Some((key, value)) = parse_line(&line) {
+            map.insert(key, value);
         }
     }
     Ok(map)

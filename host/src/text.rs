@@ -1,19 +1,23 @@
 //! Short text for people and file names: excerpts of long lines for
 //! messages, numbers in a form that stays short.
 
-/// Characters of a line that messages quote.
-pub const EXCERPT: usize = 160;
+/// Characters of a line that a message quotes from its input (toml's
+/// excerpt of the configuration).
+pub const QUOTE: usize = 400;
 
-/// `text` with each line longer than [`EXCERPT`] characters cut to its
-/// first ones and the count of those left out: a message quoting a
-/// 1 MB line stays short.
-pub fn excerpt(text: &str) -> String {
-    let mut out = String::with_capacity(text.len().min(4096));
+/// Characters of the longest line of a message on standard error.
+pub const MESSAGE: usize = 1000;
+
+/// `text` with each line longer than `max` characters cut to its first
+/// ones and the count of those left out: a message quoting a 1 MB line
+/// stays short.
+pub fn excerpt(text: &str, max: usize) -> String {
+    let mut out = String::with_capacity(text.len().min(4 * max));
     for (k, line) in text.split('\n').enumerate() {
         if k > 0 {
             out.push('\n');
         }
-        match line.char_indices().nth(EXCERPT) {
+        match line.char_indices().nth(max) {
             None => out.push_str(line),
             Some((cut, _)) => {
                 out.push_str(&line[..cut]);
@@ -56,9 +60,9 @@ mod tests {
 
     #[test]
     fn long_lines_are_quoted_as_excerpts() {
-        assert_eq!(excerpt("a\nb"), "a\nb");
+        assert_eq!(excerpt("a\nb", 1), "a\nb");
         let long = format!("x{}\nshort", "é".repeat(1_000_000));
-        let e = excerpt(&long);
+        let e = excerpt(&long, 160);
         assert!(e.len() < 400, "{}", e.len());
         assert!(e.ends_with("… (999841 more characters)\nshort"), "{e}");
     }
@@ -73,7 +77,7 @@ mod tests {
             (2.0, "2"),
             (1e-300, "1e-300"),
             (1e308, "1e308"),
-            (1.2345678901234567e-10, "1.2345678901234567e-10"),
+            (1.2345678901234568e-10, "1.2345678901234568e-10"),
         ] {
             assert_eq!(number(x), text);
             assert_eq!(number(x).parse::<f64>(), Ok(x));

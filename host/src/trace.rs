@@ -294,3 +294,40 @@ pub fn first_mismatch(recorded: &[Record], now: &[Record]) -> Option<String> {
         )
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_record_fits_its_bound() {
+        let widest = Record {
+            step: u64::MAX,
+            phase: "settle".into(),
+            digest: hex(u64::MAX),
+            groups: FieldGroup::ALL
+                .iter()
+                .map(|g| (g.name().to_string(), hex(u64::MAX)))
+                .collect(),
+        };
+        let trace = |n: usize| Trace {
+            format: FORMAT,
+            program: BTreeMap::new(),
+            target: "",
+            precision: Precision::F64,
+            step_path: "",
+            scenario_hash: String::new(),
+            config: None,
+            tau_star: 0.0,
+            settle_steps: 0,
+            flow_steps: 0,
+            every: 1,
+            step_dt_s: 0.0,
+            records: vec![widest.clone(); n],
+        };
+        let len = |n| to_text(&trace(n)).unwrap().len() as u64;
+        let record = len(2) - len(1);
+        assert!(record <= MAX_RECORD_BYTES, "{record} bytes");
+        assert!(len(1) - record < 2048);
+    }
+}
