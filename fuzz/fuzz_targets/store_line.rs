@@ -5,7 +5,5 @@
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {
-    if let Some((key, value)) = mbs::store::parse_line(data) {
-        assert!(key.len() + value.to_string().len() <= data.len());
-    }
+    let _ = mbs::store::parse_line(data);
 });

@@ -533,15 +533,15 @@ impl Config {
             "in [1, 10000]",
         )?;
         let flow = flow_spec(&file.flow, d, t.substeps)?;
-        for (key, value, least) in [
-            ("time.settle", t.settle, "[0"),
-            ("time.spin_up", t.spin_up, "[0"),
-            ("time.window", t.window, "(0"),
+        // A window holds at least one step; settling and spin-up may be skipped.
+        for (key, value, zero_allowed) in [
+            ("time.settle", t.settle, true),
+            ("time.spin_up", t.spin_up, true),
+            ("time.window", t.window, false),
         ] {
+            let least = if zero_allowed { "[0" } else { "(0" };
             need(
-                value.is_finite()
-                    && (value > 0.0 || (value == 0.0 && least == "[0"))
-                    && value <= MAX_PHASE_S,
+                value <= MAX_PHASE_S && (value > 0.0 || (zero_allowed && value == 0.0)),
                 key,
                 value,
                 &format!("in {least}, {MAX_PHASE_S}] s{PHASE_REASON}"),

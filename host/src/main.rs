@@ -197,6 +197,22 @@ fn tau_arg(tau: f64) -> Result<f64, HostError> {
     }
 }
 
+/// Checks a physical time given on the command line: in (0, 1000] s, the
+/// limit of the configuration's phases ([`mbs::config::MAX_PHASE_S`]).
+fn seconds_arg(key: &str, seconds: f64) -> Result<(), HostError> {
+    let max = mbs::config::MAX_PHASE_S;
+    if seconds > 0.0 && seconds <= max {
+        Ok(())
+    } else {
+        Err(mbs::ConfigError::Invalid {
+            key: key.into(),
+            value: mbs::text::number(seconds),
+            allowed: format!("in (0, {max}] s of physical time"),
+        }
+        .into())
+    }
+}
+
 fn execute(cli: Cli) -> Result<(), HostError> {
     let common = Common {
         quiet: cli.quiet,
@@ -244,13 +260,8 @@ fn execute(cli: Cli) -> Result<(), HostError> {
             out,
             duration,
         } => {
-            if let Some(d) = duration.filter(|d| !(d.is_finite() && *d > 0.0)) {
-                return Err(mbs::ConfigError::Invalid {
-                    key: "--duration".into(),
-                    value: d.to_string(),
-                    allowed: "> 0".into(),
-                }
-                .into());
+            if let Some(d) = duration {
+                seconds_arg("--duration", d)?;
             }
             commands::pack(&load(&config)?, out.as_deref(), duration, common)
         }
@@ -262,14 +273,7 @@ fn execute(cli: Cli) -> Result<(), HostError> {
             every,
         } => {
             let tau = tau_arg(tau)?;
-            if !(every.is_finite() && every > 0.0) {
-                return Err(mbs::ConfigError::Invalid {
-                    key: "--every".into(),
-                    value: every.to_string(),
-                    allowed: "> 0".into(),
-                }
-                .into());
-            }
+            seconds_arg("--every", every)?;
             commands::snapshot(&load(&config)?, out.as_deref(), tau, frames, every, common)
         }
         Command::Digest {

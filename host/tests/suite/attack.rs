@@ -352,6 +352,29 @@ fn phases_and_time_steps_beyond_their_limits_are_refused_with_the_reason() {
 }
 
 #[test]
+fn command_line_times_beyond_the_limit_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    mbs()
+        .current_dir(dir.path())
+        .args(["pack", "--duration", "1e308"])
+        .timeout(PATIENCE)
+        .assert()
+        .code(2)
+        .stderr(predicates::str::contains(
+            "--duration = 1e308: must be in (0, 1000] s",
+        ));
+    mbs()
+        .current_dir(dir.path())
+        .args(["snapshot", "--every", "1e308"])
+        .timeout(PATIENCE)
+        .assert()
+        .code(2)
+        .stderr(predicates::str::contains(
+            "--every = 1e308: must be in (0, 1000] s",
+        ));
+}
+
+#[test]
 fn sample_steps_longer_than_the_window_is_refused() {
     refused_config(
         ("[time]", "[time]\nsample_steps = 30000"),
