@@ -12,8 +12,10 @@
 //! as kernel checkpoints in a directory and reused.
 
 use crate::error::HostError;
+use crate::input::{read_bounded, Bound};
 use crate::output::{create_dir, write_atomic};
 use crate::sims::{with_sim, SimJob, NEIGHBOURS};
+use crate::text::number;
 use mbs_kernel::contact::{ContactLaw, Spring};
 use mbs_kernel::{BedSpec, Error, Fnv1a, GrainSpec, Real, Scenario, Sim};
 use std::path::{Path, PathBuf};
@@ -124,7 +126,7 @@ impl BenchBed {
         dir.join(format!(
             "{}_{columns}c_beta{}_{phase}_{:016x}_v{}.ckpt",
             R::NAME,
-            self.beta,
+            number(self.beta),
             Fnv1a::of(scenario.as_bytes()),
             mbs_kernel::CHECKPOINT_VERSION
         ))
@@ -150,8 +152,12 @@ fn prepare_columns<R: Real, const N: usize, const K: usize>(
     flow: bool,
     beds: Option<&Path>,
 ) -> Result<(), HostError> {
+    let bound = Bound {
+        bytes: Sim::<R, N, K>::MAX_CHECKPOINT_LEN as u64,
+        reason: "the largest checkpoint of this simulation",
+    };
     if let Some(dir) = beds
-        && let Ok(bytes) = std::fs::read(bed.file::<R>(dir, columns, flow))
+        && let Ok(bytes) = read_bounded(&bed.file::<R>(dir, columns, flow), bound)
         && sim.restore(&bytes).is_ok()
     {
         return Ok(());

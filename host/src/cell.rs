@@ -19,6 +19,7 @@
 use crate::config::{Config, ConfigFile};
 use crate::error::HostError;
 use crate::sims::{check_restored, with_sim, SimJob, NEIGHBOURS};
+use crate::text::number;
 use indicatif::ProgressBar;
 use mbs_kernel::{Fnv1a, Real, Sim, G};
 use serde::{Deserialize, Serialize};
@@ -28,6 +29,11 @@ use std::time::{Duration, Instant};
 
 /// Steps run between checks for stopping and checkpointing.
 const CHUNK: u64 = 2000;
+
+/// The fewest integration steps between two timed checkpoints of a cell
+/// (`--checkpoint-every`): a shorter interval would write checkpoints more
+/// often than the cell steps (each is a file synced to disk).
+pub const MIN_CHECKPOINT_STEPS: u64 = CHUNK;
 
 const MAGIC: [u8; 4] = *b"MBSC";
 const VERSION: u16 = 2;
@@ -244,6 +250,14 @@ impl CellCheckpoint {
         b
     }
 
+    /// The length of the largest cell checkpoint with `classes` size classes
+    /// and a kernel checkpoint of at most `sim_max` bytes.
+    pub fn max_len(classes: usize, sim_max: usize) -> usize {
+        // Magic, version, key, phase, done, samples, Σq*, class count.
+        let head = 4 + 2 + 8 + 1 + 8 + 8 + 8 + 4;
+        head + 8 * classes + 16 * BATCHES + 8 + sim_max + 4
+    }
+
     /// Decodes and checks a checkpoint written for the cell `key`.
     pub fn decode(bytes: &[u8], key: u64) -> Result<CellCheckpoint, CheckpointError> {
         let mut at = 0usize;
@@ -355,7 +369,8 @@ pub fn canonical(config: &ConfigFile) -> ConfigFile {
 pub struct Control<'a> {
     /// Checkpoint file of this cell.
     pub path: Option<PathBuf>,
-    /// Wall-clock interval between checkpoints.
+    /// Wall-clock interval between checkpoints (and at least
+    /// [`MIN_CHECKPOINT_STEPS`] steps).
     pub every: Option<Duration>,
     /// Set asynchronously (Ctrl-C): checkpoint and stop at the next chunk.
     pub stop: &'a AtomicBool,
@@ -396,7 +411,7 @@ impl SimJob for CellJob<'_> {
     fn run<R: Real, const N: usize>(self, sim: &mut Sim<R, N, NEIGHBOURS>) -> Self::Output {
         let setup = self.config.setup(self.tau_star, self.seed);
         let sc = &setup.scenario;
-        let context = format!("tau* = {}, seed {}", self.tau_star, self.seed);
+        let context = format!("tau* = {}, seed {}", number(self.tau_star), self.seed);
         let fail = || HostError::kernel(context.clone());
         let classes = &sc.bed.classes;
         let durations = self.config.durations;
@@ -447,6 +462,7 @@ impl SimJob for CellJob<'_> {
         let (d_max, s) = (sc.bed.max_diameter(), sc.material.s);
         let mut last_checkpoint = Instant::now();
         let mut stepped = 0u64;
+        let mut stepped_at_checkpoint = 0u64;
         loop {
             if state.done >= phase_steps(state.phase) {
                 match state.phase {
@@ -462,10 +478,10 @@ impl SimJob for CellJob<'_> {
             }
             let stop_now = self.control.stop.load(Ordering::Relaxed)
                 || self.control.stop_after.is_some_and(|n| stepped >= n);
-            let due = self
-                .control
-                .every
-                .is_some_and(|every| last_checkpoint.elapsed() >= every);
+            let due = self.control.every.is_some_and(|every| {
+                last_checkpoint.elapsed() >= every
+                    && stepped - stepped_at_checkpoint >= MIN_CHECKPOINT_STEPS
+            });
             if stop_now || due {
                 if let Some(path) = &self.control.path {
                     let mut bytes = Vec::new();
@@ -478,6 +494,7 @@ impl SimJob for CellJob<'_> {
                     crate::output::write_atomic(path, &ck.encode())?;
                 }
                 last_checkpoint = Instant::now();
+                stepped_at_checkpoint = stepped;
                 if stop_now {
                     return Ok(CellOutcome::Stopped);
                 }
@@ -580,6 +597,7 @@ mod tests {
             sim: vec![1, 2, 3, 4, 5],
         };
         let bytes = ck.encode();
+        assert_eq!(bytes.len(), CellCheckpoint::max_len(2, 5));
         assert_eq!(CellCheckpoint::decode(&bytes, 42), Ok(ck));
         assert_eq!(
             CellCheckpoint::decode(&bytes, 43),

@@ -2,15 +2,19 @@
 //! and a short report on standard output.
 
 use crate::bench::bench;
-use crate::config::{warnings, Config, Precision, DEFAULT_TOML};
+use crate::cell::MIN_CHECKPOINT_STEPS;
+use crate::config::{long_run_warning, warnings, Config, ConfigError, Precision, DEFAULT_TOML};
 use crate::error::HostError;
 use crate::experiment::RunControl;
 use crate::experiment::{aggregate, run_all, write_transport, TransportRow};
+use crate::input::read_text_bounded;
 use crate::output::{create_dir, write_json, write_text};
 use crate::pack::{packing, write_packing, Packing};
 use crate::plot::{save, TransportFigure};
 use crate::sims::{with_sim, SimJob, NEIGHBOURS};
 use crate::snapshot::{snapshots, write_snapshots, Snapshots};
+use crate::text::{excerpt, MESSAGE};
+use crate::trace::TRACE_BOUND;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use mbs_kernel::{explicit_damping_number, Real, Scenario, Sim};
 use serde::Serialize;
@@ -38,10 +42,12 @@ pub fn print(text: &str) -> Result<(), HostError> {
     }
 }
 
-/// Writes `text` and a newline to standard error; a closed or broken standard
-/// error is ignored (a message cannot change the outcome or the exit status).
+/// Writes `text` and a newline to standard error, long lines as excerpts
+/// ([`excerpt`] of [`MESSAGE`] characters: a message quoting a 1 MB line
+/// stays short); a closed or broken standard error is ignored (a message
+/// cannot change the outcome or the exit status).
 pub fn print_err(text: &str) {
-    let _ = writeln!(std::io::stderr().lock(), "{text}");
+    let _ = writeln!(std::io::stderr().lock(), "{}", excerpt(text, MESSAGE));
 }
 
 /// A progress bar over `len` integration steps on standard error (hidden
@@ -166,10 +172,30 @@ pub struct RunOptions {
     pub checkpoint_every: Option<f64>,
     /// Stop every cell after this many steps, as if interrupted (tests).
     pub stop_after_steps: Option<u64>,
+    /// `--resume`: the configuration is the run directory's own.
+    pub resuming: bool,
 }
 
 /// The configuration a run directory was started with (`mbs run --resume`).
 pub const RUN_CONFIG: &str = "config.toml";
+
+/// The configuration an interrupted run in `dir` started with
+/// (`mbs run --resume DIR`); a directory without one holds nothing to resume.
+pub fn resumed_config(dir: &Path) -> Result<Config, HostError> {
+    let path = dir.join(RUN_CONFIG);
+    if !path.is_file() {
+        let why = format!(
+            "nothing to resume here: no run was started with `mbs run CONFIG --out {}`",
+            dir.display()
+        );
+        return Err(ConfigError::Read {
+            path,
+            source: std::io::Error::new(std::io::ErrorKind::NotFound, why),
+        }
+        .into());
+    }
+    Ok(Config::load(Some(&path))?)
+}
 
 /// `mbs run`: q*(τ*) over seeds → `transport.csv`, `transport.png`/`.svg`,
 /// `summary.json` in `out` (or the configuration's `run.output`). Finished
@@ -182,6 +208,20 @@ pub fn run(
     common: Common,
 ) -> Result<(), HostError> {
     report_warnings(config, common.quiet, true);
+    let threads = on_pool(common.threads, rayon::current_num_threads)?;
+    if let Some(w) = long_run_warning(config, threads).filter(|_| !common.quiet) {
+        print_err(&format!("warning: {w}"));
+    }
+    if let Some(every) = options
+        .checkpoint_every
+        .filter(|&s| s < 1.0 && !common.quiet)
+    {
+        print_err(&format!(
+            "warning: --checkpoint-every {} s: each cell writes a checkpoint at most once per \
+             {MIN_CHECKPOINT_STEPS} integration steps",
+            crate::text::number(every)
+        ));
+    }
     let dir = output_dir(config, out);
     let _lock = crate::output::lock_dir(&dir)?;
     let text = toml::to_string(&config.file)
@@ -194,14 +234,21 @@ pub fn run(
     // missing final newline in DIR/config.toml is the same run.
     let same = |old: &String| Config::from_toml(old).is_ok_and(|c| c.file == config.file);
     if started.as_ref().is_some_and(|old| !same(old)) && has_checkpoints {
+        // Resuming, the configuration was read from that very file: it
+        // changed meanwhile (another program wrote it).
+        let advice = if options.resuming {
+            format!("{RUN_CONFIG} changed while it was being read; run the same command again")
+        } else {
+            format!(
+                "resume it with `mbs run --resume {}` or choose another --out",
+                dir.display()
+            )
+        };
         return Err(HostError::Checkpoint {
             path: dir.join("checkpoints"),
             message: format!(
-                "{} holds an interrupted run of another configuration ({}); \
-                 resume it with `mbs run --resume {}` or choose another --out",
+                "{} holds an interrupted run of another configuration ({RUN_CONFIG}); {advice}",
                 dir.display(),
-                RUN_CONFIG,
-                dir.display()
             ),
         });
     }
@@ -273,7 +320,7 @@ pub fn run(
             command: "run",
             config: &config.file,
             derived: Derived::of(config),
-            threads: on_pool(common.threads, rayon::current_num_threads)?,
+            threads,
             cells_reused: outcome.reused,
             cells_resumed: outcome.resumed,
             wall_time_s: wall,
@@ -445,6 +492,14 @@ pub fn digest(
             precision,
             capacity: config.capacity,
         };
+        if let Err(allowed) = run.fits() {
+            return Err(crate::config::ConfigError::Invalid {
+                key: "--every".into(),
+                value: t.every.to_string(),
+                allowed,
+            }
+            .into());
+        }
         let trace = run.run().map_err(trace_error("digest trace"))?;
         let text = crate::trace::to_text(&trace).map_err(|e| HostError::Io {
             path: t.path.to_path_buf(),
@@ -494,7 +549,10 @@ pub fn check_trace(path: &Path, nudge: Option<crate::trace::Nudge>) -> Result<()
         path: path.to_path_buf(),
         message,
     };
-    let text = std::fs::read_to_string(path).map_err(HostError::io(path))?;
+    let text = read_text_bounded(path, TRACE_BOUND).map_err(|e| match e.kind() {
+        std::io::ErrorKind::InvalidData => refuse(e.to_string()),
+        _ => HostError::io(path)(e),
+    })?;
     let recorded = crate::trace::parse(&text).map_err(refuse)?;
     let config = match &recorded.config {
         Some(file) => Config::load(Some(Path::new(file)))?,

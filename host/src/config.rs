@@ -2,6 +2,8 @@
 //! missing key taken from the paper's case, then validated into typed
 //! parameters. Every invalid value is reported as `key = value: must be …`.
 
+use crate::input::{read_text_bounded, Bound};
+use crate::text::{excerpt, number, shown, QUOTE};
 use mbs_kernel::{
     contact_constants, explicit_damping_number, BedSpec, ContactConstants, FlowConfig, FlowSpec,
     Material, Scenario, SizeClass, Tension, TimeStepRule, MAX_CLASSES,
@@ -12,6 +14,14 @@ use std::path::{Path, PathBuf};
 
 /// The embedded default configuration (the paper's case), commented.
 pub const DEFAULT_TOML: &str = include_str!("../default.toml");
+
+/// The longest configuration file read: its longest lists (1000 τ*, 1000
+/// seeds, the size classes) take well under 100 kB, even with comments.
+pub const CONFIG_BOUND: Bound = Bound {
+    bytes: 1 << 20,
+    reason: "the largest configuration mbs reads (its longest lists, 1000 tau* and 1000 seeds, \
+             take under 100 kB)",
+};
 
 /// Grain capacities the host is compiled for (the kernel's `N`).
 pub const CAPACITIES: [usize; 3] = [256, 4096, 65536];
@@ -86,7 +96,7 @@ impl fmt::Display for ConfigError {
             ConfigError::Kernel {
                 key,
                 source: mbs_kernel::Error::InvalidParameter { value, allowed, .. },
-            } => write!(f, "{key} = {value}: must be {allowed}"),
+            } => write!(f, "{key} = {}: must be {allowed}", number(*value)),
             ConfigError::Kernel { key, source } => write!(f, "{key}: {source}"),
         }
     }
@@ -109,9 +119,10 @@ const RENAMED: [(&str, &str); 1] = [(
      step_dt = constants_dt/substeps)",
 )];
 
-/// toml's message; for a key that was renamed, also its new name.
+/// toml's message, long lines quoted as excerpts; for a key that was
+/// renamed, also its new name.
 fn parse_message(text: &str, e: &toml::de::Error) -> String {
-    let message = e.to_string().trim_end().to_string();
+    let message = excerpt(e.to_string().trim_end(), QUOTE);
     let Some(span) = e
         .span()
         .filter(|_| e.message().starts_with("unknown field"))
@@ -138,20 +149,10 @@ fn need(ok: bool, key: &str, value: impl fmt::Display, allowed: &str) -> Result<
     } else {
         Err(ConfigError::Invalid {
             key: key.to_string(),
-            value: value.to_string(),
+            value: shown(value.to_string()),
             allowed: allowed.to_string(),
         })
     }
-}
-
-/// `value` finite and > 0.
-fn positive(key: &str, value: f64) -> Result<(), ConfigError> {
-    need(value.is_finite() && value > 0.0, key, value, "> 0")
-}
-
-/// `value` finite and ≥ 0.
-fn non_negative(key: &str, value: f64) -> Result<(), ConfigError> {
-    need(value.is_finite() && value >= 0.0, key, value, ">= 0")
 }
 
 /// Working precision of the kernel.
@@ -562,10 +563,11 @@ impl Config {
         match path {
             None => Config::from_toml(DEFAULT_TOML),
             Some(p) => {
-                let text = std::fs::read_to_string(p).map_err(|source| ConfigError::Read {
-                    path: p.to_path_buf(),
-                    source,
-                })?;
+                let text =
+                    read_text_bounded(p, CONFIG_BOUND).map_err(|source| ConfigError::Read {
+                        path: p.to_path_buf(),
+                        source,
+                    })?;
                 Config::from_toml(&text).map_err(|e| match e {
                     ConfigError::Parse(m) => ConfigError::Parse(format!("{}: {m}", p.display())),
                     other => other,
@@ -618,9 +620,20 @@ impl Config {
             "in [1, 10000]",
         )?;
         let flow = flow_spec(&file.flow, d, t.substeps)?;
-        non_negative("time.settle", t.settle)?;
-        non_negative("time.spin_up", t.spin_up)?;
-        positive("time.window", t.window)?;
+        // A window holds at least one step; settling and spin-up may be skipped.
+        for (key, value, zero_allowed) in [
+            ("time.settle", t.settle, true),
+            ("time.spin_up", t.spin_up, true),
+            ("time.window", t.window, false),
+        ] {
+            let least = if zero_allowed { "[0" } else { "(0" };
+            need(
+                value <= MAX_PHASE_S && (value > 0.0 || (zero_allowed && value == 0.0)),
+                key,
+                value,
+                &format!("in {least}, {MAX_PHASE_S}] s{PHASE_REASON}"),
+            )?;
+        }
         need(
             t.sample_steps >= 1,
             "time.sample_steps",
@@ -701,12 +714,39 @@ impl Config {
             .map_err(ConfigError::kernel)?;
         let step_dt = scenario.step_dt();
         let sample = u64::from(t.sample_steps);
+        let window = steps_of(t.window, step_dt);
+        need(
+            sample <= window,
+            "time.sample_steps",
+            sample,
+            &format!(
+                "<= the window's {window} integration steps (time.window/step_dt = {} s/{step_dt:e} s): \
+                 a longer sampling interval would stretch the window",
+                t.window
+            ),
+        )?;
         let durations = Durations {
             settle: steps_of(t.settle, step_dt),
             spin_up: steps_of(t.spin_up, step_dt),
             sample,
-            samples: (steps_of(t.window, step_dt) / sample).max(1),
+            samples: window / sample,
         };
+        // At most 3000 s of steps of at least 1e-12 s: no overflow.
+        let cell = durations.cell();
+        need(
+            cell <= MAX_CELL_STEPS,
+            "time.settle + time.spin_up + time.window",
+            format!(
+                "{} + {} + {} s = {:e} integration steps",
+                t.settle, t.spin_up, t.window, cell as f64
+            ),
+            &format!(
+                "<= {MAX_CELL_STEPS:e} integration steps of step_dt = {step_dt:e} s per cell \
+                 (at ~{GRAIN_STEPS_PER_S_PER_CORE:e} grain-steps/s per core, even 100 grains \
+                 would take {:.0} days per cell): shorten the phases or raise step_dt",
+                MAX_CELL_STEPS as f64 * 100.0 / GRAIN_STEPS_PER_S_PER_CORE / 86400.0
+            ),
+        )?;
         Ok(Config {
             tau_stars: file.flow.tau_star.clone(),
             seeds: r.seeds.clone(),
@@ -720,6 +760,26 @@ impl Config {
         })
     }
 }
+
+/// The longest settling, spin-up or window (s of physical time).
+pub const MAX_PHASE_S: f64 = 1000.0;
+
+/// Why [`MAX_PHASE_S`].
+const PHASE_REASON: &str = " of physical time: beds settle and q* converges within seconds, \
+     a longer phase is a mistake (milliseconds meant?)";
+
+/// The most integration steps of a cell (settling, spin-up and window).
+pub const MAX_CELL_STEPS: u64 = 100_000_000_000;
+
+/// The smallest constants' time step constants_dt (s).
+pub const MIN_CONSTANTS_DT: f64 = 1e-8;
+
+/// The smallest grain diameter (mm).
+pub const MIN_DIAMETER_MM: f64 = 1e-3;
+
+/// A rough speed of the step for wall-time estimates: the main job runs
+/// 5–6e7 grain-steps per second on 2 cores (docs/performance.md).
+pub const GRAIN_STEPS_PER_S_PER_CORE: f64 = 2.5e7;
 
 /// Integration steps of step_dt in `seconds` (rounded).
 fn steps_of(seconds: f64, step_dt: f64) -> u64 {
@@ -767,6 +827,15 @@ fn bed_spec(file: &ConfigFile) -> Result<BedSpec, ConfigError> {
             &key("diameter_mm"),
             c.diameter_mm,
             "> 0 and <= 100",
+        )?;
+        need(
+            c.diameter_mm >= MIN_DIAMETER_MM,
+            &key("diameter_mm"),
+            c.diameter_mm,
+            &format!(
+                ">= {MIN_DIAMETER_MM} mm (1 µm: smaller grains' inertias rho s pi d^5/60 \
+                 leave the range of floating-point numbers)"
+            ),
         )?;
         need(
             c.fraction.is_finite() && c.fraction > 0.0 && c.fraction <= 1.0,
@@ -842,6 +911,15 @@ fn material(file: &ConfigFile) -> Result<Material, ConfigError> {
         nu: c.poisson,
     };
     material.validate().map_err(ConfigError::kernel)?;
+    let rho = material.rho;
+    need(
+        (1e-3..=1e5).contains(&rho),
+        "flow.fluid_density",
+        rho,
+        "in [0.001, 100000] kg/m^3 (from a thin gas to beyond any liquid; outside, the \
+         grains' masses rho (s + C_M) pi d^3/6 and inertias rho s pi d^5/60 leave the \
+         range of floating-point numbers)",
+    )?;
     Ok(material)
 }
 
@@ -851,11 +929,14 @@ fn time_rule(file: &ConfigFile, d: f64, material: &Material) -> Result<TimeStepR
     let c = &file.contact;
     need(
         file.time.constants_dt.is_finite()
-            && file.time.constants_dt > 0.0
+            && file.time.constants_dt >= MIN_CONSTANTS_DT
             && file.time.constants_dt <= 1.0,
         "time.constants_dt",
         file.time.constants_dt,
-        "in (0, 1] s",
+        &format!(
+            "in [{MIN_CONSTANTS_DT:e}, 1] s (below, every second of physical time takes more \
+             than 1e8 integration steps)"
+        ),
     )?;
     let rule = TimeStepRule {
         alpha_m: c.alpha_m,
@@ -1021,6 +1102,32 @@ pub fn narrow_bed_warning(bed: &BedSpec, flow: &FlowSpec) -> Option<String> {
     })
 }
 
+/// Estimated wall time (s) above which `mbs run` warns.
+pub const LONG_RUN_S: f64 = 86400.0;
+
+/// The warning for a run of `config` on `cores` cores estimated to take
+/// longer than [`LONG_RUN_S`]: its integration steps and grain-steps and the
+/// wall time at [`GRAIN_STEPS_PER_S_PER_CORE`].
+pub fn long_run_warning(config: &Config, cores: usize) -> Option<String> {
+    let sc = &config.scenario;
+    let grains = sc.bed.columns as f64 * (sc.bed.fixed_per_column() + sc.bed.rows as usize) as f64;
+    let cells = config.tau_stars.len() * config.seeds.len();
+    let steps = config.durations.cell() as f64;
+    let grain_steps = cells as f64 * steps * grains;
+    let parallel = cores.clamp(1, cells.max(1)) as f64;
+    let wall = grain_steps / (GRAIN_STEPS_PER_S_PER_CORE * parallel);
+    (wall > LONG_RUN_S).then(|| {
+        format!(
+            "a long run: {cells} cell(s) of {steps:.3e} integration steps (step_dt = {:e} s) \
+             of up to {grains} grains, {grain_steps:.2e} grain-steps: about {:.1} days on \
+             {parallel} core(s) at ~{GRAIN_STEPS_PER_S_PER_CORE:e} grain-steps/s per core; \
+             check time.settle, time.spin_up, time.window and time.constants_dt",
+            sc.step_dt(),
+            wall / 86400.0
+        )
+    })
+}
+
 /// Warnings about a valid but questionable configuration, for runs with
 /// flow (`under_flow`) or without.
 pub fn warnings(config: &Config, under_flow: bool) -> Vec<String> {
@@ -1154,6 +1261,22 @@ mod tests {
         // A single size is one class of fraction 1 either way: the same bits.
         assert_eq!(sites(""), [1.0]);
         assert!(Config::from_toml("[grains]\nfractions = \"mass\"\n").is_err());
+    }
+
+    #[test]
+    fn the_density_and_diameter_limits_keep_inverse_inertias_finite_in_f32() {
+        let paper = Scenario::paper().material;
+        for rho in [1e-3, 1e5] {
+            for s in [1.0 + 1e-9, 20.0] {
+                for d in [MIN_DIAMETER_MM * 1e-3, 0.1] {
+                    let m = Material { rho, s, ..paper };
+                    for x in [m.translational_mass(d), m.moment_of_inertia(d)] {
+                        let inverse = (1.0 / x) as f32;
+                        assert!(inverse.is_normal(), "rho {rho}, s {s}, d {d}: {x}");
+                    }
+                }
+            }
+        }
     }
 
     #[test]

@@ -10,9 +10,12 @@ use crate::cell::{
 };
 use crate::config::Config;
 use crate::error::HostError;
+use crate::input::{read_bounded, Bound};
 use crate::output::{create_dir, decimal, decimals, remove_temporaries, write_csv};
 use crate::references::Reference;
+use crate::sims::{compiled_capacity, max_checkpoint_len};
 use crate::store::{Store, STORE};
+use crate::text::number;
 use indicatif::ProgressBar;
 use rayon::prelude::*;
 use serde::Serialize;
@@ -51,10 +54,12 @@ fn remove_if_present(path: &Path) -> Result<(), HostError> {
     }
 }
 
-/// The checkpoint file of a cell.
+/// The checkpoint file of a cell: `tau<τ*>_seed<seed>.ckpt`, τ* as
+/// [`number`] writes it (`tau0.1_seed1.ckpt`; `tau1e-300_seed1.ckpt` for a
+/// τ* whose decimal form would not fit a file name).
 pub fn checkpoint_path(dir: &Path, tau_star: f64, seed: u64) -> PathBuf {
     dir.join("checkpoints")
-        .join(format!("tau{tau_star}_seed{seed}.ckpt"))
+        .join(format!("tau{}_seed{seed}.ckpt", number(tau_star)))
 }
 
 /// Runs every (τ*, seed) cell in parallel on the current rayon pool: cells
@@ -70,6 +75,19 @@ pub fn run_all(
     remove_temporaries(control.dir)?;
     remove_temporaries(&control.dir.join("checkpoints"))?;
     let store = Store::open(&control.dir.join(STORE))?;
+    let max_len = CellCheckpoint::max_len(
+        config.scenario.bed.classes.len(),
+        max_checkpoint_len(config.precision, config.capacity),
+    );
+    let reason = format!(
+        "the largest cell checkpoint of this configuration ({} grains, {:?})",
+        compiled_capacity(config.capacity),
+        config.precision
+    );
+    let checkpoint_bound = Bound {
+        bytes: max_len as u64,
+        reason: &reason,
+    };
     let cells: Vec<(f64, u64)> = config
         .tau_stars
         .iter()
@@ -87,14 +105,18 @@ pub fn run_all(
                 return Ok((CellOutcome::Done(done), 1));
             }
             let key = cell_key(&serde_json::to_string(&spec).unwrap_or_default());
-            let resume = match std::fs::read(&path) {
-                Ok(bytes) => Some(CellCheckpoint::decode(&bytes, key).map_err(|e| {
-                    HostError::Checkpoint {
-                        path: path.clone(),
-                        message: e.to_string(),
-                    }
-                })?),
+            let refuse = |message: String| HostError::Checkpoint {
+                path: path.clone(),
+                message,
+            };
+            let resume = match read_bounded(&path, checkpoint_bound) {
+                Ok(bytes) => {
+                    Some(CellCheckpoint::decode(&bytes, key).map_err(|e| refuse(e.to_string()))?)
+                }
                 Err(e) if e.kind() == std::io::ErrorKind::NotFound => None,
+                Err(e) if e.kind() == std::io::ErrorKind::InvalidData => {
+                    return Err(refuse(e.to_string()))
+                }
                 Err(e) => return Err(HostError::io(&path)(e)),
             };
             let resumed = u8::from(resume.is_some()) * 2;

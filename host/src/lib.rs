@@ -15,6 +15,8 @@
 //! | [`bench`] | hot-loop benchmark shared with criterion |
 //! | [`plot`] | figures (PNG + SVG) |
 //! | [`output`] | atomic file writes |
+//! | [`input`] | bounded reads: files refused unread beyond the largest valid one |
+//! | [`text`] | excerpts of long lines for messages, numbers that stay short (file names) |
 //! | [`trace`] | digest traces: the digest run's field-group digests over time |
 //! | [`commands`] | the subcommands of `mbs` |
 
@@ -25,6 +27,7 @@ pub mod commands;
 pub mod config;
 pub mod error;
 pub mod experiment;
+pub mod input;
 pub mod mixture;
 pub mod output;
 pub mod pack;
@@ -33,6 +36,7 @@ pub mod references;
 pub mod sims;
 pub mod snapshot;
 pub mod store;
+pub mod text;
 pub mod trace;
 
 pub use config::{Config, ConfigError, Precision};

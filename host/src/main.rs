@@ -41,7 +41,8 @@ enum Command {
         /// Continue an interrupted run in DIR with the configuration it started with.
         #[arg(long, value_name = "DIR")]
         resume: Option<PathBuf>,
-        /// Checkpoint every running cell every SECONDS of wall time (Ctrl-C always checkpoints).
+        /// Checkpoint every running cell every SECONDS of wall time, and at most once per
+        /// 2000 integration steps of a cell (Ctrl-C always checkpoints).
         #[arg(long, value_name = "SECONDS")]
         checkpoint_every: Option<f64>,
         /// Stop every cell after N steps as if interrupted (for tests of resuming).
@@ -214,6 +215,22 @@ fn tau_arg(tau: f64) -> Result<f64, HostError> {
     }
 }
 
+/// Checks a physical time given on the command line: in (0, 1000] s, the
+/// limit of the configuration's phases ([`mbs::config::MAX_PHASE_S`]).
+fn seconds_arg(key: &str, seconds: f64) -> Result<(), HostError> {
+    let max = mbs::config::MAX_PHASE_S;
+    if seconds > 0.0 && seconds <= max {
+        Ok(())
+    } else {
+        Err(mbs::ConfigError::Invalid {
+            key: key.into(),
+            value: mbs::text::number(seconds),
+            allowed: format!("in (0, {max}] s of physical time"),
+        }
+        .into())
+    }
+}
+
 fn execute(cli: Cli) -> Result<(), HostError> {
     let common = Common {
         quiet: cli.quiet,
@@ -244,15 +261,16 @@ fn execute(cli: Cli) -> Result<(), HostError> {
                 }
                 .into());
             }
-            let (config, out) = match resume {
-                Some(dir) => (Some(dir.join(commands::RUN_CONFIG)), Some(dir)),
-                None => (config, out),
-            };
             let options = commands::RunOptions {
                 checkpoint_every,
                 stop_after_steps,
+                resuming: resume.is_some(),
             };
-            commands::run(&load(&config)?, out.as_deref(), options, common)
+            let (config, out) = match resume {
+                Some(dir) => (commands::resumed_config(&dir)?, Some(dir)),
+                None => (load(&config)?, out),
+            };
+            commands::run(&config, out.as_deref(), options, common)
         }
         Command::Config => commands::config(),
         Command::Pack {
@@ -260,13 +278,8 @@ fn execute(cli: Cli) -> Result<(), HostError> {
             out,
             duration,
         } => {
-            if let Some(d) = duration.filter(|d| !(d.is_finite() && *d > 0.0)) {
-                return Err(mbs::ConfigError::Invalid {
-                    key: "--duration".into(),
-                    value: d.to_string(),
-                    allowed: "> 0".into(),
-                }
-                .into());
+            if let Some(d) = duration {
+                seconds_arg("--duration", d)?;
             }
             commands::pack(&load(&config)?, out.as_deref(), duration, common)
         }
@@ -278,14 +291,7 @@ fn execute(cli: Cli) -> Result<(), HostError> {
             every,
         } => {
             let tau = tau_arg(tau)?;
-            if !(every.is_finite() && every > 0.0) {
-                return Err(mbs::ConfigError::Invalid {
-                    key: "--every".into(),
-                    value: every.to_string(),
-                    allowed: "> 0".into(),
-                }
-                .into());
-            }
+            seconds_arg("--every", every)?;
             commands::snapshot(&load(&config)?, out.as_deref(), tau, frames, every, common)
         }
         Command::Digest {

@@ -3,6 +3,7 @@
 //! a half-written file and never damages an earlier one.
 
 use crate::error::HostError;
+use crate::input::{read_text_bounded, Bound};
 use std::io::Write;
 use std::path::Path;
 
@@ -39,6 +40,12 @@ pub fn remove_temporaries(dir: &Path) -> Result<(), HostError> {
 /// Name of the lock file of an output directory.
 pub const LOCK: &str = ".mbs-lock";
 
+/// A lock file holds a process id and a newline.
+const LOCK_BOUND: Bound = Bound {
+    bytes: 64,
+    reason: "a lock file (a process id)",
+};
+
 /// An exclusive advisory lock on an output directory, held while the value
 /// lives; the operating system releases it when the process ends, however
 /// it ends, so a killed holder's lock is simply taken over.
@@ -67,7 +74,7 @@ pub fn lock_dir(dir: &Path) -> Result<DirLock, HostError> {
         }
         Err(std::fs::TryLockError::WouldBlock) => Err(HostError::Busy {
             dir: dir.to_path_buf(),
-            holder: std::fs::read_to_string(&path)
+            holder: read_text_bounded(&path, LOCK_BOUND)
                 .ok()
                 .and_then(|t| t.trim().parse().ok()),
         }),

@@ -30,15 +30,25 @@ pub trait SimJob {
     fn run<R: Real, const N: usize>(self, sim: &mut Sim<R, N, NEIGHBOURS>) -> Self::Output;
 }
 
-/// Runs `job` on a fresh heap simulation of `precision` with the smallest
-/// compiled capacity ≥ `capacity` (the largest if none is).
+/// The compiled capacity a simulation of `capacity` grains gets: the
+/// smallest ≥ `capacity`, the largest if none is.
+pub fn compiled_capacity(capacity: usize) -> usize {
+    match capacity {
+        0..=256 => 256,
+        257..=4096 => 4096,
+        _ => 65536,
+    }
+}
+
+/// Runs `job` on a fresh heap simulation of `precision` with the
+/// [`compiled_capacity`] of `capacity`.
 pub fn with_sim<J: SimJob>(precision: Precision, capacity: usize, job: J) -> J::Output {
-    match (precision, capacity) {
-        (Precision::F32, 0..=256) => job.run(&mut *boxed_sim::<f32, 256, NEIGHBOURS>()),
-        (Precision::F32, 257..=4096) => job.run(&mut *boxed_sim::<f32, 4096, NEIGHBOURS>()),
+    match (precision, compiled_capacity(capacity)) {
+        (Precision::F32, 256) => job.run(&mut *boxed_sim::<f32, 256, NEIGHBOURS>()),
+        (Precision::F32, 4096) => job.run(&mut *boxed_sim::<f32, 4096, NEIGHBOURS>()),
         (Precision::F32, _) => job.run(&mut *boxed_sim::<f32, 65536, NEIGHBOURS>()),
-        (Precision::F64, 0..=256) => job.run(&mut *boxed_sim::<f64, 256, NEIGHBOURS>()),
-        (Precision::F64, 257..=4096) => job.run(&mut *boxed_sim::<f64, 4096, NEIGHBOURS>()),
+        (Precision::F64, 256) => job.run(&mut *boxed_sim::<f64, 256, NEIGHBOURS>()),
+        (Precision::F64, 4096) => job.run(&mut *boxed_sim::<f64, 4096, NEIGHBOURS>()),
         (Precision::F64, _) => job.run(&mut *boxed_sim::<f64, 65536, NEIGHBOURS>()),
     }
 }
@@ -70,6 +80,28 @@ pub fn check_restored<R: Real, const N: usize>(
         return Err("its kernel state's step count does not fit");
     }
     Ok(())
+}
+
+/// The length of a kernel checkpoint of `grains` grains and `contacts`
+/// contacts in `precision` (`Sim::checkpoint_len`).
+pub fn checkpoint_len(precision: Precision, grains: usize, contacts: usize) -> usize {
+    match precision {
+        Precision::F32 => Sim::<f32, 1, NEIGHBOURS>::checkpoint_len(grains, contacts),
+        Precision::F64 => Sim::<f64, 1, NEIGHBOURS>::checkpoint_len(grains, contacts),
+    }
+}
+
+/// The largest kernel checkpoint of the simulation [`with_sim`] gives
+/// (`Sim::MAX_CHECKPOINT_LEN`): longer files are refused unread.
+pub fn max_checkpoint_len(precision: Precision, capacity: usize) -> usize {
+    match (precision, compiled_capacity(capacity)) {
+        (Precision::F32, 256) => Sim::<f32, 256, NEIGHBOURS>::MAX_CHECKPOINT_LEN,
+        (Precision::F32, 4096) => Sim::<f32, 4096, NEIGHBOURS>::MAX_CHECKPOINT_LEN,
+        (Precision::F32, _) => Sim::<f32, 65536, NEIGHBOURS>::MAX_CHECKPOINT_LEN,
+        (Precision::F64, 256) => Sim::<f64, 256, NEIGHBOURS>::MAX_CHECKPOINT_LEN,
+        (Precision::F64, 4096) => Sim::<f64, 4096, NEIGHBOURS>::MAX_CHECKPOINT_LEN,
+        (Precision::F64, _) => Sim::<f64, 65536, NEIGHBOURS>::MAX_CHECKPOINT_LEN,
+    }
 }
 
 /// Runs `steps` steps in chunks, reporting progress.

@@ -6,15 +6,28 @@
 //! and its cell is simply computed again.
 
 use crate::error::HostError;
+use crate::input::{read_line_bounded, Bound};
 use serde::{de::DeserializeOwned, Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::fs::{File, OpenOptions};
-use std::io::{BufRead, BufReader, Write};
+use std::io::{BufReader, Write};
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 
 /// Name of the store file in an output directory.
 pub const STORE: &str = "cells.jsonl";
+
+/// The longest line of a store: a cell's specification is a configuration
+/// with one τ* and one seed (a few kB); the longest result, a calibration's
+/// packing curve (0.5 s sampled every 50 constants_dt ≥ 1e-8 s: at most
+/// 1e6 samples of two numbers), takes under 50 MB. A longer line is no
+/// line mbs wrote: the store is refused (a torn line is shorter, and only
+/// recomputed).
+pub const LINE_BOUND: Bound = Bound {
+    bytes: 64 << 20,
+    reason: "the longest line of a cell store (a calibration's packing curve of \
+             at most 1e6 samples, under 50 MB)",
+};
 
 /// One stored line.
 #[derive(Serialize, Deserialize)]
@@ -168,6 +181,14 @@ fn ends_with_newline(path: &Path) -> std::io::Result<bool> {
     Ok(last[0] == b'\n')
 }
 
+/// The (key, value) of a store line (without its newline), if it is one
+/// whose checksum matches; else None (a torn or damaged line).
+pub fn parse_line(line: &[u8]) -> Option<(String, serde_json::Value)> {
+    let parsed = serde_json::from_slice::<Line>(line).ok()?;
+    (checksum(&parsed.key, &parsed.value.to_string()) == parsed.crc32)
+        .then_some((parsed.key, parsed.value))
+}
+
 /// Loads every intact line of a store file (a missing file is empty).
 fn load(path: &Path) -> Result<BTreeMap<String, serde_json::Value>, HostError> {
     let mut map = BTreeMap::new();
@@ -176,13 +197,15 @@ fn load(path: &Path) -> Result<BTreeMap<String, serde_json::Value>, HostError> {
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(map),
         Err(e) => return Err(HostError::io(path)(e)),
     };
-    for line in BufReader::new(file).split(b'\n') {
-        let line = line.map_err(HostError::io(path))?;
-        let Ok(parsed) = serde_json::from_slice::<Line>(&line) else {
-            continue;
-        };
-        if checksum(&parsed.key, &parsed.value.to_string()) == parsed.crc32 {
-            map.insert(parsed.key, parsed.value);
+    let mut reader = BufReader::new(file);
+    let mut line = Vec::new();
+    let mut number = 1;
+    while read_line_bounded(&mut reader, &mut line, number, LINE_BOUND)
+        .map_err(HostError::io(path))?
+    {
+        number += 1;
+        if let Some((key, value)) = parse_line(&line) {
+            map.insert(key, value);
         }
     }
     Ok(map)

@@ -6,7 +6,8 @@
 //! locating procedure are in docs/determinism.md ("Traces").
 
 use crate::config::Precision;
-use crate::sims::{boxed_sim, check_restored, with_sim, SimJob, NEIGHBOURS};
+use crate::input::Bound;
+use crate::sims::{boxed_sim, check_restored, checkpoint_len, with_sim, SimJob, NEIGHBOURS};
 use base64::Engine;
 use mbs_kernel::{FieldGroup, Fnv1a, GrainField, Real, Scenario, Sim};
 use serde::Serialize;
@@ -83,6 +84,26 @@ impl std::str::FromStr for Nudge {
         })
     }
 }
+
+/// The most records a trace holds (`mbs digest --trace` refuses an `--every`
+/// that would give more): far more than a comparison needs.
+pub const MAX_RECORDS: u64 = 100_000;
+
+/// The most bytes one record takes in a trace file without its state
+/// (test `a_record_fits_its_bound`).
+const MAX_RECORD_BYTES: u64 = 1024;
+
+/// The most bytes of a trace file's records: 100 MB, and so at most
+/// [`MAX_RECORDS`] records without states; with states fewer, as many as
+/// fit (`mbs digest --trace` refuses a trace that might not).
+const MAX_TRACE_BYTES: u64 = MAX_RECORDS * MAX_RECORD_BYTES;
+
+/// The longest trace file: [`MAX_TRACE_BYTES`] of records and 64 KiB for
+/// the rest (the configuration's path included).
+pub const TRACE_BOUND: Bound = Bound {
+    bytes: MAX_TRACE_BYTES + (64 << 10),
+    reason: "the largest trace (100000 records of at most 1 KiB, or fewer with states)",
+};
 
 /// What a trace records: the digest run of `scenario` (`settle_steps`
 /// without flow, then `flow_steps` at `tau_star`), from step `from` to step
@@ -178,6 +199,48 @@ impl From<mbs_kernel::Error> for RunError {
 }
 
 impl TraceRun {
+    /// At most the records this run writes: step `from`, then every
+    /// `every` steps, and the end of each phase.
+    pub fn max_records(&self) -> u64 {
+        let span = self.end().saturating_sub(self.from);
+        3 + span.div_ceil(self.every.max(1))
+    }
+
+    /// At most the bytes of this run's records: [`MAX_RECORD_BYTES`] each,
+    /// and with states the base64 of the bed's largest kernel checkpoint
+    /// (every grain with every neighbour slot a contact).
+    pub fn max_bytes(&self) -> u64 {
+        let bed = &self.scenario.bed;
+        let grains = (bed.columns as usize)
+            .saturating_mul(bed.fixed_per_column().saturating_add(bed.rows as usize));
+        let state = if self.states {
+            let bytes = checkpoint_len(self.precision, grains, grains.saturating_mul(NEIGHBOURS));
+            (bytes as u64).div_ceil(3) * 4
+        } else {
+            0
+        };
+        self.max_records()
+            .saturating_mul(MAX_RECORD_BYTES.saturating_add(state))
+    }
+
+    /// Whether the trace fits [`TRACE_BOUND`]: else why not, for `--every`.
+    pub fn fits(&self) -> Result<(), String> {
+        if self.max_bytes() <= MAX_TRACE_BYTES {
+            return Ok(());
+        }
+        let per_record = self.max_bytes() / self.max_records().max(1);
+        let records = (MAX_TRACE_BYTES / per_record.max(1))
+            .saturating_sub(3)
+            .max(1);
+        let span = self.end().saturating_sub(self.from);
+        Err(format!(
+            ">= {}: a trace holds at most {} MB of records, here at most {records} records{}",
+            span.div_ceil(records).max(1),
+            MAX_TRACE_BYTES / 1_000_000,
+            if self.states { " with states" } else { "" }
+        ))
+    }
+
     /// The last step run.
     fn end(&self) -> u64 {
         self.settle_steps
@@ -697,4 +760,55 @@ fn differences<R: Real, const N: usize>(reference: &HostSim<R, N>, now: &HostSim
         );
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_record_fits_its_bound() {
+        let widest = |state: Option<String>| Record {
+            step: u64::MAX,
+            phase: "settle".into(),
+            digest: hex(u64::MAX),
+            groups: FieldGroup::ALL
+                .iter()
+                .map(|g| (g.name().to_string(), hex(u64::MAX)))
+                .collect(),
+            state,
+        };
+        let trace = |n: usize, record: &Record| Trace {
+            format: FORMAT,
+            program: BTreeMap::new(),
+            target: "",
+            precision: Precision::F64,
+            step_path: "",
+            scenario_hash: String::new(),
+            config: None,
+            tau_star: 0.0,
+            settle_steps: 0,
+            flow_steps: 0,
+            every: 1,
+            from: u64::MAX,
+            until: u64::MAX,
+            states: record.state.is_some(),
+            step_dt_s: 0.0,
+            records: vec![record.clone(); n],
+        };
+        let len = |n, record: &Record| to_text(&trace(n, record)).unwrap().len() as u64;
+        let plain = widest(None);
+        let record = len(2, &plain) - len(1, &plain);
+        assert!(record <= MAX_RECORD_BYTES, "{record} bytes");
+        assert!(len(1, &plain) - record < 2048);
+        // With the largest state of the golden run's 55 grains.
+        let bytes = checkpoint_len(Precision::F64, 55, 55 * NEIGHBOURS);
+        let state = base64::engine::general_purpose::STANDARD.encode(vec![0xff; bytes]);
+        let full = widest(Some(state));
+        let record = len(2, &full) - len(1, &full);
+        assert!(
+            record <= MAX_RECORD_BYTES + (bytes as u64).div_ceil(3) * 4,
+            "{record} bytes"
+        );
+    }
 }

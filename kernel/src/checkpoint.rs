@@ -217,7 +217,27 @@ fn read_head<R: Real>(r: &mut Reader<'_>) -> Result<Head, Error> {
     })
 }
 
+/// Bytes of a checkpoint before its grains: header 8, `SimConfig` 145 (with
+/// the tension rule), flow 66, flow epoch and step 16 (the bed level, `R`,
+/// follows).
+const HEAD_LEN: usize = 8 + 145 + 66 + 16;
+
 impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
+    /// The length of the largest checkpoint this simulation can write or
+    /// restore: every grain slot used, every neighbour slot a contact. A
+    /// longer file is no checkpoint of it, and can be refused unread.
+    pub const MAX_CHECKPOINT_LEN: usize = Self::checkpoint_len(N, N * K);
+
+    /// The length of a checkpoint of `grains` grains and `contacts`
+    /// contacts in this precision (saturating: never a panic).
+    pub const fn checkpoint_len(grains: usize, contacts: usize) -> usize {
+        let grain_bytes = grains.saturating_mul(11 * R::BYTES + 2);
+        let contact_bytes = contacts.saturating_mul(8 + 2 * R::BYTES);
+        (HEAD_LEN + R::BYTES + 8)
+            .saturating_add(grain_bytes)
+            .saturating_add(contact_bytes)
+    }
+
     /// Writes the complete state to `sink` in the format of this module.
     pub fn checkpoint(&self, mut sink: impl FnMut(&[u8])) {
         let mut w = Writer { sink: &mut sink };

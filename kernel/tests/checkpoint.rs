@@ -234,3 +234,24 @@ fn the_tension_rule_is_restored() {
     assert_eq!(restored.config(), paper.config());
     assert_eq!(restored.digest(), paper.digest());
 }
+
+/// `Sim::MAX_CHECKPOINT_LEN` is the length of an empty simulation's
+/// checkpoint plus full grain and contact slots, and bounds a real one.
+#[test]
+fn the_largest_checkpoint_bounds_every_checkpoint() {
+    fn check<R: Real>() {
+        let mut sim = Box::new(Big::<R>::new());
+        sim.reset(&Scenario::paper().sim_config().unwrap()).unwrap();
+        let empty = bytes(&*sim).len();
+        let grain = 11 * R::BYTES + 2;
+        let contact = 8 + 2 * R::BYTES;
+        assert_eq!(
+            Big::<R>::MAX_CHECKPOINT_LEN,
+            empty + 256 * grain + 256 * 8 * contact
+        );
+        run(&mut *sim, 300, 100);
+        assert!(bytes(&*sim).len() <= Big::<R>::MAX_CHECKPOINT_LEN);
+    }
+    check::<f32>();
+    check::<f64>();
+}

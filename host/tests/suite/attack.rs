@@ -215,3 +215,311 @@ fn resume_after_a_cosmetic_edit_of_the_configuration() {
     resume_in(&out).assert().success();
     assert!(out.join("transport.csv").is_file());
 }
+
+/// A sparse file of `len` bytes at `path` (nothing big is written).
+fn sparse(path: &std::path::Path, len: u64) {
+    std::fs::File::create(path).unwrap().set_len(len).unwrap();
+}
+
+/// Longer than every bound on what mbs reads but cheap to read whole for
+/// an older mbs: 128 MiB.
+const OVERSIZED: u64 = 128 << 20;
+
+/// A limit on every run: a test that would run forever on an unchecked
+/// value fails instead.
+const PATIENCE: std::time::Duration = std::time::Duration::from_secs(60);
+
+#[test]
+fn an_oversized_configuration_is_refused_unread() {
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = dir.path().join("big.toml");
+    sparse(&cfg, OVERSIZED);
+    run_into(&cfg, &dir.path().join("out"))
+        .timeout(PATIENCE)
+        .assert()
+        .code(2)
+        .stderr(predicates::str::contains(
+            "128 MiB, longer than the largest configuration mbs reads",
+        ));
+}
+
+#[test]
+fn an_oversized_cell_checkpoint_is_refused_unread() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = stopped_run(dir.path(), "out", IN_SPIN_UP);
+    let path = out.join("checkpoints").join("tau0.3_seed1.ckpt");
+    sparse(&path, OVERSIZED);
+    resume_in(&out)
+        .timeout(PATIENCE)
+        .assert()
+        .code(1)
+        .stderr(predicates::str::contains(
+            "checkpoint refused: 128 MiB, longer than the largest cell checkpoint of this \
+             configuration (256 grains, F64)",
+        ));
+    assert_eq!(std::fs::metadata(&path).unwrap().len(), OVERSIZED, "kept");
+}
+
+#[test]
+fn an_overlong_line_of_the_cell_store_is_refused_unread() {
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = write(dir.path(), "small.toml", SMALL);
+    let out = dir.path().join("out");
+    std::fs::create_dir_all(&out).unwrap();
+    sparse(&out.join("cells.jsonl"), OVERSIZED);
+    run_into(&cfg, &out)
+        .timeout(PATIENCE)
+        .assert()
+        .code(1)
+        .stderr(predicates::str::contains(
+            "cells.jsonl: line 1 is longer than the longest line of a cell store",
+        ));
+    assert!(!out.join("transport.csv").exists());
+}
+
+#[test]
+fn an_oversized_trace_is_refused_unread() {
+    let dir = tempfile::tempdir().unwrap();
+    let trace = dir.path().join("trace.json");
+    sparse(&trace, OVERSIZED);
+    mbs()
+        .args(["digest", "--check"])
+        .arg(&trace)
+        .timeout(PATIENCE)
+        .assert()
+        .code(2)
+        .stderr(predicates::str::contains(
+            "trace refused: 128 MiB, longer than the largest trace",
+        ));
+}
+
+#[test]
+fn a_trace_of_too_many_records_is_refused_before_running() {
+    let dir = tempfile::tempdir().unwrap();
+    mbs()
+        .args(["digest", "--steps", "200000", "--every", "1", "--trace"])
+        .arg(dir.path().join("trace.json"))
+        .timeout(std::time::Duration::from_secs(20))
+        .assert()
+        .code(2)
+        .stderr(predicates::str::contains(
+            "--every = 1: must be >= 5: a trace holds at most 102 MB of records, here at most 99997 records",
+        ));
+}
+
+/// Runs `mbs run` of SMALL with `[time]` edited by `edit` and expects exit 2
+/// with `message`, without running a step.
+fn refused_config(edit: (&str, &str), message: &str) {
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = write(dir.path(), "c.toml", &SMALL.replace(edit.0, edit.1));
+    run_into(&cfg, &dir.path().join("out"))
+        .timeout(PATIENCE)
+        .assert()
+        .code(2)
+        .stderr(predicates::str::contains(message));
+    assert!(!dir.path().join("out").exists());
+}
+
+#[test]
+fn phases_and_time_steps_beyond_their_limits_are_refused_with_the_reason() {
+    for (edit, message) in [
+        (
+            ("settle = 0.05", "settle = 1e308"),
+            "time.settle = 1e308: must be in [0, 1000] s of physical time: beds settle and q* \
+             converges within seconds",
+        ),
+        (
+            ("spin_up = 0.02", "spin_up = 1e308"),
+            "time.spin_up = 1e308: must be in [0, 1000] s",
+        ),
+        (
+            ("window = 0.05", "window = 1e308"),
+            "time.window = 1e308: must be in (0, 1000] s",
+        ),
+        (
+            ("[time]", "[time]\nconstants_dt = 1e-12"),
+            "time.constants_dt = 0.000000000001: must be in [1e-8, 1] s (below, every second of physical \
+             time takes more than 1e8 integration steps)",
+        ),
+        (
+            ("[time]", "[time]\nconstants_dt = 1e-8\nsubsteps = 10000"),
+            "time.settle + time.spin_up + time.window = 0.05 + 0.02 + 0.05 s = 1.2e11 integration steps: must \
+             be <= 1e11 integration steps",
+        ),
+    ] {
+        refused_config(edit, message);
+    }
+}
+
+#[test]
+fn command_line_times_beyond_the_limit_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    mbs()
+        .current_dir(dir.path())
+        .args(["pack", "--duration", "1e308"])
+        .timeout(PATIENCE)
+        .assert()
+        .code(2)
+        .stderr(predicates::str::contains(
+            "--duration = 1e308: must be in (0, 1000] s",
+        ));
+    mbs()
+        .current_dir(dir.path())
+        .args(["snapshot", "--every", "1e308"])
+        .timeout(PATIENCE)
+        .assert()
+        .code(2)
+        .stderr(predicates::str::contains(
+            "--every = 1e308: must be in (0, 1000] s",
+        ));
+}
+
+#[test]
+fn sample_steps_longer_than_the_window_is_refused() {
+    refused_config(
+        ("[time]", "[time]\nsample_steps = 30000"),
+        "time.sample_steps = 30000: must be <= the window's 20000 integration steps",
+    );
+}
+
+#[test]
+fn a_fluid_density_that_leaves_the_float_range_is_named_not_the_time_step() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = SMALL.replace("[flow]", "[flow]\nfluid_density = 1e-300");
+    let cfg = write(dir.path(), "c.toml", &text);
+    let out = run_into(&cfg, &dir.path().join("out"))
+        .timeout(PATIENCE)
+        .assert()
+        .code(2)
+        .stderr(predicates::str::contains(
+            "flow.fluid_density = 1e-300: must be in [0.001, 100000] kg/m^3",
+        ))
+        .get_output()
+        .clone();
+    assert!(!String::from_utf8_lossy(&out.stderr).contains("step_dt"));
+}
+
+#[test]
+fn a_one_megabyte_key_gives_a_short_message() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = format!("[bed]\n{} = 1\n", "k".repeat(1_000_000));
+    let cfg = write(dir.path(), "c.toml", &text);
+    let out = run_into(&cfg, &dir.path().join("out"))
+        .assert()
+        .code(2)
+        .stderr(predicates::str::contains("unknown field"))
+        .get_output()
+        .clone();
+    assert!(
+        out.stderr.len() < 2000,
+        "{} bytes of stderr",
+        out.stderr.len()
+    );
+}
+
+#[test]
+fn a_tiny_tau_star_names_its_checkpoint_in_exponent_form() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = SMALL
+        .replace("tau_star = [0.1, 0.3]", "tau_star = [1e-300]")
+        .replace("seeds = [1, 2]", "seeds = [1]");
+    let cfg = write(dir.path(), "c.toml", &text);
+    let out = dir.path().join("out");
+    run_into(&cfg, &out)
+        .args(["--stop-after-steps", "24000"])
+        .timeout(PATIENCE)
+        .assert()
+        .code(130);
+    assert!(out.join("checkpoints/tau1e-300_seed1.ckpt").is_file());
+    resume_in(&out).timeout(PATIENCE).assert().success();
+}
+
+#[test]
+fn checkpoints_are_written_at_most_once_per_2000_steps() {
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = write(dir.path(), "small.toml", SMALL);
+    let out = dir.path().join("out");
+    // Not quiet: the warning is the point.
+    Command::new(assert_cmd::cargo::cargo_bin("mbs"))
+        .args([
+            "run".as_ref(),
+            cfg.as_os_str(),
+            "--out".as_ref(),
+            out.as_os_str(),
+        ])
+        .args(["--checkpoint-every", "1e-300"])
+        .output()
+        .map(|o| {
+            assert!(o.status.success());
+            let stderr = String::from_utf8_lossy(&o.stderr);
+            assert!(
+                stderr.contains(
+                    "--checkpoint-every 1e-300 s: each cell writes a checkpoint at most once per \
+                     2000 integration steps"
+                ),
+                "{stderr}"
+            );
+        })
+        .unwrap();
+}
+
+#[test]
+fn a_long_run_is_warned_about_with_its_steps_and_wall_time() {
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = write(
+        dir.path(),
+        "long.toml",
+        "[time]\nsettle = 1000\nspin_up = 1000\nwindow = 1000\n",
+    );
+    let out = dir.path().join("out");
+    let o = Command::new(assert_cmd::cargo::cargo_bin("mbs"))
+        .args([
+            "run".as_ref(),
+            cfg.as_os_str(),
+            "--out".as_ref(),
+            out.as_os_str(),
+        ])
+        .args(["--threads", "2", "--stop-after-steps", "1"])
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(130));
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        stderr.contains(
+            "warning: a long run: 20 cell(s) of 1.200e9 integration steps (step_dt = 2.5e-6 s) \
+             of up to 440 grains, 1.06e13 grain-steps: about 2.4 days on 2 core(s)"
+        ),
+        "{stderr}"
+    );
+}
+
+#[test]
+fn resuming_a_directory_without_a_run_says_so_and_does_not_suggest_itself() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = resume_in(dir.path()).assert().code(2).get_output().clone();
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(stderr.contains("nothing to resume here"), "{stderr}");
+    assert!(!stderr.contains("--resume"), "{stderr}");
+}
+
+#[test]
+fn a_configuration_cut_between_lines_runs_with_defaults_echoed_whole() {
+    // Not detectable (every key is optional): the configuration used is
+    // echoed whole in DIR/config.toml, the rest of the file's defaults included.
+    let dir = tempfile::tempdir().unwrap();
+    let cut = SMALL.split("window").next().unwrap();
+    let cfg = write(dir.path(), "cut.toml", cut);
+    let out = dir.path().join("out");
+    run_into(&cfg, &out)
+        .args(["--stop-after-steps", "1"])
+        .assert()
+        .code(130);
+    let echoed = std::fs::read_to_string(out.join("config.toml")).unwrap();
+    for line in [
+        "window = 2.0",
+        "tau_star = [0.03, 0.06, 0.1, 0.2, 0.4]",
+        "seeds = [1, 2, 3, 4]",
+    ] {
+        assert!(echoed.contains(line), "{line} in\n{echoed}");
+    }
+}

@@ -1,0 +1,88 @@
+//! Short text for people and file names: excerpts of long lines for
+//! messages, numbers in a form that stays short.
+
+/// Characters of a line that a message quotes from its input (toml's
+/// excerpt of the configuration).
+pub const QUOTE: usize = 400;
+
+/// Characters of the longest line of a message on standard error.
+pub const MESSAGE: usize = 1000;
+
+/// `text` with each line longer than `max` characters cut to its first
+/// ones and the count of those left out: a message quoting a 1 MB line
+/// stays short.
+pub fn excerpt(text: &str, max: usize) -> String {
+    let mut out = String::with_capacity(text.len().min(4 * max));
+    for (k, line) in text.split('\n').enumerate() {
+        if k > 0 {
+            out.push('\n');
+        }
+        match line.char_indices().nth(max) {
+            None => out.push_str(line),
+            Some((cut, _)) => {
+                out.push_str(&line[..cut]);
+                let left = line[cut..].chars().count();
+                out.push_str(&format!("… ({left} more characters)"));
+            }
+        }
+    }
+    out
+}
+
+/// Characters of the longest number written in its `Display` form.
+const NUMBER: usize = 24;
+
+/// `x` as Rust writes it (`0.03`, shortest round trip) if that takes at
+/// most 24 characters, else in exponent form (`1e-300`): also distinct for
+/// distinct values and short enough for a file name. Every value a
+/// configuration normally holds keeps its `Display` form.
+pub fn number(x: f64) -> String {
+    let plain = x.to_string();
+    if plain.len() <= NUMBER {
+        plain
+    } else {
+        format!("{x:e}")
+    }
+}
+
+/// `value` (a message's quoted value) with a number of more than 24
+/// characters in exponent form ([`number`]).
+pub fn shown(value: String) -> String {
+    match value.parse::<f64>() {
+        Ok(x) if value.len() > NUMBER => number(x),
+        _ => value,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn long_lines_are_quoted_as_excerpts() {
+        assert_eq!(excerpt("a\nb", 1), "a\nb");
+        let long = format!("x{}\nshort", "é".repeat(1_000_000));
+        let e = excerpt(&long, 160);
+        assert!(e.len() < 400, "{}", e.len());
+        assert!(e.ends_with("… (999841 more characters)\nshort"), "{e}");
+    }
+
+    #[test]
+    fn numbers_stay_short_and_normal_ones_unchanged() {
+        for (x, text) in [
+            (0.03, "0.03"),
+            (0.1, "0.1"),
+            (1e-6, "0.000001"),
+            (0.30000000000000004, "0.30000000000000004"),
+            (2.0, "2"),
+            (1e-300, "1e-300"),
+            (1e308, "1e308"),
+            (1.2345678901234568e-10, "1.2345678901234568e-10"),
+        ] {
+            assert_eq!(number(x), text);
+            assert_eq!(number(x).parse::<f64>(), Ok(x));
+        }
+        assert_eq!(shown(1e308.to_string()), "1e308");
+        assert_eq!(shown("[1, 2]".into()), "[1, 2]");
+    }
+}
