@@ -78,6 +78,24 @@ pub trait Figure {
         -> Result<(), String>;
 }
 
+/// The text of every `<text>` element of an SVG these figures write, in
+/// order (`&amp;` as `&`): the labels, ticks and legend a reader sees.
+///
+/// ```
+/// let svg = r#"<svg><text x="1">0.01</text><text y="2">q* &amp; τ*</text></svg>"#;
+/// assert_eq!(mbs::plot::svg_texts(svg), ["0.01", "q* & τ*"]);
+/// ```
+pub fn svg_texts(svg: &str) -> Vec<String> {
+    svg.split("<text")
+        .skip(1)
+        .filter_map(|t| t.split_once('>').map(|(_, rest)| rest))
+        .filter_map(|t| {
+            t.split_once("</text>")
+                .map(|(text, _)| text.trim().replace("&amp;", "&"))
+        })
+        .collect()
+}
+
 /// Saves `figure` as `stem.png` and `stem.svg`, each atomically.
 pub fn save(figure: &impl Figure, dir: &Path, stem: &str) -> Result<(), HostError> {
     register_font();
@@ -1182,18 +1200,6 @@ mod tests {
         std::fs::read_to_string(dir.path().join(format!("{stem}.svg"))).unwrap()
     }
 
-    /// The text of every `<text>` element of an SVG.
-    fn texts(svg: &str) -> Vec<String> {
-        svg.split("<text")
-            .skip(1)
-            .filter_map(|t| t.split_once('>').map(|(_, rest)| rest))
-            .filter_map(|t| {
-                t.split_once("</text>")
-                    .map(|(text, _)| text.trim().replace("&amp;", "&"))
-            })
-            .collect()
-    }
-
     fn assert_texts(text: &[String], labels: &[&str]) {
         for label in labels {
             assert!(text.iter().any(|t| t == label), "{label}: {text:?}");
@@ -1253,7 +1259,7 @@ mod tests {
     fn transport_figure_labels_decades_thresholds_floor_and_classes() {
         let labels = ["d = 1 mm".to_string(), "d = 0.7 mm".to_string()];
         let figure = TransportFigure::of_rows(&mixed_rows(), &labels, "mixed".into());
-        let text = texts(&svg_of(&figure, "transport"));
+        let text = svg_texts(&svg_of(&figure, "transport"));
         assert_texts(
             &text,
             &[
@@ -1279,7 +1285,7 @@ mod tests {
 
     #[test]
     fn lines_figure_labels_the_given_ticks_and_marks_the_chosen_value() {
-        let text = texts(&svg_of(&misfit_figure(), "misfit"));
+        let text = svg_texts(&svg_of(&misfit_figure(), "misfit"));
         assert_texts(
             &text,
             &[
@@ -1296,14 +1302,14 @@ mod tests {
             ],
         );
         // A narrow logarithmic y axis still has labelled ticks.
-        let text = texts(&svg_of(&timestep_figure(), "dt"));
+        let text = svg_texts(&svg_of(&timestep_figure(), "dt"));
         assert_texts(&text, &["1e-5", "2e-5", "3e-5", "0.1", "1", "2"]);
     }
 
     #[test]
     fn bed_figure_has_a_colour_bar_the_bed_level_the_flow_and_the_edges() {
         let discs = bed_discs();
-        let text = texts(&svg_of(&bed_figure(&discs), "snapshot"));
+        let text = svg_texts(&svg_of(&bed_figure(&discs), "snapshot"));
         assert_texts(
             &text,
             &[

@@ -14,14 +14,7 @@ fn svg_texts(dir: &Path, stem: &str) -> Vec<String> {
     let png = std::fs::read(dir.join(format!("{stem}.png"))).unwrap();
     assert_eq!(&png[1..4], b"PNG", "{stem}.png");
     let svg = std::fs::read_to_string(dir.join(format!("{stem}.svg"))).unwrap();
-    svg.split("<text")
-        .skip(1)
-        .filter_map(|t| t.split_once('>').map(|(_, rest)| rest))
-        .filter_map(|t| {
-            t.split_once("</text>")
-                .map(|(text, _)| text.trim().replace("&amp;", "&"))
-        })
-        .collect()
+    mbs::plot::svg_texts(&svg)
 }
 
 fn assert_has(texts: &[String], wanted: &[&str]) {
