@@ -458,6 +458,8 @@ pub struct TraceArgs<'a> {
     pub path: &'a Path,
     /// The configuration file's name, `None` for the golden run.
     pub config: Option<String>,
+    /// The `--set` overrides on top of it.
+    pub overrides: Vec<String>,
     /// Steps between records.
     pub every: u64,
     /// The first recorded step.
@@ -482,6 +484,7 @@ pub fn digest(
         let run = crate::trace::TraceRun {
             scenario: config.scenario_at(config.seeds[0]),
             config: t.config,
+            overrides: t.overrides,
             tau_star,
             settle_steps: steps.0,
             flow_steps: steps.1,
@@ -555,12 +558,13 @@ pub fn check_trace(path: &Path, nudge: Option<crate::trace::Nudge>) -> Result<()
     })?;
     let recorded = crate::trace::parse(&text).map_err(refuse)?;
     let config = match &recorded.config {
-        Some(file) => Config::load(Some(Path::new(file)))?,
-        None => Config::golden()?,
+        Some(file) => Config::load_with(Some(Path::new(file)), &recorded.overrides)?,
+        None => Config::golden_with(&recorded.overrides)?,
     };
     let run = crate::trace::TraceRun {
         scenario: config.scenario_at(config.seeds[0]),
         config: recorded.config.clone(),
+        overrides: recorded.overrides.clone(),
         tau_star: recorded.tau_star,
         settle_steps: recorded.settle_steps,
         flow_steps: recorded.flow_steps,

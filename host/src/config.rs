@@ -550,6 +550,60 @@ pub struct Setup {
     pub flow: FlowConfig,
 }
 
+/// Applies `--set SECTION.KEY=VALUE` overrides to a configuration's TOML
+/// text: each VALUE is TOML (`0.3`, `[0.1, 0.2]`, `"f32"`, `{ … }`) or else
+/// taken as a string, and replaces or adds the key. The result is parsed
+/// and validated like any file, so an override is checked exactly as the
+/// same line in the file would be, and echoed wherever the configuration is.
+///
+/// ```
+/// use mbs::config::apply_overrides;
+///
+/// let text = apply_overrides("[flow]\ntau_star = [0.1]\n", &["flow.tau_star=[0.2, 0.3]".into(), "run.precision=f32".into()])?;
+/// let c = mbs::Config::from_toml(&text)?;
+/// assert_eq!(c.tau_stars, [0.2, 0.3]);
+/// assert!(apply_overrides("", &["tau_star=0.2".into()]).is_err());
+/// # Ok::<(), mbs::ConfigError>(())
+/// ```
+pub fn apply_overrides(text: &str, sets: &[String]) -> Result<String, ConfigError> {
+    if sets.is_empty() {
+        return Ok(text.to_string());
+    }
+    let mut table: toml::Table =
+        toml::from_str(text).map_err(|e| ConfigError::Parse(parse_message(text, &e)))?;
+    for set in sets {
+        let bad = |allowed: String| ConfigError::Invalid {
+            key: "--set".into(),
+            value: shown(set.clone()),
+            allowed,
+        };
+        let usage = || bad("SECTION.KEY=VALUE, e.g. flow.tau_star=[0.1, 0.2]".into());
+        let (path, value) = set.split_once('=').ok_or_else(usage)?;
+        let keys: Vec<&str> = path.trim().split('.').map(str::trim).collect();
+        let Some((last, sections)) = keys.split_last().filter(|(_, s)| !s.is_empty()) else {
+            return Err(usage());
+        };
+        if keys.iter().any(|k| k.is_empty()) {
+            return Err(usage());
+        }
+        let value = value.trim();
+        let value = toml::from_str::<toml::Table>(&format!("v = {value}"))
+            .ok()
+            .and_then(|mut t| t.remove("v"))
+            .unwrap_or_else(|| toml::Value::String(value.to_string()));
+        let mut at = &mut table;
+        for section in sections {
+            at = at
+                .entry(section.to_string())
+                .or_insert_with(|| toml::Value::Table(toml::Table::new()))
+                .as_table_mut()
+                .ok_or_else(|| bad(format!("{section} is a key, not a section")))?;
+        }
+        at.insert(last.to_string(), value);
+    }
+    toml::to_string(&table).map_err(|e| ConfigError::Parse(e.to_string()))
+}
+
 impl Config {
     /// Parses and validates TOML text.
     pub fn from_toml(text: &str) -> Result<Config, ConfigError> {
@@ -560,18 +614,24 @@ impl Config {
 
     /// Reads and validates a file, or the embedded default when `path` is None.
     pub fn load(path: Option<&Path>) -> Result<Config, ConfigError> {
+        Config::load_with(path, &[])
+    }
+
+    /// [`Config::load`] with `--set` overrides ([`apply_overrides`]).
+    pub fn load_with(path: Option<&Path>, sets: &[String]) -> Result<Config, ConfigError> {
         match path {
-            None => Config::from_toml(DEFAULT_TOML),
+            None => Config::from_toml(&apply_overrides(DEFAULT_TOML, sets)?),
             Some(p) => {
                 let text =
                     read_text_bounded(p, CONFIG_BOUND).map_err(|source| ConfigError::Read {
                         path: p.to_path_buf(),
                         source,
                     })?;
-                Config::from_toml(&text).map_err(|e| match e {
+                let in_file = |e| match e {
                     ConfigError::Parse(m) => ConfigError::Parse(format!("{}: {m}", p.display())),
                     other => other,
-                })
+                };
+                Config::from_toml(&apply_overrides(&text, sets).map_err(in_file)?).map_err(in_file)
             }
         }
     }
@@ -579,9 +639,18 @@ impl Config {
     /// The golden-digest configuration: the embedded default on the kernel's
     /// `Scenario::paper()` bed (5 columns), which the firmware runs.
     pub fn golden() -> Result<Config, ConfigError> {
+        Config::golden_with(&[])
+    }
+
+    /// [`Config::golden`] with `--set` overrides on top.
+    pub fn golden_with(sets: &[String]) -> Result<Config, ConfigError> {
         let mut file = Config::load(None)?.file;
         file.bed.columns = Scenario::paper().bed.columns;
-        Config::validate(file)
+        if sets.is_empty() {
+            return Config::validate(file);
+        }
+        let text = toml::to_string(&file).map_err(|e| ConfigError::Parse(e.to_string()))?;
+        Config::from_toml(&apply_overrides(&text, sets)?)
     }
 
     /// The scenario of one seed.

@@ -24,6 +24,10 @@ struct Cli {
     /// Worker threads (0: one per core). Results do not depend on it.
     #[arg(long, global = true, default_value_t = 0)]
     threads: usize,
+    /// Override one configuration key, e.g. --set flow.tau_star=[0.1,0.2]
+    /// (repeatable; checked like the file, saved in DIR/config.toml).
+    #[arg(long = "set", global = true, value_name = "SECTION.KEY=VALUE")]
+    sets: Vec<String>,
     #[command(subcommand)]
     command: Option<Command>,
 }
@@ -236,7 +240,9 @@ fn execute(cli: Cli) -> Result<(), HostError> {
         quiet: cli.quiet,
         threads: cli.threads,
     };
-    let load = |path: &Option<PathBuf>| Config::load(path.as_deref()).map_err(HostError::from);
+    let sets = cli.sets;
+    let load =
+        |path: &Option<PathBuf>| Config::load_with(path.as_deref(), &sets).map_err(HostError::from);
     match cli.command.unwrap_or(Command::Run {
         config: None,
         out: None,
@@ -267,6 +273,14 @@ fn execute(cli: Cli) -> Result<(), HostError> {
                 resuming: resume.is_some(),
             };
             let (config, out) = match resume {
+                Some(_) if !sets.is_empty() => return Err(mbs::ConfigError::Invalid {
+                    key: "--set".into(),
+                    value: sets.join(" "),
+                    allowed:
+                        "not with --resume: a resumed run keeps the configuration it started with"
+                            .into(),
+                }
+                .into()),
                 Some(dir) => (commands::resumed_config(&dir)?, Some(dir)),
                 None => (load(&config)?, out),
             };
@@ -309,6 +323,15 @@ fn execute(cli: Cli) -> Result<(), HostError> {
             nudge,
         } => {
             if let Some(file) = check {
+                if !sets.is_empty() {
+                    return Err(mbs::ConfigError::Invalid {
+                        key: "--set".into(),
+                        value: sets.join(" "),
+                        allowed: "not with --check: a check runs with the trace's own overrides"
+                            .into(),
+                    }
+                    .into());
+                }
                 return commands::check_trace(&file, nudge);
             }
             if every == 0 {
@@ -322,11 +345,12 @@ fn execute(cli: Cli) -> Result<(), HostError> {
             let name = config.as_ref().map(|p| p.display().to_string());
             let config = match config {
                 Some(_) => load(&config)?,
-                None => mbs::Config::golden()?,
+                None => mbs::Config::golden_with(&sets)?,
             };
             let trace = trace.as_deref().map(|path| commands::TraceArgs {
                 path,
                 config: name,
+                overrides: sets.clone(),
                 every,
                 from,
                 until,

@@ -114,6 +114,8 @@ pub struct TraceRun {
     pub scenario: Scenario,
     /// The configuration file, or `None` for the golden run.
     pub config: Option<String>,
+    /// `--set` overrides on top of it.
+    pub overrides: Vec<String>,
     /// Shields number of the flow phase.
     pub tau_star: f64,
     /// Steps without flow.
@@ -341,6 +343,7 @@ impl TraceRun {
             step_path: step_path(),
             scenario_hash: hex(self.scenario_hash()),
             config: self.config.clone(),
+            overrides: self.overrides.clone(),
             tau_star: self.tau_star,
             settle_steps: self.settle_steps,
             flow_steps: self.flow_steps,
@@ -388,6 +391,8 @@ pub struct Trace {
     pub scenario_hash: String,
     /// The configuration file, or null for the golden run.
     pub config: Option<String>,
+    /// `--set` overrides on top of it (empty: none).
+    pub overrides: Vec<String>,
     /// Shields number of the flow phase.
     pub tau_star: f64,
     /// Steps without flow.
@@ -441,6 +446,9 @@ pub struct Recorded {
     pub scenario_hash: String,
     /// [`Trace::config`].
     pub config: Option<String>,
+    /// [`Trace::overrides`].
+    #[serde(default)]
+    pub overrides: Vec<String>,
     /// [`Trace::precision`].
     pub precision: Precision,
     /// [`Trace::tau_star`].
@@ -640,10 +648,13 @@ fn locate<R: Real, const N: usize>(
             );
         }
         Some(b) => {
-            let config = run
+            let mut config = run
                 .config
                 .as_deref()
                 .map_or(String::new(), |c| format!("{c} "));
+            for set in &run.overrides {
+                config.push_str(&format!("--set '{set}' "));
+            }
             let precision = match run.precision {
                 Precision::F32 => "f32",
                 Precision::F64 => "f64",
@@ -786,6 +797,7 @@ mod tests {
             step_path: "",
             scenario_hash: String::new(),
             config: None,
+            overrides: Vec::new(),
             tau_star: 0.0,
             settle_steps: 0,
             flow_steps: 0,

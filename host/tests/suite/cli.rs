@@ -293,3 +293,82 @@ fn a_closed_stdout_is_not_a_crash() {
     );
     assert!(!String::from_utf8_lossy(&out.stderr).contains("panicked"));
 }
+
+/// `--set SECTION.KEY=VALUE` overrides the configuration: the run uses it,
+/// `DIR/config.toml` saves it, and a bad override is named like the same
+/// line in a file would be (exit 2, nothing written).
+#[test]
+fn set_overrides_the_configuration_and_is_checked_like_the_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = write(dir.path(), "small.toml", SMALL);
+    let out = dir.path().join("out");
+    run_into(&cfg, &out)
+        .args(["--set", "flow.tau_star=[0.2]", "--set", "run.seeds = [3]"])
+        .assert()
+        .success();
+    let csv = std::fs::read_to_string(out.join("transport.csv")).unwrap();
+    let rows: Vec<&str> = csv.lines().skip(1).collect();
+    assert_eq!(rows.len(), 1, "{csv}");
+    assert!(rows[0].starts_with("0.2,"), "{csv}");
+    let saved = mbs::Config::load(Some(&out.join("config.toml"))).unwrap();
+    assert_eq!((saved.tau_stars, saved.seeds), (vec![0.2], vec![3]));
+    // Resuming keeps the configuration it started with.
+    resume_in(&out)
+        .args(["--set", "flow.tau_star=[0.3]"])
+        .assert()
+        .code(2)
+        .stderr(predicates::str::contains("not with --resume"));
+    for (set, why) in [
+        ("bed.columns=2", "bed.columns = 2: must be in [3, 100000]"),
+        ("flow.no_such_key=1", "unknown field `no_such_key`"),
+        (
+            "tau_star=0.2",
+            "--set = tau_star=0.2: must be SECTION.KEY=VALUE",
+        ),
+        ("run.precision=f16", "unknown variant `f16`"),
+    ] {
+        let bad = dir.path().join("bad");
+        run_into(&cfg, &bad)
+            .args(["--set", set])
+            .assert()
+            .code(2)
+            .stderr(predicates::str::contains(why));
+        assert!(!bad.exists(), "{set}: nothing written");
+    }
+}
+
+/// A trace of a run with overrides keeps them, and its check applies them
+/// again.
+#[test]
+fn a_trace_keeps_its_overrides() {
+    let dir = tempfile::tempdir().unwrap();
+    let trace = dir.path().join("t.json");
+    let digest = |extra: &[&str]| {
+        let out = mbs()
+            .args(["digest", "--steps", "100"])
+            .args(extra)
+            .output()
+            .unwrap();
+        assert!(out.status.success());
+        String::from_utf8(out.stdout).unwrap()
+    };
+    let plain = digest(&[]);
+    let lighter = digest(&[
+        "--set",
+        "grains.specific_gravity=2.5",
+        "--trace",
+        trace.to_str().unwrap(),
+    ]);
+    assert_ne!(plain, lighter, "the override changes the run");
+    mbs()
+        .args(["digest", "--check"])
+        .arg(&trace)
+        .assert()
+        .success();
+    mbs()
+        .args(["digest", "--set", "grains.specific_gravity=2.4", "--check"])
+        .arg(&trace)
+        .assert()
+        .code(2)
+        .stderr(predicates::str::contains("not with --check"));
+}
