@@ -17,6 +17,7 @@ use crate::sims::{compiled_capacity, max_checkpoint_len};
 use crate::store::{Store, STORE};
 use crate::text::number;
 use indicatif::ProgressBar;
+use mbs_kernel::{shear_velocity, G};
 use rayon::prelude::*;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
@@ -250,12 +251,19 @@ struct TransportLine {
     mpm: f64,
     #[serde(serialize_with = "decimal")]
     wong_parker: f64,
+    #[serde(serialize_with = "decimal")]
+    u_star_m_s: f64,
+    #[serde(serialize_with = "decimal")]
+    q_b_m2_s: f64,
+    #[serde(serialize_with = "decimal")]
+    q_b_stderr_m2_s: f64,
     #[serde(serialize_with = "decimals")]
     classes: Vec<f64>,
 }
 
-/// Writes `transport.csv`: a line per τ*, and two columns per size class of
-/// a mixed bed.
+/// Writes `transport.csv`: a line per τ* (q* with its standard error, the
+/// seeds, two reference relations, u* in m/s and q_B with its standard
+/// error in m²/s), and two columns per size class of a mixed bed.
 pub fn write_transport(
     path: &Path,
     config: &Config,
@@ -268,6 +276,9 @@ pub fn write_transport(
         "seeds",
         "mpm",
         "wong_parker",
+        "u_star_m_s",
+        "q_b_m2_s",
+        "q_b_stderr_m2_s",
     ]
     .map(String::from)
     .to_vec();
@@ -278,6 +289,13 @@ pub fn write_transport(
             header.push(format!("q_star_{d}mm_stderr"));
         }
     }
+    // Dimensional forms on the largest diameter (docs/model.md §6, §8):
+    // u* = √(τ* (s − 1) g d), q_B = q* √((s − 1) g d³).
+    let (d, s) = (
+        config.scenario.bed.max_diameter(),
+        config.scenario.material.s,
+    );
+    let q_scale = ((s - 1.0) * G * d * d * d).sqrt();
     let lines: Vec<TransportLine> = rows
         .iter()
         .map(|r| TransportLine {
@@ -287,6 +305,9 @@ pub fn write_transport(
             seeds: r.seeds,
             mpm: r.mpm,
             wong_parker: r.wong_parker,
+            u_star_m_s: shear_velocity(r.tau_star, s, G, d),
+            q_b_m2_s: r.q_star * q_scale,
+            q_b_stderr_m2_s: r.q_star_stderr * q_scale,
             classes: r.classes.iter().flat_map(|&(q, e)| [q, e]).collect(),
         })
         .collect();

@@ -49,7 +49,7 @@ fn run_writes_table_plots_and_summary() {
     let lines: Vec<&str> = csv.lines().collect();
     assert_eq!(
         lines[0],
-        "tau_star,q_star,q_star_stderr,seeds,mpm,wong_parker"
+        "tau_star,q_star,q_star_stderr,seeds,mpm,wong_parker,u_star_m_s,q_b_m2_s,q_b_stderr_m2_s"
     );
     assert_eq!(lines.len(), 3);
     let row: Vec<f64> = lines[2].split(',').map(|v| v.parse().unwrap()).collect();
@@ -105,13 +105,29 @@ fn mixed_beds_get_columns_per_size_class() {
     run_into(&cfg, &out).assert().success();
     let csv = std::fs::read_to_string(out.join("transport.csv")).unwrap();
     assert!(
-        csv.starts_with("tau_star,q_star,q_star_stderr,seeds,mpm,wong_parker,q_star_1mm,q_star_1mm_stderr,q_star_0.7mm,q_star_0.7mm_stderr\n"),
+        csv.starts_with("tau_star,q_star,q_star_stderr,seeds,mpm,wong_parker,u_star_m_s,q_b_m2_s,q_b_stderr_m2_s,q_star_1mm,q_star_1mm_stderr,q_star_0.7mm,q_star_0.7mm_stderr\n"),
         "{csv}"
     );
     // The classes are on the total's scale (d_max): they add up to q*.
     for line in csv.lines().skip(1) {
         let v: Vec<f64> = line.split(',').map(|x| x.parse().unwrap()).collect();
-        let (total, classes) = (v[1], v[6] + v[8]);
+        let (total, classes) = (v[1], v[9] + v[11]);
+        // Units on the largest diameter (1 mm, s = 2.65, g = 9.81):
+        // u* = √(τ* (s − 1) g d), q_B = q* √((s − 1) g d³), its error alike.
+        let (g_prime, d) = (1.65 * 9.81, 1e-3);
+        assert!(
+            (v[6] - (v[0] * g_prime * d).sqrt()).abs() < 1e-15,
+            "u*: {line}"
+        );
+        let scale = (g_prime * d * d * d).sqrt();
+        assert!(
+            (v[7] - total * scale).abs() <= 1e-15 * scale.max(total.abs() * scale),
+            "q_B: {line}"
+        );
+        assert!(
+            (v[8] - v[2] * scale).abs() <= 1e-15 * scale,
+            "q_B stderr: {line}"
+        );
         assert!(
             (total - classes).abs() <= 1e-12 * total.abs().max(1e-9),
             "q* {total} is not the sum of its classes {classes}: {line}"
