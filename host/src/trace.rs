@@ -332,15 +332,18 @@ impl TraceRun {
     pub fn run(&self) -> Result<Trace, RunError> {
         let records = with_sim(self.precision, self.capacity, Recording(self))?;
         Ok(Trace {
-            format: FORMAT,
+            format: FORMAT.into(),
             program: BTreeMap::from([
-                ("name", Some("mbs".into())),
-                ("version", Some(env!("CARGO_PKG_VERSION").into())),
-                ("commit", option_env!("MBS_GIT_COMMIT").map(Into::into)),
+                ("name".into(), Some("mbs".into())),
+                ("version".into(), Some(env!("CARGO_PKG_VERSION").into())),
+                (
+                    "commit".into(),
+                    option_env!("MBS_GIT_COMMIT").map(Into::into),
+                ),
             ]),
-            target: env!("MBS_TARGET"),
+            target: env!("MBS_TARGET").into(),
             precision: self.precision,
-            step_path: step_path(),
+            step_path: step_path().into(),
             scenario_hash: hex(self.scenario_hash()),
             config: self.config.clone(),
             overrides: self.overrides.clone(),
@@ -373,25 +376,27 @@ impl SimJob for Recording<'_> {
     }
 }
 
-/// The metadata and records of a trace (its body, which the checksum covers).
-#[derive(Debug, Clone, Serialize)]
+/// The metadata and records of a trace (its body, which the checksum
+/// covers), as written and as read back.
+#[derive(Debug, Clone, Serialize, serde::Deserialize)]
 pub struct Trace {
     /// [`FORMAT`].
-    pub format: &'static str,
+    pub format: String,
     /// Program name, version and git commit (null when unknown).
-    pub program: BTreeMap<&'static str, Option<String>>,
+    pub program: BTreeMap<String, Option<String>>,
     /// The target triple the program was built for.
-    pub target: &'static str,
+    pub target: String,
     /// `f32` or `f64`.
     pub precision: Precision,
     /// `batched` (x86-64 AVX2 lanes) or `scalar`.
-    pub step_path: &'static str,
+    pub step_path: String,
     /// FNV-1a of the scenario's description (configuration, seed, τ*,
     /// steps), hexadecimal.
     pub scenario_hash: String,
     /// The configuration file, or null for the golden run.
     pub config: Option<String>,
     /// `--set` overrides on top of it (empty: none).
+    #[serde(default)]
     pub overrides: Vec<String>,
     /// Shields number of the flow phase.
     pub tau_star: f64,
@@ -437,42 +442,10 @@ pub fn to_text(trace: &Trace) -> serde_json::Result<String> {
     Ok(text)
 }
 
-/// A trace file read back: what to re-run and the records to compare.
-#[derive(Debug, Clone, serde::Deserialize)]
-pub struct Recorded {
-    /// [`Trace::format`].
-    pub format: String,
-    /// [`Trace::scenario_hash`].
-    pub scenario_hash: String,
-    /// [`Trace::config`].
-    pub config: Option<String>,
-    /// [`Trace::overrides`].
-    #[serde(default)]
-    pub overrides: Vec<String>,
-    /// [`Trace::precision`].
-    pub precision: Precision,
-    /// [`Trace::tau_star`].
-    pub tau_star: f64,
-    /// [`Trace::settle_steps`].
-    pub settle_steps: u64,
-    /// [`Trace::flow_steps`].
-    pub flow_steps: u64,
-    /// [`Trace::every`].
-    pub every: u64,
-    /// [`Trace::from`].
-    pub from: u64,
-    /// [`Trace::until`].
-    pub until: u64,
-    /// [`Trace::states`].
-    pub states: bool,
-    /// [`Trace::records`].
-    pub records: Vec<Record>,
-}
-
 /// Reads a trace file's text: its body, if the text is a trace of this
 /// format whose checksum matches; else why not (a damaged, edited,
 /// truncated or foreign file).
-pub fn parse(text: &str) -> Result<Recorded, String> {
+pub fn parse(text: &str) -> Result<Trace, String> {
     let file: serde_json::Value = serde_json::from_str(text)
         .map_err(|e| format!("not a JSON trace (damaged or truncated?): {e}"))?;
     let (Some(body), Some(checksum)) = (file.get("body"), file.get("checksum")) else {
@@ -491,7 +464,7 @@ pub fn parse(text: &str) -> Result<Recorded, String> {
             "checksum mismatch: the file says {checksum}, its body's CRC-32 is {computed} (edited or damaged)"
         ));
     }
-    let recorded: Recorded = serde_json::from_value(body.clone())
+    let recorded: Trace = serde_json::from_value(body.clone())
         .map_err(|e| format!("not an mbs trace of format {FORMAT:?}: {e}"))?;
     if recorded.every == 0 || recorded.records.is_empty() {
         return Err("a trace with no records or every = 0".into());
@@ -515,11 +488,7 @@ pub enum Verdict {
 /// `nudge` and compares every record; at the first mismatch, locates it
 /// (see [`locate`]). A trace that starts after step 0 with states starts
 /// from its first record's state instead of re-running from the bed.
-pub fn check(
-    run: &TraceRun,
-    recorded: &Recorded,
-    nudge: Option<Nudge>,
-) -> Result<Verdict, RunError> {
+pub fn check(run: &TraceRun, recorded: &Trace, nudge: Option<Nudge>) -> Result<Verdict, RunError> {
     with_sim(
         run.precision,
         run.capacity,
@@ -533,7 +502,7 @@ pub fn check(
 
 struct Checking<'a> {
     run: &'a TraceRun,
-    recorded: &'a Recorded,
+    recorded: &'a Trace,
     nudge: Option<Nudge>,
 }
 
@@ -790,11 +759,11 @@ mod tests {
             state,
         };
         let trace = |n: usize, record: &Record| Trace {
-            format: FORMAT,
+            format: FORMAT.into(),
             program: BTreeMap::new(),
-            target: "",
+            target: String::new(),
             precision: Precision::F64,
-            step_path: "",
+            step_path: String::new(),
             scenario_hash: String::new(),
             config: None,
             overrides: Vec::new(),
