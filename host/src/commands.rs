@@ -11,6 +11,7 @@ use crate::input::read_text_bounded;
 use crate::output::{create_dir, write_json, write_text};
 use crate::pack::{packing, write_packing, Packing};
 use crate::plot::{save, TransportFigure};
+use crate::shard::Shard;
 use crate::sims::{with_sim, SimJob, NEIGHBOURS};
 use crate::snapshot::{snapshots, write_snapshots, Snapshots};
 use crate::text::{excerpt, MESSAGE};
@@ -174,6 +175,8 @@ pub struct RunOptions {
     pub stop_after_steps: Option<u64>,
     /// `--resume`: the configuration is the run directory's own.
     pub resuming: bool,
+    /// `--shard I/N`: compute only this slice of the cells, write no table.
+    pub shard: Shard,
 }
 
 /// The configuration a run directory was started with (`mbs run --resume`).
@@ -255,7 +258,9 @@ pub fn run(
     write_text(&dir.join(RUN_CONFIG), &text)?;
     // A second handler cannot be installed (e.g. in-process tests); Ctrl-C then just kills.
     let _ = ctrlc::set_handler(|| STOP.store(true, Ordering::Relaxed));
-    let cells = (config.tau_stars.len() * config.seeds.len()) as u64;
+    let cells = (0..config.tau_stars.len() * config.seeds.len())
+        .filter(|&k| options.shard.owns(k))
+        .count() as u64;
     let bar = progress(cells * config.durations.cell(), "transport", common.quiet);
     let start = Instant::now();
     let control = RunControl {
@@ -263,6 +268,7 @@ pub fn run(
         every: options.checkpoint_every.map(Duration::from_secs_f64),
         stop: &STOP,
         stop_after: options.stop_after_steps,
+        shard: options.shard,
     };
     let outcome = on_pool(common.threads, || run_all(config, &bar, &control))?;
     bar.finish_and_clear();
@@ -278,6 +284,15 @@ pub fn run(
         other => other?,
     };
     let results = outcome.results;
+    if !options.shard.is_all() {
+        let Shard { index, count } = options.shard;
+        return print(&format!(
+            "shard {}/{count}: {} cells in {}/cells.jsonl; merge the shards with `mbs merge DIRS --out DIR`, then `mbs run CONFIG --out DIR` writes the table\n",
+            index + 1,
+            results.len(),
+            dir.display()
+        ));
+    }
     let wall = start.elapsed().as_secs_f64();
     let rows = aggregate(config, &results);
     write_transport(&dir.join("transport.csv"), config, &rows)?;

@@ -13,6 +13,7 @@ use crate::error::HostError;
 use crate::input::{read_bounded, Bound};
 use crate::output::{create_dir, decimal, decimals, remove_temporaries, write_csv};
 use crate::references::Reference;
+use crate::shard::Shard;
 use crate::sims::{compiled_capacity, max_checkpoint_len};
 use crate::store::{Store, STORE};
 use crate::text::number;
@@ -34,6 +35,8 @@ pub struct RunControl<'a> {
     pub stop: &'a AtomicBool,
     /// Stop every running cell after this many steps (tests of resuming).
     pub stop_after: Option<u64>,
+    /// The slice of the cells to compute ([`Shard::ALL`] for every cell).
+    pub shard: Shard,
 }
 
 /// What `run_all` did.
@@ -89,10 +92,14 @@ pub fn run_all(
         bytes: max_len as u64,
         reason: &reason,
     };
+    // Cell k (τ* major, seeds minor) belongs to slice k mod N.
     let cells: Vec<(f64, u64)> = config
         .tau_stars
         .iter()
         .flat_map(|&t| config.seeds.iter().map(move |&s| (t, s)))
+        .enumerate()
+        .filter(|&(k, _)| control.shard.owns(k))
+        .map(|(_, cell)| cell)
         .collect();
     let outcomes: Vec<Result<(CellOutcome, u8), HostError>> = cells
         .par_iter()

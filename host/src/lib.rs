@@ -8,6 +8,7 @@
 //! | [`cell`] | one resumable (τ*, seed) run: its result and its checkpoint file |
 //! | [`experiment`] | q*(τ*) over seeds, in parallel, thread-count independent |
 //! | [`store`] | append-only file of finished cells |
+//! | [`shard`] | a slice of the cells (`--shard I/N`) and the merge of slices |
 //! | [`references`] | bed-load relations of docs/model.md §10 |
 //! | [`mixture`] | fractional transport of a mixture with hiding (Wilcock & Crowe 2003) |
 //! | [`pack`] | packing test (docs/model.md §9 step 1) |
@@ -33,6 +34,7 @@ pub mod output;
 pub mod pack;
 pub mod plot;
 pub mod references;
+pub mod shard;
 pub mod sims;
 pub mod snapshot;
 pub mod store;

@@ -2,10 +2,10 @@
 
 use clap::{Parser, Subcommand};
 use mbs::bench::{Bench, BenchBed, Case};
-use mbs::calibrate::cells::Shard;
 use mbs::calibrate::{calibrate, merge, Options, Progress};
 use mbs::commands::{self, Common};
 use mbs::references::Reference;
+use mbs::shard::Shard;
 use mbs::{Config, HostError, Precision};
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -52,6 +52,20 @@ enum Command {
         /// Stop every cell after N steps as if interrupted (for tests of resuming).
         #[arg(long, hide = true)]
         stop_after_steps: Option<u64>,
+        /// Compute only slice I of N of the cells (I = 1..N), e.g. a Slurm array
+        /// task; `mbs merge` joins the slices.
+        #[arg(long, value_name = "I/N")]
+        shard: Option<Shard>,
+    },
+    /// Merges the cell stores of shard output directories (`run` or
+    /// `calibrate` with --shard) into one directory.
+    Merge {
+        /// Shard output directories.
+        #[arg(required = true)]
+        shards: Vec<PathBuf>,
+        /// The directory to merge into.
+        #[arg(long)]
+        out: PathBuf,
     },
     /// Prints the embedded default configuration (the paper's case), commented.
     Config,
@@ -143,7 +157,7 @@ enum Command {
         #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u8).range(1..=5))]
         stage: u8,
         /// Run only slice I of N of each stage's cells (I = 1..N), e.g. a Slurm array task.
-        #[arg(long, value_name = "I/N", value_parser = parse_shard)]
+        #[arg(long, value_name = "I/N", value_parser = clap::value_parser!(Shard))]
         shard: Option<Shard>,
         /// Reference relation fitted in stages 3-5.
         #[arg(long, value_enum, default_value_t = Reference::MeyerPeterMuller)]
@@ -186,23 +200,6 @@ enum CalibrateAction {
         #[arg(long)]
         out: PathBuf,
     },
-}
-
-/// Parses `I/N` (1-based) into a shard.
-fn parse_shard(text: &str) -> Result<Shard, String> {
-    let bad = || format!("{text}: must be I/N with 1 <= I <= N, e.g. 3/8");
-    let (i, n) = text.split_once('/').ok_or_else(bad)?;
-    let (i, n): (usize, usize) = (
-        i.trim().parse().map_err(|_| bad())?,
-        n.trim().parse().map_err(|_| bad())?,
-    );
-    if i == 0 || i > n {
-        return Err(bad());
-    }
-    Ok(Shard {
-        index: i - 1,
-        count: n,
-    })
 }
 
 /// Checks a Shields number given on the command line.
@@ -249,6 +246,7 @@ fn execute(cli: Cli) -> Result<(), HostError> {
         resume: None,
         checkpoint_every: None,
         stop_after_steps: None,
+        shard: None,
     }) {
         Command::Run {
             config,
@@ -256,6 +254,7 @@ fn execute(cli: Cli) -> Result<(), HostError> {
             resume,
             checkpoint_every,
             stop_after_steps,
+            shard,
         } => {
             if let Some(s) = checkpoint_every
                 .filter(|s| !(*s > 0.0 && std::time::Duration::try_from_secs_f64(*s).is_ok()))
@@ -271,6 +270,7 @@ fn execute(cli: Cli) -> Result<(), HostError> {
                 checkpoint_every,
                 stop_after_steps,
                 resuming: resume.is_some(),
+                shard: shard.unwrap_or(Shard::ALL),
             };
             let (config, out) = match resume {
                 Some(_) if !sets.is_empty() => return Err(mbs::ConfigError::Invalid {
@@ -287,6 +287,14 @@ fn execute(cli: Cli) -> Result<(), HostError> {
             commands::run(&config, out.as_deref(), options, common)
         }
         Command::Config => commands::config(),
+        Command::Merge { shards, out } => {
+            let added = merge(&shards, &out)?;
+            commands::print(&format!(
+                "merged {added} new cells into {}; finish with the same command without --shard and with --out {}\n",
+                out.display(),
+                out.display()
+            ))
+        }
         Command::Pack {
             config,
             out,

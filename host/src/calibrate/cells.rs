@@ -13,29 +13,7 @@ use indicatif::ProgressBar;
 use rayon::prelude::*;
 use serde::{de::DeserializeOwned, Deserialize, Serialize};
 
-/// One slice of a stage's cells: `index` of `count` (`--shard I/N`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct Shard {
-    /// 0-based slice index.
-    pub index: usize,
-    /// Number of slices.
-    pub count: usize,
-}
-
-impl Shard {
-    /// The whole stage.
-    pub const ALL: Shard = Shard { index: 0, count: 1 };
-
-    /// Whether this shard computes cell number `cell` of a stage.
-    pub fn owns(self, cell: usize) -> bool {
-        cell % self.count == self.index
-    }
-
-    /// Whether this is the whole stage.
-    pub fn is_all(self) -> bool {
-        self.count == 1
-    }
-}
+pub use crate::shard::Shard;
 
 /// A packing cell: the bed of `config` settling for `duration`.
 #[derive(Debug, Clone, PartialEq, Serialize)]

@@ -473,24 +473,7 @@ pub fn calibrate(
     })
 }
 
-/// `mbs calibrate merge`: adds the cells of shard directories to `dir`'s
-/// store; returns how many were new.
-pub fn merge(shards: &[std::path::PathBuf], dir: &std::path::Path) -> Result<usize, HostError> {
-    let _lock = crate::output::lock_dir(dir)?;
-    let store = crate::store::Store::open(&dir.join(STORE))?;
-    let mut added = 0;
-    for shard in shards {
-        let path = shard.join(STORE);
-        if !path.is_file() {
-            return Err(HostError::io(&path)(std::io::Error::new(
-                std::io::ErrorKind::NotFound,
-                "no cell store here: is this a shard's --out directory?",
-            )));
-        }
-        added += store.merge_from(&path)?;
-    }
-    Ok(added)
-}
+pub use crate::shard::merge;
 
 #[cfg(test)]
 mod tests {

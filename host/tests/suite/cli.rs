@@ -388,3 +388,49 @@ fn a_trace_keeps_its_overrides() {
         .code(2)
         .stderr(predicates::str::contains("not with --check"));
 }
+
+/// `mbs run --shard I/N` on N machines, `mbs merge`, and the same run into
+/// the merged directory: `transport.csv` byte for byte as one unsharded run.
+#[test]
+fn a_sharded_run_merged_gives_the_same_table() {
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = write(dir.path(), "small.toml", SMALL);
+    let whole = dir.path().join("whole");
+    run_into(&cfg, &whole).assert().success();
+    let mut shards = Vec::new();
+    for i in 1..=3 {
+        let out = dir.path().join(format!("shard{i}"));
+        run_into(&cfg, &out)
+            .args(["--shard", &format!("{i}/3")])
+            .assert()
+            .success();
+        assert!(
+            !out.join("transport.csv").exists(),
+            "a shard writes no table"
+        );
+        shards.push(out);
+    }
+    let merged = dir.path().join("merged");
+    mbs()
+        .arg("merge")
+        .args(&shards)
+        .arg("--out")
+        .arg(&merged)
+        .assert()
+        .success();
+    // Every cell is stored: the run computes nothing (--stop-after-steps 0
+    // would stop any cell that ran) and writes the table.
+    run_into(&cfg, &merged)
+        .args(["--stop-after-steps", "0"])
+        .assert()
+        .success();
+    assert_eq!(
+        std::fs::read(merged.join("transport.csv")).unwrap(),
+        std::fs::read(whole.join("transport.csv")).unwrap()
+    );
+    mbs()
+        .args(["run", "--shard", "4/3"])
+        .assert()
+        .code(2)
+        .stderr(predicates::str::contains("must be I/N with 1 <= I <= N"));
+}

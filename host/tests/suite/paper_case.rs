@@ -20,6 +20,7 @@ fn transport(mut config: Config) -> Vec<TransportRow> {
         every: None,
         stop: &never,
         stop_after: None,
+        shard: mbs::shard::Shard::ALL,
     };
     let outcome = run_all(&config, &ProgressBar::hidden(), &control).expect("the case runs");
     aggregate(&config, &outcome.results)
