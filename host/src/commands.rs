@@ -498,17 +498,19 @@ pub fn digest(
     if let Some(t) = trace {
         let run = crate::trace::TraceRun {
             scenario: config.scenario_at(config.seeds[0]),
-            config: t.config,
-            overrides: t.overrides,
-            tau_star,
-            settle_steps: steps.0,
-            flow_steps: steps.1,
-            every: t.every,
-            from: t.from,
-            until: t.until.unwrap_or(u64::MAX),
-            states: t.states,
-            precision,
             capacity: config.capacity,
+            spec: crate::trace::TraceSpec {
+                config: t.config,
+                overrides: t.overrides,
+                tau_star,
+                settle_steps: steps.0,
+                flow_steps: steps.1,
+                every: t.every,
+                from: t.from,
+                until: t.until.unwrap_or(u64::MAX),
+                states: t.states,
+                precision,
+            },
         };
         if let Err(allowed) = run.fits() {
             return Err(crate::config::ConfigError::Invalid {
@@ -572,23 +574,18 @@ pub fn check_trace(path: &Path, nudge: Option<crate::trace::Nudge>) -> Result<()
         _ => HostError::io(path)(e),
     })?;
     let recorded = crate::trace::parse(&text).map_err(refuse)?;
-    let config = match &recorded.config {
-        Some(file) => Config::load_with(Some(Path::new(file)), &recorded.overrides)?,
-        None => Config::golden_with(&recorded.overrides)?,
+    let config = match &recorded.spec.config {
+        Some(file) => Config::load_with(Some(Path::new(file)), &recorded.spec.overrides)?,
+        None => Config::golden_with(&recorded.spec.overrides)?,
     };
     let run = crate::trace::TraceRun {
         scenario: config.scenario_at(config.seeds[0]),
-        config: recorded.config.clone(),
-        overrides: recorded.overrides.clone(),
-        tau_star: recorded.tau_star,
-        settle_steps: recorded.settle_steps,
-        flow_steps: recorded.flow_steps,
-        every: recorded.every,
-        from: recorded.from,
-        until: recorded.until,
-        states: false,
-        precision: recorded.precision,
         capacity: config.capacity,
+        // The check compares digests; it keeps no states of its own.
+        spec: crate::trace::TraceSpec {
+            states: false,
+            ..recorded.spec.clone()
+        },
     };
     let hash = format!("{:#018x}", run.scenario_hash());
     if hash != recorded.scenario_hash {
@@ -605,7 +602,7 @@ pub fn check_trace(path: &Path, nudge: Option<crate::trace::Nudge>) -> Result<()
         crate::trace::Verdict::Mismatch(message) => Err(HostError::Mismatch(message)),
         crate::trace::Verdict::Matches(records, last) => print(&format!(
             "trace matches: {records} records, steps {} to {last}\n",
-            recorded.from
+            recorded.spec.from
         )),
     }
 }

@@ -105,16 +105,16 @@ pub const TRACE_BOUND: Bound = Bound {
     reason: "the largest trace (100000 records of at most 1 KiB, or fewer with states)",
 };
 
-/// What a trace records: the digest run of `scenario` (`settle_steps`
-/// without flow, then `flow_steps` at `tau_star`), from step `from` to step
-/// `until`, every `every` steps and at the phases' ends.
-#[derive(Debug, Clone)]
-pub struct TraceRun {
-    /// The scenario (configuration and seed).
-    pub scenario: Scenario,
-    /// The configuration file, or `None` for the golden run.
+/// What a trace records, as its file states it: the digest run of the
+/// configuration (`settle_steps` without flow, then `flow_steps` at
+/// `tau_star`), from step `from` to step `until`, every `every` steps and
+/// at the phases' ends.
+#[derive(Debug, Clone, PartialEq, Serialize, serde::Deserialize)]
+pub struct TraceSpec {
+    /// The configuration file, or `None` (null) for the golden run.
     pub config: Option<String>,
-    /// `--set` overrides on top of it.
+    /// `--set` overrides on top of it (empty: none).
+    #[serde(default)]
     pub overrides: Vec<String>,
     /// Shields number of the flow phase.
     pub tau_star: f64,
@@ -132,8 +132,18 @@ pub struct TraceRun {
     pub states: bool,
     /// Working precision.
     pub precision: Precision,
+}
+
+/// A trace to run: its [`TraceSpec`] on the scenario the configuration
+/// gives, in a simulation of `capacity` grains.
+#[derive(Debug, Clone)]
+pub struct TraceRun {
+    /// The scenario (configuration and seed).
+    pub scenario: Scenario,
     /// Grain capacity (as [`crate::Config::capacity`]).
     pub capacity: usize,
+    /// What to record.
+    pub spec: TraceSpec,
 }
 
 /// One record: the integration step, the phase, the full digest and each
@@ -204,8 +214,8 @@ impl TraceRun {
     /// At most the records this run writes: step `from`, then every
     /// `every` steps, and the end of each phase.
     pub fn max_records(&self) -> u64 {
-        let span = self.end().saturating_sub(self.from);
-        3 + span.div_ceil(self.every.max(1))
+        let span = self.end().saturating_sub(self.spec.from);
+        3 + span.div_ceil(self.spec.every.max(1))
     }
 
     /// At most the bytes of this run's records: [`MAX_RECORD_BYTES`] each,
@@ -215,8 +225,12 @@ impl TraceRun {
         let bed = &self.scenario.bed;
         let grains = (bed.columns as usize)
             .saturating_mul(bed.fixed_per_column().saturating_add(bed.rows as usize));
-        let state = if self.states {
-            let bytes = checkpoint_len(self.precision, grains, grains.saturating_mul(NEIGHBOURS));
+        let state = if self.spec.states {
+            let bytes = checkpoint_len(
+                self.spec.precision,
+                grains,
+                grains.saturating_mul(NEIGHBOURS),
+            );
             (bytes as u64).div_ceil(3) * 4
         } else {
             0
@@ -234,25 +248,26 @@ impl TraceRun {
         let records = (MAX_TRACE_BYTES / per_record.max(1))
             .saturating_sub(3)
             .max(1);
-        let span = self.end().saturating_sub(self.from);
+        let span = self.end().saturating_sub(self.spec.from);
         Err(format!(
             ">= {}: a trace holds at most {} MB of records, here at most {records} records{}",
             span.div_ceil(records).max(1),
             MAX_TRACE_BYTES / 1_000_000,
-            if self.states { " with states" } else { "" }
+            if self.spec.states { " with states" } else { "" }
         ))
     }
 
     /// The last step run.
     fn end(&self) -> u64 {
-        self.settle_steps
-            .saturating_add(self.flow_steps)
-            .min(self.until)
+        self.spec
+            .settle_steps
+            .saturating_add(self.spec.flow_steps)
+            .min(self.spec.until)
     }
 
     /// `settle` up to and including the settling phase's last step, then `flow`.
     fn phase(&self, step: u64) -> &'static str {
-        if step <= self.settle_steps {
+        if step <= self.spec.settle_steps {
             "settle"
         } else {
             "flow"
@@ -260,28 +275,28 @@ impl TraceRun {
     }
 
     fn is_record(&self, step: u64) -> bool {
-        let every = self.every.max(1);
-        step >= self.from
+        let every = self.spec.every.max(1);
+        step >= self.spec.from
             && step <= self.end()
-            && ((step - self.from).is_multiple_of(every)
-                || step == self.settle_steps
+            && ((step - self.spec.from).is_multiple_of(every)
+                || step == self.spec.settle_steps
                 || step == self.end())
     }
 
     /// The step where the run must next stop after `step`: a record, the
     /// end of settling (the flow switches on), the nudge or the end.
     fn next_stop(&self, step: u64, nudge: Option<Nudge>) -> u64 {
-        let every = self.every.max(1);
-        let record = if step < self.from {
-            self.from
+        let every = self.spec.every.max(1);
+        let record = if step < self.spec.from {
+            self.spec.from
         } else {
-            ((step - self.from) / every + 1)
+            ((step - self.spec.from) / every + 1)
                 .saturating_mul(every)
-                .saturating_add(self.from)
+                .saturating_add(self.spec.from)
         };
         let mut next = record.min(self.end());
-        if step < self.settle_steps {
-            next = next.min(self.settle_steps);
+        if step < self.spec.settle_steps {
+            next = next.min(self.spec.settle_steps);
         }
         if let Some(n) = nudge.filter(|n| n.step > step) {
             next = next.min(n.step);
@@ -298,20 +313,21 @@ impl TraceRun {
         nudge: Option<Nudge>,
         mut visit: impl FnMut(&HostSim<R, N>, Record) -> bool,
     ) -> Result<(), RunError> {
-        let flow = self.scenario.flow(self.tau_star);
+        let flow = self.scenario.flow(self.spec.tau_star);
         loop {
             let step = sim.step_count();
             if let Some(n) = nudge.filter(|n| n.step == step) {
                 sim.nudge(n.grain, n.field, n.ulps)
                     .map_err(|e| RunError::Nudge(n, e))?;
             }
-            if self.is_record(step) && !visit(sim, record(sim, self.phase(step), self.states)) {
+            if self.is_record(step) && !visit(sim, record(sim, self.phase(step), self.spec.states))
+            {
                 return Ok(());
             }
             if step >= self.end() {
                 return Ok(());
             }
-            if step == self.settle_steps && sim.flow().is_none() {
+            if step == self.spec.settle_steps && sim.flow().is_none() {
                 sim.set_flow(Some(&flow))?;
             }
             sim.run(self.next_stop(step, nudge) - step)?;
@@ -323,14 +339,14 @@ impl TraceRun {
     pub fn scenario_hash(&self) -> u64 {
         let text = format!(
             "{:?} tau* {:?} settle {} flow {}",
-            self.scenario, self.tau_star, self.settle_steps, self.flow_steps
+            self.scenario, self.spec.tau_star, self.spec.settle_steps, self.spec.flow_steps
         );
         Fnv1a::of(text.as_bytes())
     }
 
     /// Runs the trace.
     pub fn run(&self) -> Result<Trace, RunError> {
-        let records = with_sim(self.precision, self.capacity, Recording(self))?;
+        let records = with_sim(self.spec.precision, self.capacity, Recording(self))?;
         Ok(Trace {
             format: FORMAT.into(),
             program: BTreeMap::from([
@@ -342,18 +358,12 @@ impl TraceRun {
                 ),
             ]),
             target: env!("MBS_TARGET").into(),
-            precision: self.precision,
             step_path: step_path().into(),
             scenario_hash: hex(self.scenario_hash()),
-            config: self.config.clone(),
-            overrides: self.overrides.clone(),
-            tau_star: self.tau_star,
-            settle_steps: self.settle_steps,
-            flow_steps: self.flow_steps,
-            every: self.every,
-            from: self.from,
-            until: self.end(),
-            states: self.states,
+            spec: TraceSpec {
+                until: self.end(),
+                ..self.spec.clone()
+            },
             step_dt_s: self.scenario.step_dt(),
             records,
         })
@@ -386,32 +396,14 @@ pub struct Trace {
     pub program: BTreeMap<String, Option<String>>,
     /// The target triple the program was built for.
     pub target: String,
-    /// `f32` or `f64`.
-    pub precision: Precision,
     /// `batched` (x86-64 AVX2 lanes) or `scalar`.
     pub step_path: String,
     /// FNV-1a of the scenario's description (configuration, seed, τ*,
     /// steps), hexadecimal.
     pub scenario_hash: String,
-    /// The configuration file, or null for the golden run.
-    pub config: Option<String>,
-    /// `--set` overrides on top of it (empty: none).
-    #[serde(default)]
-    pub overrides: Vec<String>,
-    /// Shields number of the flow phase.
-    pub tau_star: f64,
-    /// Steps without flow.
-    pub settle_steps: u64,
-    /// Steps under the flow.
-    pub flow_steps: u64,
-    /// Steps between records.
-    pub every: u64,
-    /// The first recorded step.
-    pub from: u64,
-    /// The last step run.
-    pub until: u64,
-    /// Whether records carry the kernel state.
-    pub states: bool,
+    /// What was recorded.
+    #[serde(flatten)]
+    pub spec: TraceSpec,
     /// The integration step (s).
     pub step_dt_s: f64,
     /// The records, in step order.
@@ -466,10 +458,10 @@ pub fn parse(text: &str) -> Result<Trace, String> {
     }
     let recorded: Trace = serde_json::from_value(body.clone())
         .map_err(|e| format!("not an mbs trace of format {FORMAT:?}: {e}"))?;
-    if recorded.every == 0 || recorded.records.is_empty() {
+    if recorded.spec.every == 0 || recorded.records.is_empty() {
         return Err("a trace with no records or every = 0".into());
     }
-    if recorded.states && recorded.records.iter().any(|r| r.state.is_none()) {
+    if recorded.spec.states && recorded.records.iter().any(|r| r.state.is_none()) {
         return Err("a trace that keeps states has a record without one".into());
     }
     Ok(recorded)
@@ -490,7 +482,7 @@ pub enum Verdict {
 /// from its first record's state instead of re-running from the bed.
 pub fn check(run: &TraceRun, recorded: &Trace, nudge: Option<Nudge>) -> Result<Verdict, RunError> {
     with_sim(
-        run.precision,
+        run.spec.precision,
         run.capacity,
         Checking {
             run,
@@ -520,12 +512,12 @@ impl SimJob for Checking<'_> {
         let (run, records) = (self.run, &self.recorded.records);
         let first = &records[0];
         match &first.state {
-            Some(state) if self.recorded.from > 0 => {
+            Some(state) if self.recorded.spec.from > 0 => {
                 let refuse =
                     |why: String| RunError::State(format!("its first record's state: {why}"));
                 decode(state, sim).map_err(refuse)?;
-                let flow = run.scenario.flow(run.tau_star);
-                let flow = (first.step > run.settle_steps).then_some(&flow);
+                let flow = run.scenario.flow(run.spec.tau_star);
+                let flow = (first.step > run.spec.settle_steps).then_some(&flow);
                 check_restored(sim, &run.scenario, flow, first.step)
                     .map_err(|why| refuse(format!("{why} (step {})", first.step)))?;
                 if hex(sim.digest()) != first.digest {
@@ -618,20 +610,21 @@ fn locate<R: Real, const N: usize>(
         }
         Some(b) => {
             let mut config = run
+                .spec
                 .config
                 .as_deref()
                 .map_or(String::new(), |c| format!("{c} "));
-            for set in &run.overrides {
+            for set in &run.spec.overrides {
                 config.push_str(&format!("--set '{set}' "));
             }
-            let precision = match run.precision {
+            let precision = match run.spec.precision {
                 Precision::F32 => "f32",
                 Precision::F64 => "f64",
             };
             let _ = write!(
                 out,
                 "\nthe runs part between integration steps {} (equal) and {}; to find the first step that differs, record that interval on the reference build and check it here:\n  mbs digest {config}--steps {} --flow-steps {} --precision {precision} --tau {} --trace dense.json --every 1 --from {} --until {} --states\n  mbs digest --check dense.json",
-                b.step, expected.step, run.settle_steps, run.flow_steps, run.tau_star, b.step, expected.step
+                b.step, expected.step, run.spec.settle_steps, run.spec.flow_steps, run.spec.tau_star, b.step, expected.step
             );
         }
         None => {
@@ -762,18 +755,20 @@ mod tests {
             format: FORMAT.into(),
             program: BTreeMap::new(),
             target: String::new(),
-            precision: Precision::F64,
             step_path: String::new(),
             scenario_hash: String::new(),
-            config: None,
-            overrides: Vec::new(),
-            tau_star: 0.0,
-            settle_steps: 0,
-            flow_steps: 0,
-            every: 1,
-            from: u64::MAX,
-            until: u64::MAX,
-            states: record.state.is_some(),
+            spec: TraceSpec {
+                config: None,
+                overrides: Vec::new(),
+                tau_star: 0.0,
+                settle_steps: 0,
+                flow_steps: 0,
+                every: 1,
+                from: u64::MAX,
+                until: u64::MAX,
+                states: record.state.is_some(),
+                precision: Precision::F64,
+            },
             step_dt_s: 0.0,
             records: vec![record.clone(); n],
         };
