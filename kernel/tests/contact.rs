@@ -221,6 +221,22 @@ struct Incline {
     centripetal: f64,
 }
 
+impl Incline {
+    /// Both accelerations within 2e-4 (relative) of the exact ones.
+    fn assert_accelerations(&self, a_exact: f64, alpha_exact: f64, tension: Tension) {
+        assert!(
+            (self.a / a_exact - 1.0).abs() < 2e-4,
+            "{tension:?}: a = {}, exact {a_exact}",
+            self.a
+        );
+        assert!(
+            (self.alpha / alpha_exact - 1.0).abs() < 2e-4,
+            "{tension:?}: dω/dt = {}, exact {alpha_exact}",
+            self.alpha
+        );
+    }
+}
+
 /// A grain on an incline of `theta_deg`: on top of a fixed grain 200 times
 /// its size with gravity tilted by θ, friction `mu`, rule `tension`. The
 /// surface turns by 2e-3 rad over the run; the grain starts at rest at
@@ -302,16 +318,7 @@ fn sliding_down_an_incline<R: Real, const K: usize>(_tol: f64) {
         let got = on_an_incline::<R, K>(30.0, mu, tension);
         let a_exact = g_red() * (theta.sin() - mu * theta.cos()) + mu * got.centripetal;
         let alpha_exact = -mu * (g_red() * theta.cos() - got.centripetal) * lever;
-        assert!(
-            (got.a / a_exact - 1.0).abs() < 2e-4,
-            "{tension:?}: a = {}, exact {a_exact}",
-            got.a
-        );
-        assert!(
-            (got.alpha / alpha_exact - 1.0).abs() < 2e-4,
-            "{tension:?}: dω/dt = {}, exact {alpha_exact}",
-            got.alpha
-        );
+        got.assert_accelerations(a_exact, alpha_exact, tension);
         assert!(
             got.slip > 0.3 * got.v,
             "slides: slip {} at speed {}",
@@ -335,16 +342,7 @@ fn rolling_down_an_incline<R: Real, const K: usize>(_tol: f64) {
     let alpha_exact = -a_exact / (0.5 * D);
     for tension in [Tension::Dashpot, Tension::None] {
         let got = on_an_incline::<R, K>(20.0, 0.577, tension);
-        assert!(
-            (got.a / a_exact - 1.0).abs() < 2e-4,
-            "{tension:?}: a = {}, exact {a_exact}",
-            got.a
-        );
-        assert!(
-            (got.alpha / alpha_exact - 1.0).abs() < 2e-4,
-            "{tension:?}: dω/dt = {}, exact {alpha_exact}",
-            got.alpha
-        );
+        got.assert_accelerations(a_exact, alpha_exact, tension);
         assert!(
             got.slip.abs() < 1e-3 * got.v,
             "rolls: slip {} at speed {}",
