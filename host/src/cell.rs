@@ -1,45 +1,51 @@
 //! One transport cell — a (τ*, seed) run of the main job — as a resumable
-//! state machine: settle, spin up, average over the window. Between chunks
+//! state machine: restore the seed's settled bed ([`crate::beds`]), switch
+//! the flow on, spin up, average over the window. Between chunks
 //! of steps the cell can write a checkpoint (its progress and accumulated
 //! sums plus the kernel's checkpoint) and stop; restoring it continues bit
 //! for bit, so a cell stopped anywhere gives the same result as one never
 //! stopped.
 //!
-//! Checkpoint file (version 2, little-endian): magic `MBSC`, version u16,
-//! the cell's key (FNV-1a of its specification) u64, phase u8, steps done in
-//! the phase u64, samples u64, Σq* (f64 bits), the class count u32 and Σq*
-//! per class, Σq* per batch (f64 bits) and batch counts (u64), the kernel
-//! checkpoint (u64 length, bytes), and a CRC-32 (IEEE) of everything before
-//! it. The CRC detects damage, not deliberate edits: a loaded state is
+//! Checkpoint file (version 3, framed by [`crate::framing`]): magic `MBSC`,
+//! the cell's key (FNV-1a of its specification) u64, phase u8 (1 spin-up,
+//! 2 window), steps done in the phase u64, samples u64, Σq* (f64 bits), the
+//! class count u32 and Σq* per class, Σq* of the current block, the
+//! finished blocks (count u64, then q* and bed level of each, f64 bits),
+//! the kernel checkpoint (u64 length, bytes). The CRC detects
+//! damage, not deliberate edits: a loaded state is
 //! checked field by field against the configuration ([`CellState::check`])
 //! and the restored kernel against the cell's scenario, so an edited file is
 //! refused or, if consistent, gives a cell this configuration could have
 //! produced (docs/guarantees.md).
 
-use crate::config::{Config, ConfigFile};
+use crate::beds::{BedRecord, BedState};
+use crate::config::{canonical, Config, ConfigFile, Durations};
+use crate::control::{Checkpoints, Control};
 use crate::error::HostError;
+pub use crate::framing::CheckpointError;
+use crate::framing::{Reader, Writer};
 use crate::sims::{check_restored, with_sim, SimJob, NEIGHBOURS};
+use crate::stats::Target;
 use crate::text::number;
 use indicatif::ProgressBar;
 use mbs_kernel::{Fnv1a, Real, Sim, G};
 use serde::{Deserialize, Serialize};
-use std::path::PathBuf;
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::time::{Duration, Instant};
+use std::sync::atomic::AtomicBool;
 
 /// Steps run between checks for stopping and checkpointing.
-const CHUNK: u64 = 2000;
-
-/// The fewest integration steps between two timed checkpoints of a cell
-/// (`--checkpoint-every`): a shorter interval would write checkpoints more
-/// often than the cell steps (each is a file synced to disk).
-pub const MIN_CHECKPOINT_STEPS: u64 = CHUNK;
+const CHUNK: u64 = crate::control::MIN_CHECKPOINT_STEPS;
 
 const MAGIC: [u8; 4] = *b"MBSC";
-const VERSION: u16 = 2;
+const VERSION: u16 = 3;
 
-/// Batches of the window used for the standard error of a single seed.
-pub const BATCHES: usize = 10;
+/// One block of a cell's window (`time.block`).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Block {
+    /// q* averaged over the block's samples.
+    pub q_star: f64,
+    /// The mean bed level at the block's end (m).
+    pub bed_level: f64,
+}
 
 /// What one (τ*, seed) cell measured.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -50,21 +56,33 @@ pub struct CellResult {
     pub seed: u64,
     /// Time-averaged q* over the window (all classes, d = d_max).
     pub q_star: f64,
-    /// Time-averaged q* per size class (its own diameter).
+    /// Time-averaged q* per size class (on d_max: they add up to q*).
     pub q_star_class: Vec<f64>,
-    /// q* averaged over each of [`BATCHES`] consecutive parts of the window.
-    pub batch_means: Vec<f64>,
+    /// The window's blocks, in time order: q*(t) and the bed level.
+    pub blocks: Vec<Block>,
+    /// The averaging window (s).
+    pub window_s: f64,
+    /// Whether the window ended on the target standard error (else at
+    /// `time.window`).
+    pub target_reached: bool,
     /// Mean bed level at the end (m, relative to the fixed grains' mean).
     pub bed_level: f64,
-    /// Grain-steps computed.
+    /// Grain-steps computed under the flow (the bed's settling not included).
     pub grain_steps: u64,
+    /// The settled bed the cell started from.
+    pub bed: BedRecord,
+}
+
+impl CellResult {
+    /// The block means of q*.
+    pub fn block_means(&self) -> Vec<f64> {
+        self.blocks.iter().map(|b| b.q_star).collect()
+    }
 }
 
 /// Where a cell is.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Phase {
-    /// Settling without flow.
-    Settle = 0,
     /// Under the flow, before averaging.
     SpinUp = 1,
     /// Averaging q*.
@@ -84,75 +102,99 @@ pub struct CellState {
     pub total: f64,
     /// Σ q* per class.
     pub per_class: Vec<f64>,
-    /// Σ q* per batch.
-    pub batch_sum: [f64; BATCHES],
-    /// Samples per batch.
-    pub batch_n: [u64; BATCHES],
+    /// The finished blocks.
+    pub blocks: Vec<Block>,
+    /// Σ q* of the current block's samples.
+    pub block_sum: f64,
+}
+
+/// When a cell's window ends: the durations and the target.
+#[derive(Debug, Clone, Copy)]
+pub struct WindowRule {
+    /// Phase lengths and blocks.
+    pub durations: Durations,
+    /// The standard error aimed at.
+    pub target: Target,
+}
+
+impl WindowRule {
+    /// The rule of `config`.
+    pub fn of(config: &Config) -> WindowRule {
+        WindowRule {
+            durations: config.durations,
+            target: Target {
+                relative: config.file.target.stderr_relative,
+                absolute: config.file.target.stderr_absolute,
+            },
+        }
+    }
+
+    /// Whether a window with these finished blocks (and no partial one)
+    /// ends: at the longest window, or from the shortest on when the
+    /// target is reached.
+    pub fn ends(&self, blocks: &[Block]) -> bool {
+        let n = blocks.len() as u64;
+        n >= self.durations.max_blocks
+            || (n >= self.durations.min_blocks
+                && self
+                    .target
+                    .reached(&blocks.iter().map(|b| b.q_star).collect::<Vec<_>>()))
+    }
 }
 
 impl CellState {
-    /// Checks a loaded state against the configuration it claims to belong
-    /// to: `classes` size classes, phases of `phase_steps` steps, `samples`
-    /// window samples every `sample` steps. Settling and spin-up hold no
-    /// sums; in the window, the steps, samples and batch counts are exactly
-    /// those of the loop in [`CellJob`], with checked arithmetic, and the sums
-    /// are finite and agree with each other. Names the first field that does
-    /// not fit.
-    pub fn check(
-        &self,
-        classes: usize,
-        phase_steps: impl Fn(Phase) -> u64,
-        sample: u64,
-        samples: u64,
-    ) -> Result<(), CheckpointError> {
+    /// Checks a loaded state against the rule of the configuration it
+    /// claims to belong to, with `classes` size classes. Spin-up holds no
+    /// sums; in the window, the steps, samples and blocks are exactly those
+    /// of the loop in [`CellJob`] (with checked arithmetic), the window has
+    /// not yet ended by the rule at any block, and the sums are finite and
+    /// agree with each other. Names the first field that does not fit.
+    pub fn check(&self, classes: usize, rule: &WindowRule) -> Result<(), CheckpointError> {
         let bad = |what| Err(CheckpointError::Value(what));
+        let d = &rule.durations;
         if self.per_class.len() != classes {
             return bad("size classes");
         }
-        if self.done > phase_steps(self.phase) {
-            return bad("steps done in the phase");
-        }
-        let sums = self
-            .per_class
-            .iter()
-            .chain(&self.batch_sum)
-            .chain([&self.total]);
-        if self.phase != Phase::Window {
+        let sums = self.per_class.iter().chain([&self.total, &self.block_sum]);
+        if self.phase == Phase::SpinUp {
             let empty = self.samples == 0
-                && self.batch_n == [0; BATCHES]
+                && self.blocks.is_empty()
                 && sums.clone().all(|x| x.to_bits() == 0);
-            return if empty {
-                Ok(())
-            } else {
-                bad("sums before the window")
+            return match (self.done <= d.spin_up, empty) {
+                (false, _) => bad("steps done in the phase"),
+                (_, false) => bad("sums before the window"),
+                _ => Ok(()),
             };
         }
-        if self.samples > samples || self.samples.checked_mul(sample) != Some(self.done) {
+        let finished = self.blocks.len() as u64;
+        let partial = self
+            .samples
+            .checked_sub(finished.saturating_mul(d.block_samples))
+            .filter(|&p| p < d.block_samples);
+        if partial.is_none() || self.samples.checked_mul(d.sample) != Some(self.done) {
             return bad("window samples");
         }
-        let mut expected = [0u64; BATCHES];
-        for k in 0..self.samples {
-            // The batch of sample k, as in the window loop (k < samples, so < BATCHES).
-            let b = u128::from(k) * BATCHES as u128 / u128::from(samples.max(1));
-            expected[b.min(BATCHES as u128 - 1) as usize] += 1;
+        if (0..=self.blocks.len()).any(|k| rule.ends(&self.blocks[..k])) {
+            return bad("blocks");
         }
-        if self.batch_n != expected {
-            return bad("batch counts");
-        }
-        if !sums.clone().all(|x| x.is_finite())
-            || self
-                .batch_sum
-                .iter()
-                .zip(self.batch_n)
-                .any(|(s, n)| n == 0 && s.to_bits() != 0)
+        let values = self.blocks.iter().flat_map(|b| [b.q_star, b.bed_level]);
+        if !sums.clone().copied().chain(values).all(f64::is_finite)
+            || (partial == Some(0) && self.block_sum.to_bits() != 0)
         {
             return bad("sums");
         }
-        // Σq* and the batch sums add the same samples in other groupings:
+        // Σq* and the blocks add the same samples in other groupings:
         // equal up to rounding.
-        let batches: f64 = self.batch_sum.iter().sum();
-        let scale: f64 = self.batch_sum.iter().map(|s| s.abs()).sum::<f64>() + self.total.abs();
-        if (self.total - batches).abs() > 1e-9 * scale {
+        let n = d.block_samples as f64;
+        let blocks: f64 = self.blocks.iter().map(|b| b.q_star * n).sum::<f64>() + self.block_sum;
+        let scale: f64 = self
+            .blocks
+            .iter()
+            .map(|b| (b.q_star * n).abs())
+            .sum::<f64>()
+            + self.block_sum.abs()
+            + self.total.abs();
+        if (self.total - blocks).abs() > 1e-9 * scale {
             return bad("total");
         }
         Ok(())
@@ -160,13 +202,13 @@ impl CellState {
 
     fn new(classes: usize) -> Self {
         CellState {
-            phase: Phase::Settle,
+            phase: Phase::SpinUp,
             done: 0,
             samples: 0,
             total: 0.0,
             per_class: vec![0.0; classes],
-            batch_sum: [0.0; BATCHES],
-            batch_n: [0; BATCHES],
+            blocks: Vec::new(),
+            block_sum: 0.0,
         }
     }
 }
@@ -182,40 +224,6 @@ pub struct CellCheckpoint {
     pub sim: Vec<u8>,
 }
 
-/// Why a cell checkpoint was refused.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub enum CheckpointError {
-    /// Shorter than its contents.
-    Truncated,
-    /// Not a cell checkpoint.
-    Magic,
-    /// Another format version.
-    Version(u16),
-    /// Checksum mismatch: damaged.
-    Checksum,
-    /// Written for another configuration, τ* or seed.
-    OtherCell,
-    /// A field is out of range.
-    Value(&'static str),
-}
-
-impl std::fmt::Display for CheckpointError {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self {
-            CheckpointError::Truncated => write!(f, "truncated"),
-            CheckpointError::Magic => write!(f, "not an mbs cell checkpoint"),
-            CheckpointError::Version(v) => {
-                write!(f, "format version {v}, this mbs reads {VERSION}")
-            }
-            CheckpointError::Checksum => write!(f, "checksum mismatch (damaged)"),
-            CheckpointError::OtherCell => {
-                write!(f, "written for another configuration, tau* or seed")
-            }
-            CheckpointError::Value(what) => write!(f, "{what} out of range"),
-        }
-    }
-}
-
 /// The key of a cell: FNV-1a of its canonical specification text.
 pub fn cell_key(spec_json: &str) -> u64 {
     Fnv1a::of(spec_json.as_bytes())
@@ -224,101 +232,70 @@ pub fn cell_key(spec_json: &str) -> u64 {
 impl CellCheckpoint {
     /// Encodes the checkpoint.
     pub fn encode(&self) -> Vec<u8> {
-        let mut b = Vec::with_capacity(self.sim.len() + 256);
-        b.extend_from_slice(&MAGIC);
-        b.extend_from_slice(&VERSION.to_le_bytes());
-        b.extend_from_slice(&self.key.to_le_bytes());
+        let mut w = Writer::new(MAGIC, VERSION);
+        w.u64(self.key);
         let s = &self.state;
-        b.push(s.phase as u8);
-        b.extend_from_slice(&s.done.to_le_bytes());
-        b.extend_from_slice(&s.samples.to_le_bytes());
-        b.extend_from_slice(&s.total.to_bits().to_le_bytes());
-        b.extend_from_slice(&(s.per_class.len() as u32).to_le_bytes());
-        for x in &s.per_class {
-            b.extend_from_slice(&x.to_bits().to_le_bytes());
+        w.u8(s.phase as u8);
+        w.u64(s.done);
+        w.u64(s.samples);
+        w.f64(s.total);
+        w.u32(s.per_class.len() as u32);
+        for &x in &s.per_class {
+            w.f64(x);
         }
-        for x in &s.batch_sum {
-            b.extend_from_slice(&x.to_bits().to_le_bytes());
+        w.f64(s.block_sum);
+        w.u64(s.blocks.len() as u64);
+        for b in &s.blocks {
+            w.f64(b.q_star);
+            w.f64(b.bed_level);
         }
-        for n in &s.batch_n {
-            b.extend_from_slice(&n.to_le_bytes());
-        }
-        b.extend_from_slice(&(self.sim.len() as u64).to_le_bytes());
-        b.extend_from_slice(&self.sim);
-        let sum = crc32fast::hash(&b);
-        b.extend_from_slice(&sum.to_le_bytes());
-        b
+        w.bytes(&self.sim);
+        w.seal()
     }
 
-    /// The length of the largest cell checkpoint with `classes` size classes
-    /// and a kernel checkpoint of at most `sim_max` bytes.
-    pub fn max_len(classes: usize, sim_max: usize) -> usize {
-        // Magic, version, key, phase, done, samples, Σq*, class count.
-        let head = 4 + 2 + 8 + 1 + 8 + 8 + 8 + 4;
-        head + 8 * classes + 16 * BATCHES + 8 + sim_max + 4
+    /// The length of the largest cell checkpoint with `classes` size
+    /// classes, at most `blocks` blocks and a kernel checkpoint of at most
+    /// `sim_max` bytes.
+    pub fn max_len(classes: usize, blocks: u64, sim_max: usize) -> usize {
+        // Key, phase, done, samples, Σq*, class count.
+        let head = 8 + 1 + 8 + 8 + 8 + 4;
+        let blocks = usize::try_from(blocks).unwrap_or(usize::MAX / 32);
+        Writer::OVERHEAD + head + 8 * classes + 8 + 8 + 16 * blocks + 8 + sim_max
     }
 
     /// Decodes and checks a checkpoint written for the cell `key`.
     pub fn decode(bytes: &[u8], key: u64) -> Result<CellCheckpoint, CheckpointError> {
-        let mut at = 0usize;
-        let mut take = |n: usize| -> Result<&[u8], CheckpointError> {
-            let end = at
-                .checked_add(n)
-                .filter(|&e| e <= bytes.len())
-                .ok_or(CheckpointError::Truncated)?;
-            let out = &bytes[at..end];
-            at = end;
-            Ok(out)
-        };
-        let u64_of = |b: &[u8]| u64::from_le_bytes(b.try_into().unwrap_or([0; 8]));
-        if take(4)? != MAGIC {
-            return Err(CheckpointError::Magic);
-        }
-        let version = u16::from_le_bytes([take(1)?[0], take(1)?[0]]);
-        if version != VERSION {
-            return Err(CheckpointError::Version(version));
-        }
-        if bytes.len() < 4 {
-            return Err(CheckpointError::Truncated);
-        }
-        let (body, sum) = bytes.split_at(bytes.len() - 4);
-        if crc32fast::hash(body).to_le_bytes() != sum {
-            return Err(CheckpointError::Checksum);
-        }
-        if u64_of(take(8)?) != key {
+        let mut r = Reader::open(bytes, MAGIC, VERSION, "cell checkpoint")?;
+        if r.u64()? != key {
             return Err(CheckpointError::OtherCell);
         }
-        let phase = match take(1)?[0] {
-            0 => Phase::Settle,
+        let phase = match r.u8()? {
             1 => Phase::SpinUp,
             2 => Phase::Window,
             _ => return Err(CheckpointError::Value("phase")),
         };
-        let done = u64_of(take(8)?);
-        let samples = u64_of(take(8)?);
-        let total = f64::from_bits(u64_of(take(8)?));
-        let classes = u32::from_le_bytes(take(4)?.try_into().unwrap_or([0; 4])) as usize;
+        let (done, samples, total) = (r.u64()?, r.u64()?, r.f64()?);
+        let classes = r.u32()? as usize;
         if classes > mbs_kernel::MAX_CLASSES {
             return Err(CheckpointError::Value("size classes"));
         }
-        let mut per_class = Vec::with_capacity(classes);
-        for _ in 0..classes {
-            per_class.push(f64::from_bits(u64_of(take(8)?)));
+        let per_class = (0..classes).map(|_| r.f64()).collect::<Result<_, _>>()?;
+        let block_sum = r.f64()?;
+        let count = r.u64()?;
+        // Each block takes 16 bytes: a count beyond the file is truncation.
+        if count > (bytes.len() / 16) as u64 {
+            return Err(CheckpointError::Truncated);
         }
-        let mut batch_sum = [0.0; BATCHES];
-        for x in batch_sum.iter_mut() {
-            *x = f64::from_bits(u64_of(take(8)?));
-        }
-        let mut batch_n = [0u64; BATCHES];
-        for n in batch_n.iter_mut() {
-            *n = u64_of(take(8)?);
-        }
-        let len = u64_of(take(8)?);
-        let len = usize::try_from(len).map_err(|_| CheckpointError::Truncated)?;
-        let sim = take(len)?.to_vec();
-        if at != body.len() {
-            return Err(CheckpointError::Value("length"));
-        }
+        let blocks = (0..count)
+            .map(|_| {
+                Ok(Block {
+                    q_star: r.f64()?,
+                    bed_level: r.f64()?,
+                })
+            })
+            .collect::<Result<_, CheckpointError>>()?;
+        let sim = r.bytes()?.to_vec();
+        r.finish()?;
         Ok(CellCheckpoint {
             key,
             state: CellState {
@@ -327,8 +304,8 @@ impl CellCheckpoint {
                 samples,
                 total,
                 per_class,
-                batch_sum,
-                batch_n,
+                blocks,
+                block_sum,
             },
             sim,
         })
@@ -357,27 +334,6 @@ impl TransportSpec {
     }
 }
 
-/// Fields that do not change a cell's result are fixed, so equal cells get
-/// equal keys whatever the configuration file said about them.
-pub fn canonical(config: &ConfigFile) -> ConfigFile {
-    let mut c = config.clone();
-    c.run.output = "-".into();
-    c
-}
-
-/// When a cell stops early and where it checkpoints.
-pub struct Control<'a> {
-    /// Checkpoint file of this cell.
-    pub path: Option<PathBuf>,
-    /// Wall-clock interval between checkpoints (and at least
-    /// [`MIN_CHECKPOINT_STEPS`] steps).
-    pub every: Option<Duration>,
-    /// Set asynchronously (Ctrl-C): checkpoint and stop at the next chunk.
-    pub stop: &'a AtomicBool,
-    /// Stop (with a checkpoint) after this many steps of this invocation (tests).
-    pub stop_after: Option<u64>,
-}
-
 /// How a cell ended.
 #[derive(Debug, Clone, PartialEq)]
 pub enum CellOutcome {
@@ -397,6 +353,8 @@ pub struct CellJob<'a> {
     pub seed: u64,
     /// The cell's key.
     pub key: u64,
+    /// The seed's settled bed.
+    pub bed: &'a BedState,
     /// Where to continue from.
     pub resume: Option<CellCheckpoint>,
     /// Stopping and checkpointing.
@@ -414,39 +372,32 @@ impl SimJob for CellJob<'_> {
         let context = format!("tau* = {}, seed {}", number(self.tau_star), self.seed);
         let fail = || HostError::kernel(context.clone());
         let classes = &sc.bed.classes;
-        let durations = self.config.durations;
-        let (sample, samples) = (durations.sample, durations.samples);
-        let phase_steps = |p: Phase| match p {
-            Phase::Settle => durations.settle,
-            Phase::SpinUp => durations.spin_up,
-            Phase::Window => durations.window(),
-        };
+        let rule = WindowRule::of(self.config);
+        let durations = rule.durations;
         let refuse = |message: String| HostError::Checkpoint {
             path: self.control.path.clone().unwrap_or_default(),
             message,
         };
+        let settled = self.bed.steps;
         let mut state = match self.resume {
             Some(ck) => {
                 let s = &ck.state;
-                s.check(classes.len(), phase_steps, sample, samples)
-                    .map_err(|e| {
-                        refuse(format!("its progress does not fit this configuration: {e}"))
-                    })?;
+                s.check(classes.len(), &rule).map_err(|e| {
+                    refuse(format!("its progress does not fit this configuration: {e}"))
+                })?;
                 sim.restore(&ck.sim).map_err(fail())?;
-                // The steps the kernel has taken: the earlier phases' and this one's.
+                // The steps the kernel has taken: the bed's settling, the
+                // earlier phase's and this one's.
                 let steps = match s.phase {
-                    Phase::Settle => Some(s.done),
-                    Phase::SpinUp => durations.settle.checked_add(s.done),
-                    Phase::Window => durations
-                        .settle
+                    Phase::SpinUp => settled.checked_add(s.done),
+                    Phase::Window => settled
                         .checked_add(durations.spin_up)
                         .and_then(|n| n.checked_add(s.done)),
                 };
-                let flow = (s.phase != Phase::Settle).then_some(&setup.flow);
                 let Some(steps) = steps else {
                     return Err(refuse("its progress overflows the step count".into()));
                 };
-                check_restored(sim, sc, flow, steps).map_err(|why| {
+                check_restored(sim, sc, Some(&setup.flow), steps).map_err(|why| {
                     refuse(format!(
                         "{why}: it is not this cell's (phase {:?})",
                         s.phase
@@ -455,68 +406,70 @@ impl SimJob for CellJob<'_> {
                 ck.state
             }
             None => {
-                sc.build(sim).map_err(fail())?;
+                sim.restore(&self.bed.sim).map_err(fail())?;
+                check_restored(sim, sc, None, settled).map_err(|why| HostError::Checkpoint {
+                    path: Default::default(),
+                    message: format!("the settled bed of seed {}: {why}", self.seed),
+                })?;
+                sim.set_flow(Some(&setup.flow)).map_err(fail())?;
                 CellState::new(classes.len())
             }
         };
         let (d_max, s) = (sc.bed.max_diameter(), sc.material.s);
-        let mut last_checkpoint = Instant::now();
+        let mut checkpoints = Checkpoints::new(self.control);
         let mut stepped = 0u64;
-        let mut stepped_at_checkpoint = 0u64;
         loop {
-            if state.done >= phase_steps(state.phase) {
+            let ended = match state.phase {
+                Phase::SpinUp => state.done >= durations.spin_up,
+                Phase::Window => {
+                    state.samples % durations.block_samples == 0 && rule.ends(&state.blocks)
+                }
+            };
+            if ended {
                 match state.phase {
-                    Phase::Settle => {
-                        sim.set_flow(Some(&setup.flow)).map_err(fail())?;
-                        state.phase = Phase::SpinUp;
-                    }
                     Phase::SpinUp => state.phase = Phase::Window,
                     Phase::Window => break,
                 }
                 state.done = 0;
                 continue;
             }
-            let stop_now = self.control.stop.load(Ordering::Relaxed)
-                || self.control.stop_after.is_some_and(|n| stepped >= n);
-            let due = self.control.every.is_some_and(|every| {
-                last_checkpoint.elapsed() >= every
-                    && stepped - stepped_at_checkpoint >= MIN_CHECKPOINT_STEPS
-            });
-            if stop_now || due {
-                if let Some(path) = &self.control.path {
-                    let mut bytes = Vec::new();
-                    sim.checkpoint(|b| bytes.extend_from_slice(b));
-                    let ck = CellCheckpoint {
-                        key: self.key,
-                        state: state.clone(),
-                        sim: bytes,
-                    };
-                    crate::output::write_atomic(path, &ck.encode())?;
+            let stop = checkpoints.due(stepped, || {
+                let mut bytes = Vec::new();
+                sim.checkpoint(|b| bytes.extend_from_slice(b));
+                CellCheckpoint {
+                    key: self.key,
+                    state: state.clone(),
+                    sim: bytes,
                 }
-                last_checkpoint = Instant::now();
-                stepped_at_checkpoint = stepped;
-                if stop_now {
-                    return Ok(CellOutcome::Stopped);
-                }
+                .encode()
+            })?;
+            if stop {
+                return Ok(CellOutcome::Stopped);
             }
             if state.phase == Phase::Window {
+                let sample = durations.sample;
                 sim.run(sample).map_err(fail())?;
                 let o = sim.observe();
                 let q = o.q_star(d_max, s, G);
                 state.total += q;
-                let b = (state.samples as usize * BATCHES) / samples as usize;
-                state.batch_sum[b] += q;
-                state.batch_n[b] += 1;
+                state.block_sum += q;
                 for (c, sum) in state.per_class.iter_mut().enumerate() {
                     // Each class on the total's scale d_max: the classes add up to q*.
                     *sum += o.q_star_class(c, d_max, s, G);
                 }
                 state.samples += 1;
+                if state.samples % durations.block_samples == 0 {
+                    state.blocks.push(Block {
+                        q_star: state.block_sum / durations.block_samples as f64,
+                        bed_level: sim.bed_level(),
+                    });
+                    state.block_sum = 0.0;
+                }
                 state.done += sample;
                 stepped += sample;
                 self.progress.inc(sample);
             } else {
-                let n = (phase_steps(state.phase) - state.done).min(CHUNK);
+                let n = (durations.spin_up - state.done).min(CHUNK);
                 sim.run(n).map_err(fail())?;
                 state.done += n;
                 stepped += n;
@@ -524,20 +477,27 @@ impl SimJob for CellJob<'_> {
             }
         }
         let n = state.samples.max(1) as f64;
+        let step_dt = sc.step_dt();
+        // Fewer than all blocks and the target reached: the rule stopped it.
+        let target_reached = (state.blocks.len() as u64) < durations.max_blocks
+            || rule
+                .target
+                .reached(&state.blocks.iter().map(|b| b.q_star).collect::<Vec<_>>());
         Ok(CellOutcome::Done(CellResult {
             tau_star: self.tau_star,
             seed: self.seed,
             q_star: state.total / n,
             q_star_class: state.per_class.iter().map(|q| q / n).collect(),
-            batch_means: state
-                .batch_sum
-                .iter()
-                .zip(state.batch_n)
-                .filter(|(_, n)| *n > 0)
-                .map(|(s, n)| s / n as f64)
-                .collect(),
+            window_s: state.done as f64 * step_dt,
+            target_reached,
+            blocks: state.blocks,
             bed_level: sim.bed_level(),
-            grain_steps: sim.step_count() * sim.len() as u64,
+            grain_steps: (sim.step_count() - settled) * sim.len() as u64,
+            bed: BedRecord {
+                status: self.bed.status,
+                settle_s: self.bed.seconds(step_dt),
+                max_overlap_d: self.bed.max_overlap / d_max,
+            },
         }))
     }
 }
@@ -548,32 +508,29 @@ pub fn run_cell_job(job: CellJob<'_>) -> Result<CellOutcome, HostError> {
     with_sim(precision, capacity, job)
 }
 
-/// Runs one cell from the start to the end (no checkpoints).
+/// Runs one cell from its settled bed to the end (no checkpoints).
 pub fn run_cell(
     config: &Config,
     tau_star: f64,
     seed: u64,
+    bed: &BedState,
     progress: &ProgressBar,
 ) -> Result<CellResult, HostError> {
     let never = AtomicBool::new(false);
-    let control = Control {
-        path: None,
-        every: None,
-        stop: &never,
-        stop_after: None,
-    };
+    let control = Control::never(&never);
     let job = CellJob {
         config,
         tau_star,
         seed,
         key: 0,
+        bed,
         resume: None,
         control: &control,
         progress,
     };
     match run_cell_job(job)? {
         CellOutcome::Done(r) => Ok(r),
-        CellOutcome::Stopped => Err(HostError::Interrupted { cells: 1 }),
+        CellOutcome::Stopped => Err(HostError::Interrupted { jobs: 1 }),
     }
 }
 
@@ -591,13 +548,19 @@ mod tests {
                 samples: 123,
                 total: 0.125,
                 per_class: vec![0.5, 0.25],
-                batch_sum: [0.1; BATCHES],
-                batch_n: [3; BATCHES],
+                blocks: vec![
+                    Block {
+                        q_star: 0.1,
+                        bed_level: 1e-3,
+                    };
+                    3
+                ],
+                block_sum: 0.2,
             },
             sim: vec![1, 2, 3, 4, 5],
         };
         let bytes = ck.encode();
-        assert_eq!(bytes.len(), CellCheckpoint::max_len(2, 5));
+        assert_eq!(bytes.len(), CellCheckpoint::max_len(2, 3, 5));
         assert_eq!(CellCheckpoint::decode(&bytes, 42), Ok(ck));
         assert_eq!(
             CellCheckpoint::decode(&bytes, 43),
@@ -619,11 +582,11 @@ mod tests {
         bad[4] = 9;
         assert_eq!(
             CellCheckpoint::decode(&bad, 42),
-            Err(CheckpointError::Version(9))
+            Err(CheckpointError::Version { found: 9, reads: 3 })
         );
         assert_eq!(
             CellCheckpoint::decode(b"nope", 42),
-            Err(CheckpointError::Magic)
+            Err(CheckpointError::Magic("cell checkpoint"))
         );
     }
 }

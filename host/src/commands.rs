@@ -2,8 +2,8 @@
 //! and a short report on standard output.
 
 use crate::bench::bench;
-use crate::cell::MIN_CHECKPOINT_STEPS;
 use crate::config::{long_run_warning, warnings, Config, ConfigError, Precision, DEFAULT_TOML};
+use crate::control::MIN_CHECKPOINT_STEPS;
 use crate::error::HostError;
 use crate::experiment::RunControl;
 use crate::experiment::{aggregate, run_all, write_transport, TransportRow};
@@ -15,6 +15,7 @@ use crate::shard::Shard;
 use crate::sims::{with_sim, SimJob, NEIGHBOURS};
 use crate::snapshot::{snapshots, write_snapshots, Snapshots};
 use crate::text::{excerpt, MESSAGE};
+use crate::timeseries::{timeseries_figure, window_warnings, write_timeseries};
 use crate::trace::TRACE_BOUND;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use mbs_kernel::{explicit_damping_number, Real, Scenario, Sim};
@@ -156,6 +157,9 @@ struct Summary<'a> {
     threads: usize,
     cells_reused: usize,
     cells_resumed: usize,
+    beds_settled: usize,
+    beds_resumed: usize,
+    warnings: &'a [String],
     wall_time_s: f64,
     grain_steps: u64,
     grain_steps_per_s: f64,
@@ -261,7 +265,13 @@ pub fn run(
     let cells = (0..config.tau_stars.len() * config.seeds.len())
         .filter(|&k| options.shard.owns(k))
         .count() as u64;
-    let bar = progress(cells * config.durations.cell(), "transport", common.quiet);
+    // Beds may come to rest before time.settle: the bar's length is the most.
+    let beds = config.seeds.len() as u64 * config.durations.settle;
+    let bar = progress(
+        beds + cells * config.durations.cell(),
+        "transport",
+        common.quiet,
+    );
     let start = Instant::now();
     let control = RunControl {
         dir: &dir,
@@ -273,17 +283,26 @@ pub fn run(
     let outcome = on_pool(common.threads, || run_all(config, &bar, &control))?;
     bar.finish_and_clear();
     let outcome = match outcome {
-        Err(HostError::Interrupted { cells }) => {
+        Err(HostError::Interrupted { jobs }) => {
             print_err(&format!(
-                "stopped: {cells} cell(s) checkpointed in {}/checkpoints; resume with `mbs run --resume {}`",
+                "stopped: {jobs} settling bed(s) or running cell(s) checkpointed in {}/beds and {}/checkpoints; resume with `mbs run --resume {}`",
+                dir.display(),
                 dir.display(),
                 dir.display()
             ));
-            return Err(HostError::Interrupted { cells });
+            return Err(HostError::Interrupted { jobs });
         }
         other => other?,
     };
     let results = outcome.results;
+    let rows = aggregate(config, &results);
+    let mut warnings = outcome.warnings;
+    if options.shard.is_all() {
+        warnings.extend(window_warnings(config, &rows));
+    }
+    for w in &warnings {
+        print_err(&format!("warning: {w}"));
+    }
     if !options.shard.is_all() {
         let Shard { index, count } = options.shard;
         return print(&format!(
@@ -294,7 +313,6 @@ pub fn run(
         ));
     }
     let wall = start.elapsed().as_secs_f64();
-    let rows = aggregate(config, &results);
     write_transport(&dir.join("transport.csv"), config, &rows)?;
     let class_labels = if config.scenario.bed.classes.len() > 1 {
         config
@@ -326,7 +344,10 @@ pub fn run(
         ),
     );
     save(&figure, &dir, "transport")?;
-    let grain_steps: u64 = results.iter().map(|r| r.grain_steps).sum();
+    write_timeseries(&dir.join("timeseries.csv"), config, &results)?;
+    save(&timeseries_figure(config, &results), &dir, "timeseries")?;
+    let grain_steps: u64 =
+        results.iter().map(|r| r.grain_steps).sum::<u64>() + outcome.bed_grain_steps;
     write_json(
         &dir.join("summary.json"),
         &Summary {
@@ -338,6 +359,9 @@ pub fn run(
             threads,
             cells_reused: outcome.reused,
             cells_resumed: outcome.resumed,
+            beds_settled: outcome.beds_settled,
+            beds_resumed: outcome.beds_resumed,
+            warnings: &warnings,
             wall_time_s: wall,
             grain_steps,
             grain_steps_per_s: grain_steps as f64 / wall,
@@ -354,7 +378,7 @@ pub fn run(
             );
         }
         text += &format!(
-            "{} cells in {wall:.1} s ({:.3e} grain-steps/s); wrote {}/transport.csv, transport.png, transport.svg, summary.json\n",
+            "{} cells in {wall:.1} s ({:.3e} grain-steps/s); wrote {}/transport.csv, transport.png, transport.svg, timeseries.csv, timeseries.png, timeseries.svg, summary.json\n",
             results.len(),
             grain_steps as f64 / wall,
             dir.display()

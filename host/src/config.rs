@@ -285,6 +285,18 @@ impl TensionRule {
     }
 }
 
+/// `time.settle_until`: when the initial bed's settling ends
+/// (docs/model.md §7 step 3).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum SettleUntil {
+    /// At rest ([`mbs_kernel::Rest::for_bed`]), after at most `time.settle`.
+    #[default]
+    Rest,
+    /// After exactly `time.settle`.
+    Time,
+}
+
 /// `[contact]` (docs/model.md §4–§5).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -317,14 +329,41 @@ pub struct TimeSection {
     pub constants_dt: f64,
     /// Integration steps per constants_dt: step_dt = constants_dt/substeps.
     pub substeps: u32,
-    /// Settling time (s).
+    /// When settling ends: at rest or after `settle`.
+    pub settle_until: SettleUntil,
+    /// Settling time (s): the most (`settle_until = "rest"`) or exactly.
     pub settle: f64,
     /// Spin-up time (s).
     pub spin_up: f64,
-    /// Averaging window (s).
+    /// The longest averaging window (s): the cap when the target is not reached.
     pub window: f64,
+    /// The shortest averaging window (s).
+    pub window_min: f64,
+    /// Block of the window (s): q* is averaged per block (the time series,
+    /// the batch-means standard error, the stopping rule).
+    pub block: f64,
     /// Sampling interval of q* (integration steps).
     pub sample_steps: u32,
+}
+
+/// `[target]`: the standard error of q* each cell's window aims at (it runs
+/// until it is reached, from `time.window_min` to `time.window`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct TargetSection {
+    /// Relative standard error of q*.
+    pub stderr_relative: f64,
+    /// Absolute standard error of q* (the floor near the threshold).
+    pub stderr_absolute: f64,
+}
+
+impl Default for TargetSection {
+    fn default() -> Self {
+        TargetSection {
+            stderr_relative: 0.1,
+            stderr_absolute: 5e-4,
+        }
+    }
 }
 
 /// `[flow]` (docs/model.md §6).
@@ -387,6 +426,8 @@ pub struct ConfigFile {
     pub time: TimeSection,
     /// `[flow]`.
     pub flow: FlowSection,
+    /// `[target]`.
+    pub target: TargetSection,
     /// `[run]`.
     pub run: RunSection,
 }
@@ -447,9 +488,12 @@ impl Default for TimeSection {
         TimeSection {
             constants_dt: p.rule.constants_dt,
             substeps: p.substeps,
-            settle: 0.2,
+            settle_until: SettleUntil::Rest,
+            settle: 3.0,
             spin_up: 0.2,
             window: 2.0,
+            window_min: 1.0,
+            block: 0.1,
             sample_steps: 10,
         }
     }
@@ -519,25 +563,37 @@ pub struct Config {
 /// Phase lengths of a transport cell, in integration steps.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Durations {
-    /// Settling without flow.
+    /// When settling ends.
+    pub settle_until: SettleUntil,
+    /// Settling without flow: the most or exactly (`settle_until`).
     pub settle: u64,
     /// Spin-up under the flow, before averaging.
     pub spin_up: u64,
     /// Between two samples of q* in the window.
     pub sample: u64,
-    /// Samples of q* in the window (at least 1).
-    pub samples: u64,
+    /// Samples of q* per block (at least 1).
+    pub block_samples: u64,
+    /// Blocks of the shortest window (at least 2).
+    pub min_blocks: u64,
+    /// Blocks of the longest window (at least `min_blocks`).
+    pub max_blocks: u64,
 }
 
 impl Durations {
-    /// The averaging window: `samples` × `sample`.
-    pub fn window(&self) -> u64 {
-        self.samples * self.sample
+    /// A block: `block_samples` × `sample`.
+    pub fn block(&self) -> u64 {
+        self.block_samples * self.sample
     }
 
-    /// A whole cell: settling, spin-up and window.
+    /// The longest averaging window: `max_blocks` blocks.
+    pub fn window(&self) -> u64 {
+        self.max_blocks * self.block()
+    }
+
+    /// A cell under the flow: spin-up and window (its bed settles once
+    /// per seed, [`crate::beds`]).
     pub fn cell(&self) -> u64 {
-        self.settle + self.spin_up + self.window()
+        self.spin_up + self.window()
     }
 }
 
@@ -694,6 +750,8 @@ impl Config {
             ("time.settle", t.settle, true),
             ("time.spin_up", t.spin_up, true),
             ("time.window", t.window, false),
+            ("time.window_min", t.window_min, false),
+            ("time.block", t.block, false),
         ] {
             let least = if zero_allowed { "[0" } else { "(0" };
             need(
@@ -783,25 +841,58 @@ impl Config {
             .map_err(ConfigError::kernel)?;
         let step_dt = scenario.step_dt();
         let sample = u64::from(t.sample_steps);
-        let window = steps_of(t.window, step_dt);
+        let block = steps_of(t.block, step_dt);
         need(
-            sample <= window,
+            sample <= block,
             "time.sample_steps",
             sample,
             &format!(
-                "<= the window's {window} integration steps (time.window/step_dt = {} s/{step_dt:e} s): \
-                 a longer sampling interval would stretch the window",
-                t.window
+                "<= a block's {block} integration steps (time.block/step_dt = {} s/{step_dt:e} s): \
+                 a longer sampling interval would stretch the block",
+                t.block
             ),
         )?;
+        need(
+            t.window_min <= t.window,
+            "time.window_min",
+            t.window_min,
+            &format!("<= time.window = {} s", t.window),
+        )?;
+        need(
+            2.0 * t.block <= t.window_min * (1.0 + 1e-9),
+            "time.block",
+            t.block,
+            &format!(
+                "<= time.window_min/2 = {} s: the standard error of the window needs at least \
+                 two blocks",
+                t.window_min / 2.0
+            ),
+        )?;
+        let block_samples = block / sample;
+        let blocks = |seconds: f64| (seconds / t.block).round().max(2.0) as u64;
         let durations = Durations {
+            settle_until: t.settle_until,
             settle: steps_of(t.settle, step_dt),
             spin_up: steps_of(t.spin_up, step_dt),
             sample,
-            samples: window / sample,
+            block_samples,
+            min_blocks: blocks(t.window_min),
+            max_blocks: blocks(t.window).max(blocks(t.window_min)),
         };
+        let target = &file.target;
+        for (key, value) in [
+            ("target.stderr_relative", target.stderr_relative),
+            ("target.stderr_absolute", target.stderr_absolute),
+        ] {
+            need(
+                (0.0..=1.0).contains(&value),
+                key,
+                value,
+                "in [0, 1] (0: the window always runs to time.window)",
+            )?;
+        }
         // At most 3000 s of steps of at least 1e-12 s: no overflow.
-        let cell = durations.cell();
+        let cell = durations.settle + durations.cell();
         need(
             cell <= MAX_CELL_STEPS,
             "time.settle + time.spin_up + time.window",
@@ -1182,15 +1273,19 @@ pub fn long_run_warning(config: &Config, cores: usize) -> Option<String> {
     let grains = sc.bed.columns as f64 * (sc.bed.fixed_per_column() + sc.bed.rows as usize) as f64;
     let cells = config.tau_stars.len() * config.seeds.len();
     let steps = config.durations.cell() as f64;
-    let grain_steps = cells as f64 * steps * grains;
+    let settling = config.seeds.len() as f64 * config.durations.settle as f64;
+    let grain_steps = (cells as f64 * steps + settling) * grains;
     let parallel = cores.clamp(1, cells.max(1)) as f64;
     let wall = grain_steps / (GRAIN_STEPS_PER_S_PER_CORE * parallel);
     (wall > LONG_RUN_S).then(|| {
         format!(
-            "a long run: {cells} cell(s) of {steps:.3e} integration steps (step_dt = {:e} s) \
-             of up to {grains} grains, {grain_steps:.2e} grain-steps: about {:.1} days on \
-             {parallel} core(s) at ~{GRAIN_STEPS_PER_S_PER_CORE:e} grain-steps/s per core; \
-             check time.settle, time.spin_up, time.window and time.constants_dt",
+            "a long run: {} bed(s) settling for up to {:.3e} and {cells} cell(s) of {steps:.3e} \
+             integration steps (step_dt = {:e} s) of up to {grains} grains, {grain_steps:.2e} \
+             grain-steps: about {:.1} days on {parallel} core(s) at \
+             ~{GRAIN_STEPS_PER_S_PER_CORE:e} grain-steps/s per core; check time.settle, \
+             time.spin_up, time.window and time.constants_dt",
+            config.seeds.len(),
+            config.durations.settle as f64,
             sc.step_dt(),
             wall / 86400.0
         )
@@ -1222,6 +1317,14 @@ pub fn warnings(config: &Config, under_flow: bool) -> Vec<String> {
         }
     }
     out
+}
+
+/// Fields that do not change a cell's result are fixed, so equal cells get
+/// equal keys whatever the configuration file said about them.
+pub fn canonical(config: &ConfigFile) -> ConfigFile {
+    let mut c = config.clone();
+    c.run.output = "-".into();
+    c
 }
 
 #[cfg(test)]

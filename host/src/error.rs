@@ -34,10 +34,11 @@ pub enum HostError {
         /// The holder's process id, as it wrote it in the lock file.
         holder: Option<u32>,
     },
-    /// Cells stopped (Ctrl-C or a test's step budget) after writing their checkpoints.
+    /// Beds or cells stopped (Ctrl-C or a test's step budget) after writing
+    /// their checkpoints.
     Interrupted {
         /// How many.
-        cells: usize,
+        jobs: usize,
     },
     /// A checkpoint file was refused; nothing was changed.
     Checkpoint {
@@ -102,9 +103,9 @@ impl fmt::Display for HostError {
                 dir.display(),
                 holder.map_or_else(|| "process id unknown".into(), |p| format!("process {p}"))
             ),
-            HostError::Interrupted { cells } => write!(
+            HostError::Interrupted { jobs } => write!(
                 f,
-                "interrupted: {cells} running cell(s) checkpointed; finished cells are stored"
+                "interrupted: {jobs} settling bed(s) or running cell(s) checkpointed; finished cells are stored"
             ),
             HostError::Checkpoint { path, message } => write!(
                 f,

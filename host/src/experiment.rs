@@ -1,26 +1,33 @@
-//! The transport-rate experiment (docs/model.md §8, §9 step 3): for every
-//! (τ*, seed) cell, build and settle the bed, switch the flow on, spin up,
-//! and average q* over a window. Cells run in parallel (rayon); each is computed alone
-//! from its own seed and the results are combined in a fixed order, so the
-//! output does not depend on the number of threads.
+//! The transport-rate experiment (docs/model.md §8, §9 step 3): the bed
+//! of every seed is built and settled once ([`crate::beds`]); every
+//! (τ*, seed) cell restores its seed's bed, switches the flow on, spins up
+//! and averages q* over a window. Beds, then cells, run in parallel
+//! (rayon); each is computed alone from its own seed and the results are
+//! combined in a fixed order, so the output does not depend on the number
+//! of threads.
 
+use crate::beds::{bed_warnings, BedState, Beds};
 use crate::cell::{
-    cell_key, run_cell_job, CellCheckpoint, CellJob, CellOutcome, CellResult, Control,
-    TransportSpec,
+    cell_key, run_cell_job, CellCheckpoint, CellJob, CellOutcome, CellResult, TransportSpec,
 };
 use crate::config::Config;
+use crate::control::Control;
 use crate::error::HostError;
 use crate::input::{read_bounded, Bound};
-use crate::output::{create_dir, decimal, decimals, remove_temporaries, write_csv};
+use crate::output::{
+    create_dir, decimal, decimals, remove_if_present, remove_temporaries, write_csv,
+};
 use crate::references::Reference;
 use crate::shard::Shard;
 use crate::sims::{compiled_capacity, max_checkpoint_len};
+use crate::stats::{block_stderr, mean_stderr, Steadiness};
 use crate::store::{Store, STORE};
 use crate::text::number;
 use indicatif::ProgressBar;
 use mbs_kernel::{shear_velocity, G};
 use rayon::prelude::*;
 use serde::Serialize;
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
 use std::time::Duration;
@@ -48,14 +55,14 @@ pub struct RunOutcome {
     pub reused: usize,
     /// Cells continued from a checkpoint.
     pub resumed: usize,
-}
-
-/// Deletes `path` if it exists.
-fn remove_if_present(path: &Path) -> Result<(), HostError> {
-    match std::fs::remove_file(path) {
-        Err(e) if e.kind() != std::io::ErrorKind::NotFound => Err(HostError::io(path)(e)),
-        _ => Ok(()),
-    }
+    /// Beds settled in this invocation (not read from their files).
+    pub beds_settled: usize,
+    /// Beds continued from a checkpoint.
+    pub beds_resumed: usize,
+    /// Grain-steps of the beds settled in this invocation.
+    pub bed_grain_steps: u64,
+    /// Warnings about the beds (one per seed and kind).
+    pub warnings: Vec<String>,
 }
 
 /// The checkpoint file of a cell: `tau<τ*>_seed<seed>.ckpt`, τ* as
@@ -66,10 +73,12 @@ pub fn checkpoint_path(dir: &Path, tau_star: f64, seed: u64) -> PathBuf {
         .join(format!("tau{}_seed{seed}.ckpt", number(tau_star)))
 }
 
-/// Runs every (τ*, seed) cell in parallel on the current rayon pool: cells
-/// already in `DIR/cells.jsonl` are reused, cells with a checkpoint continue
-/// from it, every finished cell is stored at once. Errors: the first failing
-/// cell in (τ*, seed) order; [`HostError::Interrupted`] if cells stopped.
+/// Settles the bed of every seed whose cells are still to compute, then
+/// runs every (τ*, seed) cell, each in parallel on the current rayon pool:
+/// cells already in `DIR/cells.jsonl` are reused, beds already in
+/// `DIR/beds/` are read, beds and cells with a checkpoint continue from it,
+/// every finished cell is stored at once. Errors: the first failing bed or
+/// cell in (seed, τ*) order; [`HostError::Interrupted`] if any stopped.
 pub fn run_all(
     config: &Config,
     progress: &ProgressBar,
@@ -81,6 +90,7 @@ pub fn run_all(
     let store = Store::open(&control.dir.join(STORE))?;
     let max_len = CellCheckpoint::max_len(
         config.scenario.bed.classes.len(),
+        config.durations.max_blocks,
         max_checkpoint_len(config.precision, config.capacity),
     );
     let reason = format!(
@@ -101,6 +111,46 @@ pub fn run_all(
         .filter(|&(k, _)| control.shard.owns(k))
         .map(|(_, cell)| cell)
         .collect();
+    let todo = |&(t, s): &(f64, u64)| {
+        store
+            .get::<_, Result<CellResult, String>>(&TransportSpec::new(&config.file, t, s))
+            .is_none_or(|r| r.is_err())
+    };
+    let mut seeds: Vec<u64> = cells.iter().filter(|c| todo(c)).map(|c| c.1).collect();
+    seeds.sort_unstable();
+    seeds.dedup();
+    let beds = Beds {
+        dir: control.dir.join("beds"),
+        checkpoints: control.dir.join("checkpoints"),
+        every: control.every,
+        stop: control.stop,
+        stop_after: control.stop_after,
+    };
+    create_dir(&beds.dir)?;
+    remove_temporaries(&beds.dir)?;
+    let obtained: Vec<_> = seeds
+        .par_iter()
+        .map(|&seed| beds.obtain(config, seed, progress))
+        .collect();
+    let mut settled: BTreeMap<u64, BedState> = BTreeMap::new();
+    let (mut beds_stopped, mut beds_settled, mut beds_resumed, mut bed_grain_steps) = (0, 0, 0, 0);
+    let mut warnings = Vec::new();
+    for (&seed, o) in seeds.iter().zip(obtained) {
+        let o = o?;
+        beds_resumed += usize::from(o.resumed);
+        beds_settled += usize::from(o.computed);
+        bed_grain_steps += o.grain_steps;
+        match o.bed {
+            Some(bed) => {
+                warnings.extend(bed_warnings(config, seed, &bed));
+                settled.insert(seed, bed);
+            }
+            None => beds_stopped += 1,
+        }
+    }
+    if beds_stopped > 0 {
+        return Err(HostError::Interrupted { jobs: beds_stopped });
+    }
     let outcomes: Vec<Result<(CellOutcome, u8), HostError>> = cells
         .par_iter()
         .map(|&(tau_star, seed)| {
@@ -128,6 +178,13 @@ pub fn run_all(
                 Err(e) => return Err(HostError::io(&path)(e)),
             };
             let resumed = u8::from(resume.is_some()) * 2;
+            // Every seed of a cell still to compute has its bed.
+            let Some(bed) = settled.get(&seed) else {
+                return Err(HostError::Checkpoint {
+                    path: beds.dir.clone(),
+                    message: format!("no settled bed of seed {seed}"),
+                });
+            };
             let cell_control = Control {
                 path: Some(path.clone()),
                 every: control.every,
@@ -139,6 +196,7 @@ pub fn run_all(
                 tau_star,
                 seed,
                 key,
+                bed,
                 resume,
                 control: &cell_control,
                 progress,
@@ -154,6 +212,10 @@ pub fn run_all(
         results: Vec::new(),
         reused: 0,
         resumed: 0,
+        beds_settled,
+        beds_resumed,
+        bed_grain_steps,
+        warnings,
     };
     let mut stopped = 0;
     for o in outcomes {
@@ -166,23 +228,9 @@ pub fn run_all(
         }
     }
     if stopped > 0 {
-        return Err(HostError::Interrupted { cells: stopped });
+        return Err(HostError::Interrupted { jobs: stopped });
     }
     Ok(out)
-}
-
-/// Mean and standard error of the mean (0 for fewer than two values).
-pub fn mean_stderr(values: &[f64]) -> (f64, f64) {
-    let n = values.len() as f64;
-    if values.is_empty() {
-        return (f64::NAN, f64::NAN);
-    }
-    let mean = values.iter().sum::<f64>() / n;
-    if values.len() < 2 {
-        return (mean, 0.0);
-    }
-    let var = values.iter().map(|v| (v - mean) * (v - mean)).sum::<f64>() / (n - 1.0);
-    (mean, (var / n).sqrt())
 }
 
 /// One row of `transport.csv`.
@@ -192,10 +240,17 @@ pub struct TransportRow {
     pub tau_star: f64,
     /// Mean q* over the seeds.
     pub q_star: f64,
-    /// Its standard error: between seeds, or between batch means of one seed.
+    /// Its standard error: between seeds, or from the block means of one
+    /// seed ([`block_stderr`]).
     pub q_star_stderr: f64,
     /// Seeds averaged.
     pub seeds: usize,
+    /// The seeds' mean averaging window (s).
+    pub window_s: f64,
+    /// Seeds whose window ended at `time.window` without the target.
+    pub capped: usize,
+    /// The first and the last third of the windows compared.
+    pub steadiness: Option<Steadiness>,
     /// Meyer-Peter & Müller at τ*.
     pub mpm: f64,
     /// Wong & Parker at τ*.
@@ -215,7 +270,7 @@ pub fn aggregate(config: &Config, results: &[CellResult]) -> Vec<TransportRow> {
             let spread = |value: &dyn Fn(&CellResult) -> f64| -> (f64, f64) {
                 let values: Vec<f64> = cells.iter().map(|c| value(c)).collect();
                 match cells.as_slice() {
-                    [one] => (values[0], mean_stderr(&one.batch_means).1),
+                    [one] => (values[0], block_stderr(&one.block_means()).1),
                     _ => mean_stderr(&values),
                 }
             };
@@ -230,11 +285,15 @@ pub fn aggregate(config: &Config, results: &[CellResult]) -> Vec<TransportRow> {
             } else {
                 Vec::new()
             };
+            let blocks: Vec<Vec<f64>> = cells.iter().map(|c| c.block_means()).collect();
             TransportRow {
                 tau_star: tau,
                 q_star,
                 q_star_stderr,
                 seeds: cells.len(),
+                window_s: mean_stderr(&cells.iter().map(|c| c.window_s).collect::<Vec<_>>()).0,
+                capped: cells.iter().filter(|c| !c.target_reached).count(),
+                steadiness: Steadiness::of(&blocks),
                 mpm: Reference::MeyerPeterMuller.q_star(tau),
                 wong_parker: Reference::WongParker.q_star(tau),
                 classes,
@@ -264,6 +323,9 @@ struct TransportLine {
     q_b_m2_s: f64,
     #[serde(serialize_with = "decimal")]
     q_b_stderr_m2_s: f64,
+    #[serde(serialize_with = "decimal")]
+    window_s: f64,
+    capped: usize,
     #[serde(serialize_with = "decimals")]
     classes: Vec<f64>,
 }
@@ -286,6 +348,8 @@ pub fn write_transport(
         "u_star_m_s",
         "q_b_m2_s",
         "q_b_stderr_m2_s",
+        "window_s",
+        "capped",
     ]
     .map(String::from)
     .to_vec();
@@ -315,21 +379,10 @@ pub fn write_transport(
             u_star_m_s: shear_velocity(r.tau_star, s, G, d),
             q_b_m2_s: r.q_star * q_scale,
             q_b_stderr_m2_s: r.q_star_stderr * q_scale,
+            window_s: r.window_s,
+            capped: r.capped,
             classes: r.classes.iter().flat_map(|&(q, e)| [q, e]).collect(),
         })
         .collect();
     write_csv(path, Some(&header), &lines)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn mean_and_standard_error() {
-        let (m, e) = mean_stderr(&[1.0, 2.0, 3.0, 4.0]);
-        assert_eq!(m, 2.5);
-        assert!((e - (5.0f64 / 3.0 / 4.0).sqrt()).abs() < 1e-15);
-        assert_eq!(mean_stderr(&[7.0]), (7.0, 0.0));
-    }
 }

@@ -5,8 +5,12 @@
 //! |---|---|
 //! | [`config`] | TOML configuration, defaults, validation into the run plan |
 //! | [`sims`] | heap simulations of a run-time precision and capacity, run with progress |
+//! | [`control`] | stopping and checkpointing a resumable job |
+//! | [`framing`] | checkpoint files' framing: magic, version, fields, CRC |
+//! | [`beds`] | the settled bed of a (configuration, seed), settled once to rest |
 //! | [`cell`] | one resumable (τ*, seed) run: its result and its checkpoint file |
 //! | [`experiment`] | q*(τ*) over seeds, in parallel, thread-count independent |
+//! | [`stats`] | mean and standard error, the precision target, steadiness |
 //! | [`store`] | append-only file of finished cells |
 //! | [`shard`] | a slice of the cells (`--shard I/N`) and the merge of slices |
 //! | [`references`] | bed-load relations of docs/model.md §10 |
@@ -18,16 +22,20 @@
 //! | [`output`] | atomic file writes |
 //! | [`input`] | bounded reads: files refused unread beyond the largest valid one |
 //! | [`text`] | excerpts of long lines for messages, numbers that stay short (file names) |
+//! | [`timeseries`] | q*(t) and bed level per cell, per-τ* figure, steadiness and target warnings |
 //! | [`trace`] | digest traces: the digest run's field-group digests over time |
 //! | [`commands`] | the subcommands of `mbs` |
 
+pub mod beds;
 pub mod bench;
 pub mod calibrate;
 pub mod cell;
 pub mod commands;
 pub mod config;
+pub mod control;
 pub mod error;
 pub mod experiment;
+pub mod framing;
 pub mod input;
 pub mod mixture;
 pub mod output;
@@ -37,8 +45,10 @@ pub mod references;
 pub mod shard;
 pub mod sims;
 pub mod snapshot;
+pub mod stats;
 pub mod store;
 pub mod text;
+pub mod timeseries;
 pub mod trace;
 
 pub use config::{Config, ConfigError, Precision};

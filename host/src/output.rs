@@ -194,6 +194,14 @@ impl serde::Serialize for Decimal {
     }
 }
 
+/// Deletes `path` if it exists.
+pub fn remove_if_present(path: &Path) -> Result<(), HostError> {
+    match std::fs::remove_file(path) {
+        Err(e) if e.kind() != std::io::ErrorKind::NotFound => Err(HostError::io(path)(e)),
+        _ => Ok(()),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

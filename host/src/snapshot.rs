@@ -1,7 +1,9 @@
 //! Pictures of the bed: PNG/SVG drawn to scale, and VTK files over time for
 //! ParaView (a `.vtk.series` file lists them with their times).
 
+use crate::beds::BedJob;
 use crate::config::Config;
+use crate::control::Control;
 use crate::error::HostError;
 use crate::output::{create_dir, write_json, write_text};
 use crate::plot::{save, BedFigure, Disc};
@@ -12,6 +14,7 @@ use mbs_kernel::{FlowConfig, GrainSpec, Real, Sim};
 use serde::Serialize;
 use std::fmt::Write;
 use std::path::Path;
+use std::sync::atomic::AtomicBool;
 
 /// The grains at one instant.
 #[derive(Debug, Clone, PartialEq)]
@@ -57,8 +60,17 @@ impl SimJob for Snapshots<'_> {
                 self.tau_star, self.seed
             ))
         };
-        setup.scenario.build(sim).map_err(fail())?;
-        run_steps(sim, config.durations.settle, self.progress).map_err(fail())?;
+        // Settled as a cell's bed is ([`crate::beds`]), not kept.
+        let never = AtomicBool::new(false);
+        let bed = BedJob {
+            config,
+            seed: self.seed,
+            key: 0,
+            resume: None,
+            control: &Control::never(&never),
+            progress: self.progress,
+        };
+        bed.run(sim)?;
         sim.set_flow(Some(&setup.flow)).map_err(fail())?;
         let frame = |sim: &Sim<R, N, NEIGHBOURS>, flowed: bool| Frame {
             time: sim.time(),

@@ -130,6 +130,68 @@ impl Rest {
     }
 }
 
+/// The state of the rest criterion between checks: what
+/// [`Sim::settle_to_rest`] keeps from one window to the next, so that a
+/// host can settle in chunks of its own, write it into a checkpoint and
+/// resume the criterion exactly where it stopped.
+///
+/// ```
+/// use mbs_kernel::{Rest, RestWatch, Scenario, Sim, G};
+///
+/// let sc = Scenario::paper();
+/// let mut sim: Box<Sim<f64, 256, 8>> = Box::default();
+/// sc.build(&mut *sim).unwrap();
+/// let rest = Rest::for_bed(sc.bed.max_diameter(), sc.material.s, G, sc.step_dt());
+/// let mut watch = RestWatch::start(&*sim);
+/// sim.run(rest.window).unwrap();
+/// let check = watch.check(&*sim, &rest);
+/// // Just built: the grains are falling.
+/// assert!(!check.at_rest && check.speed > rest.speed && watch.passed == 0);
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RestWatch {
+    /// The mobile grains' centre of gravity y_gc at the last check (m).
+    pub y_gc: f64,
+    /// Checks passed in a row.
+    pub passed: u32,
+}
+
+impl RestWatch {
+    /// The watch before the first check of `sim`'s bed.
+    pub fn start<R: Real, const N: usize, const K: usize>(sim: &Sim<R, N, K>) -> RestWatch {
+        RestWatch {
+            y_gc: sim.observe().y_gc,
+            passed: 0,
+        }
+    }
+
+    /// One check of [`Rest`] after a window of steps: the largest mobile
+    /// speed, the drift of y_gc since the last check, and whether `rest`
+    /// has now held for `rest.checks` checks in a row (`steps` left 0 for
+    /// the caller to fill).
+    pub fn check<R: Real, const N: usize, const K: usize>(
+        &mut self,
+        sim: &Sim<R, N, K>,
+        rest: &Rest,
+    ) -> Settled {
+        let now = sim.observe().y_gc;
+        let speed = sim.max_speed();
+        let drift = libm::fabs(now - self.y_gc);
+        self.y_gc = now;
+        self.passed = if speed < rest.speed && drift < rest.drift {
+            self.passed.saturating_add(1)
+        } else {
+            0
+        };
+        Settled {
+            steps: 0,
+            at_rest: self.passed >= rest.checks.max(1),
+            speed,
+            drift,
+        }
+    }
+}
+
 impl BedSpec {
     /// A single-size bed of diameter `d` with the spacing 1.05 of docs/model.md §7, no
     /// vacancies and fixed-height spread d/3.
@@ -363,32 +425,19 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
     pub fn settle_to_rest(&mut self, max_steps: u64, rest: &Rest) -> Result<Settled, Error> {
         let start = self.step;
         let window = rest.window.max(1);
-        let mut y_gc = self.observe().y_gc;
+        let mut watch = RestWatch::start(self);
         let mut last = Settled {
             steps: 0,
             at_rest: false,
             speed: self.max_speed(),
             drift: 0.0,
         };
-        let mut passed = 0;
         while self.step - start < max_steps {
             let chunk = (max_steps - (self.step - start)).min(window);
             self.run(chunk)?;
-            let now = self.observe().y_gc;
-            last = Settled {
-                steps: self.step - start,
-                at_rest: false,
-                speed: self.max_speed(),
-                drift: libm::fabs(now - y_gc),
-            };
-            y_gc = now;
-            passed = if last.speed < rest.speed && last.drift < rest.drift {
-                passed + 1
-            } else {
-                0
-            };
-            if passed >= rest.checks.max(1) {
-                last.at_rest = true;
+            last = watch.check(self, rest);
+            last.steps = self.step - start;
+            if last.at_rest {
                 return Ok(last);
             }
         }

@@ -120,7 +120,7 @@ mod scenario;
 mod sim;
 mod step;
 
-pub use bed::{BedInfo, BedSpec, Rest, Settled, SizeClass};
+pub use bed::{BedInfo, BedSpec, Rest, RestWatch, Settled, SizeClass};
 pub use checkpoint::CHECKPOINT_VERSION;
 pub use constants::{
     contact_constants, explicit_damping_number, ContactConstants, Material, TimeStepRule, A2, A3,

@@ -3,7 +3,7 @@
 
 mod common;
 
-use mbs_kernel::{BedSpec, Real, Rest, Scenario, Sim, SizeClass, G};
+use mbs_kernel::{BedSpec, Real, Rest, RestWatch, Scenario, Sim, SizeClass, G};
 
 type Bed<R> = Sim<R, 512, 8>;
 
@@ -297,6 +297,7 @@ fn settles_to_rest<R: Real>(_tol: f64) {
     let mut sim = boxed::<R>();
     sc.build(&mut *sim).unwrap();
     let mut early = sim.clone();
+    let mut chunked = sim.clone();
     let capped = early.settle_to_rest(2 * rest.window, &rest).unwrap();
     assert!(!capped.at_rest && capped.speed > rest.speed, "{capped:?}");
     assert_eq!(capped.steps, 2 * rest.window);
@@ -304,6 +305,19 @@ fn settles_to_rest<R: Real>(_tol: f64) {
     assert!(settled.at_rest, "{settled:?}");
     assert!(settled.speed < rest.speed && settled.drift < rest.drift);
     assert_eq!(settled.steps % rest.window, 0);
+    // The same criterion driven from outside, a window at a time (as the
+    // host settles between checkpoints): the same steps, the same state.
+    let mut watch = RestWatch::start(&*chunked);
+    let mut steps = 0;
+    loop {
+        chunked.run(rest.window).unwrap();
+        steps += rest.window;
+        if watch.check(&*chunked, &rest).at_rest {
+            break;
+        }
+    }
+    assert_eq!(steps, settled.steps);
+    assert_eq!(chunked.digest(), sim.digest());
     let y_gc = sim.observe().y_gc;
     sim.run(100_000).unwrap();
     let later = sim.observe();

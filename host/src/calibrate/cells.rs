@@ -3,8 +3,10 @@
 //! otherwise it is computed (in parallel with the other cells of the same
 //! request) if this shard owns it, and stored as soon as it finishes.
 
+use crate::beds::{BedKey, BedState, Beds};
 pub use crate::cell::TransportSpec;
-use crate::cell::{canonical, run_cell, CellResult};
+use crate::cell::{run_cell, CellResult};
+use crate::config::canonical;
 use crate::config::{Config, ConfigFile};
 use crate::error::HostError;
 use crate::pack::{packing, Packing};
@@ -12,6 +14,9 @@ use crate::store::Store;
 use indicatif::ProgressBar;
 use rayon::prelude::*;
 use serde::{de::DeserializeOwned, Deserialize, Serialize};
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+use std::sync::atomic::AtomicBool;
 
 pub use crate::shard::Shard;
 
@@ -62,7 +67,12 @@ pub struct Cells<'a> {
     pub shard: Shard,
     /// Progress (cells).
     pub progress: &'a ProgressBar,
+    /// Where the settled beds are kept.
+    pub beds: PathBuf,
 }
+
+/// A calibration's beds are never stopped (its cells are not checkpointed).
+static NEVER: AtomicBool = AtomicBool::new(false);
 
 impl Cells<'_> {
     /// Results of `specs`: stored ones, computed ones, and `None` for cells
@@ -97,19 +107,64 @@ impl Cells<'_> {
         results.into_iter().collect()
     }
 
-    /// Transport cells.
+    /// Transport cells. The settled bed of every (configuration, seed) of
+    /// a cell still to compute is settled first, once, in parallel; a bed
+    /// that fails (e.g. grains leaving a fluidised bed) fails its cells.
     pub fn transport(
         &self,
         specs: &[TransportSpec],
         slot: &(dyn Fn(usize) -> usize + Sync),
     ) -> Result<Vec<Option<Outcome<CellResult>>>, HostError> {
+        let mut needed: BTreeMap<u64, Config> = BTreeMap::new();
+        for (k, spec) in specs.iter().enumerate() {
+            if !self.shard.owns(slot(k)) || self.store.get::<_, Outcome<CellResult>>(spec).is_some()
+            {
+                continue;
+            }
+            if let Ok(config) = Config::validate(spec.config.clone()) {
+                needed
+                    .entry(BedKey::new(&config.file, config.seeds[0]).hash())
+                    .or_insert(config);
+            }
+        }
+        let beds = Beds {
+            dir: self.beds.clone(),
+            checkpoints: self.beds.clone(),
+            every: None,
+            stop: &NEVER,
+            stop_after: None,
+        };
+        crate::output::create_dir(&beds.dir)?;
+        let settled: Vec<Result<Outcome<BedState>, HostError>> = needed
+            .par_iter()
+            .map(
+                |(_, config)| match beds.obtain(config, config.seeds[0], &ProgressBar::hidden()) {
+                    Ok(o) => Ok(o.bed.ok_or_else(|| "settling stopped".to_string())),
+                    Err(HostError::Kernel { context, error }) => {
+                        Ok(Err(format!("{context}: {error}")))
+                    }
+                    Err(e) => Err(e),
+                },
+            )
+            .collect();
+        let settled: BTreeMap<u64, Outcome<BedState>> = needed
+            .keys()
+            .copied()
+            .zip(settled)
+            .map(|(k, b)| b.map(|b| (k, b)))
+            .collect::<Result<_, _>>()?;
         self.evaluate(specs, slot, |spec| {
             let config = match Config::validate(spec.config.clone()) {
                 Ok(c) => c,
                 Err(e) => return Ok(Err(format!("configuration: {e}"))),
             };
             let (tau, seed) = (config.tau_stars[0], config.seeds[0]);
-            match run_cell(&config, tau, seed, &ProgressBar::hidden()) {
+            let bed = match settled.get(&BedKey::new(&config.file, seed).hash()) {
+                Some(Ok(bed)) => bed,
+                Some(Err(e)) => return Ok(Err(e.clone())),
+                None => return Ok(Err(format!("no settled bed of seed {seed}"))),
+            };
+            match run_cell(&config, tau, seed, bed, &ProgressBar::hidden()) {
                 Ok(r) => Ok(Ok(r)),
                 Err(HostError::Kernel { context, error }) => Ok(Err(format!("{context}: {error}"))),
                 Err(e) => Err(e),

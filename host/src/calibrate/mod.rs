@@ -275,7 +275,10 @@ impl Context<'_> {
         slot: &(dyn Fn(usize) -> usize + Sync),
     ) -> Result<Option<Curve>, HostError> {
         let mut config = config.clone();
+        // Fixed windows of ten blocks (the calibration's own plan).
         config.time.window = window;
+        config.time.window_min = window;
+        config.time.block = window / 10.0;
         let specs: Vec<TransportSpec> = points
             .iter()
             .flat_map(|&(t, seeds)| seeds.iter().map(move |&s| (t, s)))
@@ -311,14 +314,14 @@ impl Context<'_> {
                 }
             }
             let (mean, err) = if q.len() == seeds.len() {
-                crate::experiment::mean_stderr(&q)
+                crate::stats::mean_stderr(&q)
             } else {
                 (f64::NAN, f64::NAN)
             };
             curve.q_star.push(mean);
             curve.stderr.push(err);
             for (k, values) in per_class.iter().enumerate() {
-                curve.classes[k].push(crate::experiment::mean_stderr(values).0);
+                curve.classes[k].push(crate::stats::mean_stderr(values).0);
             }
         }
         Ok(Some(curve))
@@ -401,6 +404,7 @@ pub fn calibrate(
             store: &store,
             shard: options.shard,
             progress: &bar,
+            beds: dir.join("beds"),
         },
         dir: dir.to_path_buf(),
     };

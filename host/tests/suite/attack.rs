@@ -63,15 +63,22 @@ fn a_closed_stdout_keeps_the_exit_status_of_config() {
     assert_eq!(with_closed_streams(&["config".as_ref()], true), Some(0));
 }
 
-/// A run of SMALL into `dir/name` stopped after `steps` steps of every cell:
-/// the output directory, holding a checkpoint per cell.
-fn stopped_run(dir: &std::path::Path, name: &str, steps: u64) -> std::path::PathBuf {
+/// A run of SMALL into `dir/name` stopped, then resumed and stopped again,
+/// after each of `stops` steps of every bed and cell: the output directory,
+/// holding a checkpoint per cell.
+fn stopped_run(dir: &std::path::Path, name: &str, stops: &[u64]) -> std::path::PathBuf {
     let cfg = write(dir, "small.toml", SMALL);
     let out = dir.join(name);
-    run_into(&cfg, &out)
-        .args(["--stop-after-steps", &steps.to_string()])
-        .assert()
-        .code(130);
+    for (k, steps) in stops.iter().enumerate() {
+        let mut c = if k == 0 {
+            run_into(&cfg, &out)
+        } else {
+            resume_in(&out)
+        };
+        c.args(["--stop-after-steps", &steps.to_string()])
+            .assert()
+            .code(130);
+    }
     out
 }
 
@@ -85,7 +92,7 @@ fn read_checkpoint(out: &std::path::Path, cell: &str) -> mbs::cell::CellCheckpoi
 /// Edits `cell`'s checkpoint with `edit` (its checksum recomputed), resumes,
 /// and expects a refusal naming the checkpoint: exit 1, no table.
 fn crafted_is_refused(
-    steps: u64,
+    steps: &[u64],
     cell: &str,
     edit: impl FnOnce(&mut mbs::cell::CellCheckpoint, &std::path::Path),
 ) {
@@ -101,9 +108,12 @@ fn crafted_is_refused(
     assert!(!out.join("transport.csv").exists());
 }
 
-/// Steps of SMALL: 20 000 settling, 8 000 spin-up, then the window.
-const IN_SPIN_UP: u64 = 24_000;
-const IN_WINDOW: u64 = 34_000;
+/// Stops of SMALL, whose beds settle for 20 000 steps and cells spin up
+/// for 8 000 then average over 20 000, each job stopping at the first
+/// multiple of 2 000 steps past the limit: the beds at 8 000 and 16 000,
+/// then the cells at 6 000 (spin-up); the cells at 20 000 (window).
+const IN_SPIN_UP: &[u64] = &[7_000, 7_000, 5_000];
+const IN_WINDOW: &[u64] = &[20_000];
 
 #[test]
 fn crafted_window_samples_in_spin_up_are_refused_not_a_panic() {
@@ -121,12 +131,23 @@ fn crafted_done_beyond_the_spin_up_is_refused() {
 }
 
 #[test]
-fn crafted_batch_counts_that_wrap_are_refused() {
+fn crafted_sample_counts_that_wrap_are_refused() {
+    // Steps = samples × sample_steps wraps to the steps done.
     crafted_is_refused(IN_WINDOW, "tau0.3_seed1.ckpt", |ck, _| {
-        let n = ck.state.samples;
-        ck.state.batch_n = [0; mbs::cell::BATCHES];
-        ck.state.batch_n[0] = 1 << 63;
-        ck.state.batch_n[1] = (1 << 63) + n;
+        ck.state.samples += 1 << 63;
+    });
+}
+
+#[test]
+fn crafted_blocks_past_the_window_s_end_are_refused() {
+    // Ten blocks end SMALL's window: a checkpoint cannot hold them.
+    crafted_is_refused(IN_WINDOW, "tau0.3_seed1.ckpt", |ck, _| {
+        let block = ck.state.blocks[0];
+        ck.state.blocks = vec![block; 10];
+        ck.state.samples = 10 * 400;
+        ck.state.done = 10 * 4000;
+        ck.state.block_sum = 0.0;
+        ck.state.total = 10.0 * 400.0 * block.q_star;
     });
 }
 
@@ -375,10 +396,22 @@ fn command_line_times_beyond_the_limit_are_refused() {
 }
 
 #[test]
-fn sample_steps_longer_than_the_window_is_refused() {
+fn sample_steps_longer_than_a_block_is_refused() {
     refused_config(
-        ("[time]", "[time]\nsample_steps = 30000"),
-        "time.sample_steps = 30000: must be <= the window's 20000 integration steps",
+        ("[time]", "[time]\nsample_steps = 3000"),
+        "time.sample_steps = 3000: must be <= a block's 2000 integration steps",
+    );
+}
+
+#[test]
+fn windows_and_blocks_that_do_not_fit_are_refused() {
+    refused_config(
+        ("window_min = 0.05", "window_min = 0.06"),
+        "time.window_min = 0.06: must be <= time.window = 0.05 s",
+    );
+    refused_config(
+        ("block = 0.005", "block = 0.03"),
+        "time.block = 0.03: must be <= time.window_min/2 = 0.025 s",
     );
 }
 
@@ -486,8 +519,9 @@ fn a_long_run_is_warned_about_with_its_steps_and_wall_time() {
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert!(
         stderr.contains(
-            "warning: a long run: 20 cell(s) of 1.200e9 integration steps (step_dt = 2.5e-6 s) \
-             of up to 440 grains, 1.06e13 grain-steps: about 2.4 days on 2 core(s)"
+            "warning: a long run: 4 bed(s) settling for up to 4.000e8 and 20 cell(s) of \
+             8.000e8 integration steps (step_dt = 2.5e-6 s) of up to 440 grains, 7.74e12 \
+             grain-steps: about 1.8 days on 2 core(s)"
         ),
         "{stderr}"
     );

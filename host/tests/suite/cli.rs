@@ -49,7 +49,7 @@ fn run_writes_table_plots_and_summary() {
     let lines: Vec<&str> = csv.lines().collect();
     assert_eq!(
         lines[0],
-        "tau_star,q_star,q_star_stderr,seeds,mpm,wong_parker,u_star_m_s,q_b_m2_s,q_b_stderr_m2_s"
+        "tau_star,q_star,q_star_stderr,seeds,mpm,wong_parker,u_star_m_s,q_b_m2_s,q_b_stderr_m2_s,window_s,capped"
     );
     assert_eq!(lines.len(), 3);
     let row: Vec<f64> = lines[2].split(',').map(|v| v.parse().unwrap()).collect();
@@ -65,6 +65,47 @@ fn run_writes_table_plots_and_summary() {
     assert_eq!(summary["config"]["bed"]["rows"], 4);
     assert!(summary["derived"]["k_n"].as_f64().unwrap() > 0.0);
     assert!(summary["grain_steps_per_s"].as_f64().unwrap() > 0.0);
+    // The time series: SMALL's fixed windows of ten blocks, whose means
+    // average to each cell's q*, drawn in a panel per τ*.
+    let series = std::fs::read_to_string(out.join("timeseries.csv")).unwrap();
+    let lines: Vec<Vec<&str>> = series
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').collect())
+        .collect();
+    assert!(series.starts_with("tau_star,seed,block,t_s,q_star,bed_level_m\n"));
+    assert_eq!(lines.len(), 4 * 10);
+    for cell in summary["cells"].as_array().unwrap() {
+        let (tau, seed) = (
+            cell["tau_star"].as_f64().unwrap(),
+            cell["seed"].as_u64().unwrap(),
+        );
+        let q: Vec<f64> = lines
+            .iter()
+            .filter(|l| l[0].parse::<f64>().unwrap() == tau && l[1].parse::<u64>().unwrap() == seed)
+            .map(|l| l[4].parse().unwrap())
+            .collect();
+        assert_eq!(q.len(), 10);
+        let mean = q.iter().sum::<f64>() / 10.0;
+        let expected = cell["q_star"].as_f64().unwrap();
+        assert!(
+            (mean - expected).abs() <= 1e-12 * expected.abs().max(1e-9),
+            "{mean} {expected}"
+        );
+    }
+    // The last block ends 0.02 s (spin-up) + 10 × 0.005 s after the flow started.
+    assert!(
+        (lines[9][3].parse::<f64>().unwrap() - 0.07).abs() < 1e-12,
+        "{:?}",
+        lines[9]
+    );
+    let texts = mbs::plot::svg_texts(&std::fs::read_to_string(out.join("timeseries.svg")).unwrap());
+    for title in [
+        "τ* = 0.1: q* over blocks of 0.005 s",
+        "τ* = 0.3: q* over blocks of 0.005 s",
+    ] {
+        assert!(texts.iter().any(|t| t == title), "{title} in {texts:?}");
+    }
     let leftovers: Vec<_> = std::fs::read_dir(&out)
         .unwrap()
         .filter_map(|e| e.ok())
@@ -105,13 +146,13 @@ fn mixed_beds_get_columns_per_size_class() {
     run_into(&cfg, &out).assert().success();
     let csv = std::fs::read_to_string(out.join("transport.csv")).unwrap();
     assert!(
-        csv.starts_with("tau_star,q_star,q_star_stderr,seeds,mpm,wong_parker,u_star_m_s,q_b_m2_s,q_b_stderr_m2_s,q_star_1mm,q_star_1mm_stderr,q_star_0.7mm,q_star_0.7mm_stderr\n"),
+        csv.starts_with("tau_star,q_star,q_star_stderr,seeds,mpm,wong_parker,u_star_m_s,q_b_m2_s,q_b_stderr_m2_s,window_s,capped,q_star_1mm,q_star_1mm_stderr,q_star_0.7mm,q_star_0.7mm_stderr\n"),
         "{csv}"
     );
     // The classes are on the total's scale (d_max): they add up to q*.
     for line in csv.lines().skip(1) {
         let v: Vec<f64> = line.split(',').map(|x| x.parse().unwrap()).collect();
-        let (total, classes) = (v[1], v[9] + v[11]);
+        let (total, classes) = (v[1], v[11] + v[13]);
         // Units on the largest diameter (1 mm, s = 2.65, g = 9.81):
         // u* = √(τ* (s − 1) g d), q_B = q* √((s − 1) g d³), its error alike.
         let (g_prime, d) = (1.65 * 9.81, 1e-3);
@@ -433,4 +474,44 @@ fn a_sharded_run_merged_gives_the_same_table() {
         .assert()
         .code(2)
         .stderr(predicates::str::contains("must be I/N with 1 <= I <= N"));
+}
+
+#[test]
+fn windows_stop_at_the_target_or_say_they_did_not_reach_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let table = |name: &str, target: &str| {
+        let text = SMALL.replace("window_min = 0.05", "window_min = 0.02") + target;
+        let cfg = write(dir.path(), &format!("{name}.toml"), &text);
+        let out = dir.path().join(name);
+        let run = run_into(&cfg, &out).assert().success();
+        let stderr = String::from_utf8_lossy(&run.get_output().stderr).to_string();
+        let csv = std::fs::read_to_string(out.join("transport.csv")).unwrap();
+        let rows: Vec<Vec<f64>> = csv
+            .lines()
+            .skip(1)
+            .map(|l| l.split(',').map(|x| x.parse().unwrap()).collect())
+            .collect();
+        (rows, stderr)
+    };
+    // Any error is good enough: every window stops at window_min (4 blocks).
+    let (rows, stderr) = table(
+        "loose",
+        "[target]\nstderr_relative = 1.0\nstderr_absolute = 1.0\n",
+    );
+    for r in &rows {
+        assert_eq!((r[9], r[10]), (0.02, 0.0), "{r:?}");
+    }
+    assert!(!stderr.contains("target-not-reached"), "{stderr}");
+    // None is: every window runs to time.window and says so.
+    let (rows, stderr) = table(
+        "none",
+        "[target]\nstderr_relative = 0.0\nstderr_absolute = 0.0\n",
+    );
+    for r in &rows {
+        assert_eq!((r[9], r[10]), (0.05, 2.0), "{r:?}");
+    }
+    assert!(
+        stderr.contains("warning: target-not-reached: tau* = 0.1: 2 of 2 seed(s) averaged for the whole time.window = 0.05 s"),
+        "{stderr}"
+    );
 }

@@ -5,8 +5,9 @@ use assert_cmd::Command;
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
-/// A bed small and short enough for a test: 5 × 4 grains; per cell 20 000
-/// settling + 8 000 spin-up + 20 000 window steps (0.05 s windows).
+/// A bed small and short enough for a test: 5 × 4 grains; 20 000 settling
+/// steps per seed, per cell 8 000 spin-up + 20 000 window steps (fixed
+/// 0.05 s windows of ten blocks).
 pub const SMALL: &str = r#"
 [bed]
 columns = 5
@@ -15,6 +16,8 @@ rows = 4
 settle = 0.05
 spin_up = 0.02
 window = 0.05
+window_min = 0.05
+block = 0.005
 [flow]
 tau_star = [0.1, 0.3]
 [run]

@@ -5,6 +5,7 @@
 mod common;
 
 mod attack;
+mod beds;
 mod calibrate;
 mod cli;
 mod figures;

@@ -27,13 +27,15 @@ fn uninterrupted(cfg: &Path, out: &Path) -> Vec<u8> {
 fn stopped_anywhere_and_resumed_gives_the_same_table() {
     let (dir, cfg) = setup();
     let reference = uninterrupted(&cfg, &dir.path().join("reference"));
-    // Stop points: in settling; in spin-up; in the window; and a chain of
-    // three stops crossing every phase boundary.
-    for (k, stops) in [
-        vec![5_000u64],
-        vec![24_000],
-        vec![35_000],
-        vec![7_000, 15_000, 13_000],
+    // Every bed and cell stops after the given steps of its own (at the
+    // next multiple of 2 000): beds settle for 20 000 steps, cells spin up
+    // for 8 000 and average over 20 000. Stop points: in settling; twice in
+    // settling, then in spin-up; twice in the window. The last run resumes
+    // the 2 beds or the 4 cells.
+    for (k, (stops, resumed)) in [
+        (vec![5_000u64], "\"beds_resumed\": 2"),
+        (vec![7_000, 7_000, 5_000], "\"cells_resumed\": 4"),
+        (vec![20_000, 5_000], "\"cells_resumed\": 4"),
     ]
     .iter()
     .enumerate()
@@ -64,7 +66,7 @@ fn stopped_anywhere_and_resumed_gives_the_same_table() {
             "stops {stops:?}"
         );
         let summary = std::fs::read_to_string(out.join("summary.json")).unwrap();
-        assert!(summary.contains("\"cells_resumed\": 4"), "{summary}");
+        assert!(summary.contains(resumed), "{summary}");
     }
 }
 
@@ -73,7 +75,10 @@ fn killed_at_random_moments_and_resumed_gives_the_same_table() {
     // Forty times longer windows, and kills at 5–45 % of an uninterrupted
     // run's wall time: a run lasts long enough to be killed whatever the
     // build's speed.
-    let (dir, cfg) = setup_with(&SMALL.replace("window = 0.05", "window = 2.0"));
+    let (dir, cfg) = setup_with(&SMALL.replace(
+        "window = 0.05\nwindow_min = 0.05",
+        "window = 2.0\nwindow_min = 2.0",
+    ));
     let (reference, wall) = timed(|| uninterrupted(&cfg, &dir.path().join("reference")));
     let out = dir.path().join("killed");
     let bin = assert_cmd::cargo::cargo_bin("mbs");
@@ -102,7 +107,11 @@ fn killed_at_random_moments_and_resumed_gives_the_same_table() {
                 continue; // killed while writing: removed by the next run
             }
             let bytes = std::fs::read(&path).unwrap();
-            assert_eq!(&bytes[..4], b"MBSC", "{}", path.display());
+            assert!(
+                [b"MBSC", b"MBSB"].contains(&&bytes[..4].try_into().unwrap()),
+                "{}",
+                path.display()
+            );
         }
     }
     resume_in(&out).assert().success();
@@ -119,9 +128,29 @@ fn killed_at_random_moments_and_resumed_gives_the_same_table() {
 #[test]
 fn a_damaged_checkpoint_is_refused_and_kept() {
     let (dir, cfg) = setup();
+    // A settling bed's checkpoint, damaged, is refused and kept.
+    let settling = dir.path().join("settling");
+    run_into(&cfg, &settling)
+        .args(["--stop-after-steps", "3000"])
+        .assert()
+        .code(130);
+    let bed = std::fs::read_dir(settling.join("checkpoints"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .find(|p| p.file_name().unwrap().to_string_lossy().starts_with("bed_"))
+        .unwrap();
+    let mut bytes = std::fs::read(&bed).unwrap();
+    bytes[40] ^= 0xff;
+    std::fs::write(&bed, &bytes).unwrap();
+    resume_in(&settling)
+        .assert()
+        .code(1)
+        .stderr(predicates::str::contains("checksum mismatch"));
+    assert_eq!(std::fs::read(&bed).unwrap(), bytes, "kept as it was");
+    // A running cell's.
     let out = dir.path().join("damaged");
     run_into(&cfg, &out)
-        .args(["--stop-after-steps", "3000"])
+        .args(["--stop-after-steps", "20000"])
         .assert()
         .code(130);
     let path = out.join("checkpoints/tau0.1_seed1.ckpt");
@@ -158,7 +187,10 @@ fn a_damaged_checkpoint_is_refused_and_kept() {
 
 #[test]
 fn ctrl_c_checkpoints_and_says_how_to_resume() {
-    let (dir, cfg) = setup_with(&SMALL.replace("window = 0.05", "window = 2.0"));
+    let (dir, cfg) = setup_with(&SMALL.replace(
+        "window = 0.05\nwindow_min = 0.05",
+        "window = 2.0\nwindow_min = 2.0",
+    ));
     let (reference, wall) = timed(|| uninterrupted(&cfg, &dir.path().join("reference")));
     let out = dir.path().join("interrupted");
     let child = std::process::Command::new(assert_cmd::cargo::cargo_bin("mbs"))
