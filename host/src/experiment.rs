@@ -11,6 +11,7 @@ use crate::cell::{
 use crate::config::Config;
 use crate::error::HostError;
 use crate::input::{read_bounded, Bound};
+use crate::log::Log;
 use crate::output::{create_dir, decimal, decimals, remove_temporaries, write_csv};
 use crate::references::Reference;
 use crate::shard::Shard;
@@ -22,8 +23,8 @@ use mbs_kernel::{shear_velocity, G};
 use rayon::prelude::*;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
-use std::sync::atomic::AtomicBool;
-use std::time::Duration;
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::time::{Duration, Instant};
 
 /// Where `run_all` keeps finished cells and checkpoints, and when it stops.
 pub struct RunControl<'a> {
@@ -37,6 +38,8 @@ pub struct RunControl<'a> {
     pub stop_after: Option<u64>,
     /// The slice of the cells to compute ([`Shard::ALL`] for every cell).
     pub shard: Shard,
+    /// Each cell's start and end are logged here.
+    pub log: &'a Log,
 }
 
 /// What `run_all` did.
@@ -48,6 +51,8 @@ pub struct RunOutcome {
     pub reused: usize,
     /// Cells continued from a checkpoint.
     pub resumed: usize,
+    /// Grain-steps of the cells computed (not reused) by this call.
+    pub computed_grain_steps: u64,
 }
 
 /// Deletes `path` if it exists.
@@ -101,6 +106,13 @@ pub fn run_all(
         .filter(|&(k, _)| control.shard.owns(k))
         .map(|(_, cell)| cell)
         .collect();
+    let finished = AtomicUsize::new(0);
+    let count = |progress: &ProgressBar| {
+        let k = finished.fetch_add(1, Ordering::Relaxed) + 1;
+        progress.set_message(format!("cells {k}/{}", cells.len()));
+    };
+    progress.set_message(format!("cells 0/{}", cells.len()));
+    let log = control.log;
     let outcomes: Vec<Result<(CellOutcome, u8), HostError>> = cells
         .par_iter()
         .map(|&(tau_star, seed)| {
@@ -110,6 +122,11 @@ pub fn run_all(
                 // A checkpoint left by a crash between storing and removing it.
                 remove_if_present(&path)?;
                 progress.inc(config.durations.cell());
+                log.event(&format!(
+                    "cell reused  tau* {tau_star} seed {seed}  q* {}",
+                    done.q_star
+                ));
+                count(progress);
                 return Ok((CellOutcome::Done(done), 1));
             }
             let key = cell_key(&serde_json::to_string(&spec).unwrap_or_default());
@@ -134,6 +151,10 @@ pub fn run_all(
                 stop: control.stop,
                 stop_after: control.stop_after,
             };
+            let cell = format!("tau* {tau_star} seed {seed}");
+            let from = if resume.is_some() { " (from its checkpoint)" } else { "" };
+            log.event(&format!("cell start  {cell}{from}"));
+            let clock = Instant::now();
             let outcome = run_cell_job(CellJob {
                 config,
                 tau_star,
@@ -142,10 +163,22 @@ pub fn run_all(
                 resume,
                 control: &cell_control,
                 progress,
-            })?;
-            if let CellOutcome::Done(result) = &outcome {
-                store.put(&spec, &Ok::<_, String>(result.clone()))?;
-                remove_if_present(&path)?;
+            })
+            .inspect_err(|e| log.event(&format!("cell failed  {cell}: {e}")))?;
+            let wall = clock.elapsed().as_secs_f64();
+            match &outcome {
+                CellOutcome::Done(result) => {
+                    store.put(&spec, &Ok::<_, String>(result.clone()))?;
+                    remove_if_present(&path)?;
+                    log.event(&format!(
+                        "cell end  {cell}  q* {}  wall {wall:.1} s",
+                        result.q_star
+                    ));
+                    count(progress);
+                }
+                CellOutcome::Stopped => {
+                    log.event(&format!("cell stopped  {cell}  checkpointed, wall {wall:.1} s"));
+                }
             }
             Ok((outcome, resumed))
         })
@@ -154,6 +187,7 @@ pub fn run_all(
         results: Vec::new(),
         reused: 0,
         resumed: 0,
+        computed_grain_steps: 0,
     };
     let mut stopped = 0;
     for o in outcomes {
@@ -161,7 +195,12 @@ pub fn run_all(
         out.reused += usize::from(how == 1);
         out.resumed += usize::from(how == 2);
         match outcome {
-            CellOutcome::Done(r) => out.results.push(r),
+            CellOutcome::Done(r) => {
+                if how != 1 {
+                    out.computed_grain_steps += r.grain_steps;
+                }
+                out.results.push(r);
+            }
             CellOutcome::Stopped => stopped += 1,
         }
     }

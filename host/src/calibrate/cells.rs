@@ -7,6 +7,7 @@ pub use crate::cell::TransportSpec;
 use crate::cell::{canonical, run_cell, CellResult};
 use crate::config::{Config, ConfigFile};
 use crate::error::HostError;
+use crate::log::Log;
 use crate::pack::{packing, Packing};
 use crate::store::Store;
 use indicatif::ProgressBar;
@@ -62,6 +63,8 @@ pub struct Cells<'a> {
     pub shard: Shard,
     /// Progress (cells).
     pub progress: &'a ProgressBar,
+    /// Each computed transport cell's end is logged here.
+    pub log: &'a Log,
 }
 
 impl Cells<'_> {
@@ -109,8 +112,17 @@ impl Cells<'_> {
                 Err(e) => return Ok(Err(format!("configuration: {e}"))),
             };
             let (tau, seed) = (config.tau_stars[0], config.seeds[0]);
+            let clock = std::time::Instant::now();
+            let cell = format!("tau* {tau} seed {seed} beta {}", config.scenario.rule.beta);
             match run_cell(&config, tau, seed, &ProgressBar::hidden()) {
-                Ok(r) => Ok(Ok(r)),
+                Ok(r) => {
+                    self.log.event(&format!(
+                        "cell end  {cell}  q* {}  wall {:.1} s",
+                        r.q_star,
+                        clock.elapsed().as_secs_f64()
+                    ));
+                    Ok(Ok(r))
+                }
                 Err(HostError::Kernel { context, error }) => Ok(Err(format!("{context}: {error}"))),
                 Err(e) => Err(e),
             }
