@@ -8,15 +8,15 @@ use crate::error::HostError;
 use crate::experiment::RunControl;
 use crate::experiment::{aggregate, run_all, write_transport, TransportRow};
 use crate::input::read_text_bounded;
+use crate::log::{Header, Log};
 use crate::output::{create_dir, write_json, write_text};
 use crate::pack::{packing, write_packing, Packing};
 use crate::plot::{save, TransportFigure};
+use crate::progress::Progress;
 use crate::shard::Shard;
 use crate::sims::{with_sim, SimJob, NEIGHBOURS};
 use crate::snapshot::{snapshots, write_snapshots, Snapshots};
 use crate::trace::TRACE_BOUND;
-use crate::log::{Header, Log};
-use crate::progress::Progress;
 use indicatif::ProgressBar;
 use mbs_kernel::{explicit_damping_number, Real, Scenario, Sim};
 use serde::Serialize;
@@ -330,7 +330,11 @@ fn run_logged(
     let cells = (0..config.tau_stars.len() * config.seeds.len())
         .filter(|&k| options.shard.owns(k))
         .count() as u64;
-    let progress = Progress::steps(cells * config.durations.cell(), "transport", common.quiet);
+    let progress = Progress::steps(
+        cells * config.durations.cell(),
+        &format!("cells 0/{cells}"),
+        common.quiet,
+    );
     let start = Instant::now();
     let control = RunControl {
         dir,
@@ -458,7 +462,9 @@ pub fn pack(
         resumed: false,
         config: &text,
     };
-    logged(&dir, header, |log| pack_logged(config, &dir, duration, common, log))
+    logged(&dir, header, |log| {
+        pack_logged(config, &dir, duration, common, log)
+    })
 }
 
 /// [`pack`] once its log is open.
@@ -813,13 +819,17 @@ pub fn bench_command(
     spinner.finish_and_clear();
     let r = r?;
     print(&format!(
-        "{} grains, {:?}, beta {}, {}: {:.1} ns per grain-step over {} repetitions, {:.2} contacts per grain, {} neighbour rebuilds ({:.0} % of the time in the steps that rebuilt)\n",
+        "{} grains, {:?}, beta {}, {}: {:.1} ns per grain-step over {} repetitions ({} rounds: min {:.1}, median {:.1}, max {:.1}), {:.2} contacts per grain, {} neighbour rebuilds ({:.0} % of the time in the steps that rebuilt)\n",
         r.grains,
         precision,
         beta,
         case.name(),
         r.ns_per_grain_step,
         r.repetitions,
+        r.rounds,
+        r.ns_spread.0,
+        r.ns_spread.1,
+        r.ns_spread.2,
         r.contacts_per_grain,
         r.rebuilds,
         100.0 * r.rebuild_share

@@ -152,7 +152,11 @@ pub fn run_all(
                 stop_after: control.stop_after,
             };
             let cell = format!("tau* {tau_star} seed {seed}");
-            let from = if resume.is_some() { " (from its checkpoint)" } else { "" };
+            let from = if resume.is_some() {
+                " (from its checkpoint)"
+            } else {
+                ""
+            };
             log.event(&format!("cell start  {cell}{from}"));
             let clock = Instant::now();
             let outcome = run_cell_job(CellJob {
@@ -171,13 +175,15 @@ pub fn run_all(
                     store.put(&spec, &Ok::<_, String>(result.clone()))?;
                     remove_if_present(&path)?;
                     log.event(&format!(
-                        "cell end  {cell}  q* {}  wall {wall:.1} s",
+                        "cell end  {cell}  q* {}  wall {wall:.3} s",
                         result.q_star
                     ));
                     count(progress);
                 }
                 CellOutcome::Stopped => {
-                    log.event(&format!("cell stopped  {cell}  checkpointed, wall {wall:.1} s"));
+                    log.event(&format!(
+                        "cell stopped  {cell}  checkpointed, wall {wall:.3} s"
+                    ));
                 }
             }
             Ok((outcome, resumed))

@@ -33,7 +33,8 @@ pub struct Header<'a> {
     pub command: &'a str,
     /// `mbs run --resume`: the separator says "resumed".
     pub resumed: bool,
-    /// The configuration as saved (TOML): its FNV-1a is logged.
+    /// The configuration as TOML (as `mbs run` saves it in
+    /// `DIR/config.toml`): its FNV-1a is logged.
     pub config: &'a str,
 }
 
@@ -61,9 +62,8 @@ impl Log {
         log.event(&format!("command {}", command_line()));
         log.event(&format!("version {}", version()));
         log.event(&format!(
-            "config fnv1a {:#018x} (of {}/config.toml as saved)",
+            "config fnv1a {:#018x} (of the configuration as TOML)",
             mbs_kernel::Fnv1a::of(header.config.as_bytes()),
-            dir.display()
         ));
         Ok(log)
     }
@@ -187,7 +187,10 @@ mod tests {
         log.warn("narrow");
         assert_eq!(log.warnings(), ["narrow"]);
         let text = std::fs::read_to_string(dir.path().join(LOG)).unwrap();
-        let events: Vec<&str> = text.lines().map(|l| l.split_once("  ").unwrap().1).collect();
+        let events: Vec<&str> = text
+            .lines()
+            .map(|l| l.split_once("  ").unwrap().1)
+            .collect();
         assert_eq!(events[0], "=== mbs run started");
         assert_eq!(events[4], "first");
         assert_eq!(events[5], "=== mbs run resumed");

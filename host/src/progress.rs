@@ -66,22 +66,20 @@ impl Progress {
         }
         let (stop, stopped) = channel();
         let (watched, unit) = (bar.clone(), unit.to_string());
-        let thread = std::thread::spawn(move || {
-            let mut last = Plain::of(&watched, &unit);
-            print_err(&last.line);
-            loop {
-                let done = match stopped.recv_timeout(Duration::from_secs(1)) {
-                    Err(RecvTimeoutError::Timeout) => false,
-                    _ => true,
-                };
-                let now = Plain::of(&watched, &unit);
-                if done || now.due_after(&last) {
-                    print_err(&now.line);
-                    last = now;
-                }
-                if done {
-                    return;
-                }
+        let mut last = Plain::of(&watched, &unit);
+        print_err(&last.line);
+        let thread = std::thread::spawn(move || loop {
+            let done = match stopped.recv_timeout(Duration::from_secs(1)) {
+                Err(RecvTimeoutError::Timeout) => false,
+                _ => true,
+            };
+            let now = Plain::of(&watched, &unit);
+            if done || now.due_after(&last) {
+                print_err(&now.line);
+                last = now;
+            }
+            if done {
+                return;
             }
         });
         Progress {
@@ -101,11 +99,12 @@ impl Progress {
     }
 
     fn stop(&mut self) {
-        self.bar.finish_and_clear();
+        // The last plain line first: finishing sets the bar to its end.
         if let Some((stop, thread)) = self.plain.take() {
             let _ = stop.send(());
             let _ = thread.join();
         }
+        self.bar.finish_and_clear();
     }
 }
 
@@ -127,30 +126,26 @@ impl Plain {
     fn of(bar: &ProgressBar, unit: &str) -> Plain {
         let elapsed = bar.elapsed();
         let message = bar.message();
-        let (line, share) = match bar.length() {
+        let (mut parts, share) = match bar.length() {
             Some(len) => {
                 let share = bar.position() as f64 / len.max(1) as f64;
-                let eta = if share > 0.0 {
-                    clock(elapsed.mul_f64((1.0 - share).max(0.0) / share))
-                } else {
-                    "?".into()
-                };
-                let line = format!(
-                    "progress {:3.0} %  {message}  elapsed {}  eta {eta}",
-                    100.0 * share,
-                    clock(elapsed)
-                );
-                (line, share)
+                (vec![format!("progress {:3.0} %", 100.0 * share)], share)
             }
-            None => (
-                format!(
-                    "progress  {} {unit}  {message}  elapsed {}",
-                    bar.position(),
-                    clock(elapsed)
-                ),
-                0.0,
-            ),
+            None => (vec![format!("progress  {} {unit}", bar.position())], 0.0),
         };
+        if !message.is_empty() {
+            parts.push(message.clone());
+        }
+        parts.push(format!("elapsed {}", clock(elapsed)));
+        if bar.length().is_some() {
+            let eta = if share > 0.0 {
+                clock(elapsed.mul_f64((1.0 - share).max(0.0) / share))
+            } else {
+                "?".into()
+            };
+            parts.push(format!("eta {eta}"));
+        }
+        let line = parts.join("  ");
         Plain {
             line,
             at: Instant::now(),

@@ -117,13 +117,17 @@ impl Cells<'_> {
             match run_cell(&config, tau, seed, &ProgressBar::hidden()) {
                 Ok(r) => {
                     self.log.event(&format!(
-                        "cell end  {cell}  q* {}  wall {:.1} s",
+                        "cell end  {cell}  q* {}  wall {:.3} s",
                         r.q_star,
                         clock.elapsed().as_secs_f64()
                     ));
                     Ok(Ok(r))
                 }
-                Err(HostError::Kernel { context, error }) => Ok(Err(format!("{context}: {error}"))),
+                Err(HostError::Kernel { context, error }) => {
+                    let message = format!("{context}: {error}");
+                    self.log.event(&format!("cell failed  {cell}: {message}"));
+                    Ok(Err(message))
+                }
                 Err(e) => Err(e),
             }
         })
