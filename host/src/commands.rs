@@ -399,7 +399,7 @@ fn run_logged(
             config.seeds.len()
         ),
     );
-    save(&figure, &dir, "transport")?;
+    save(&figure, dir, "transport")?;
     let grain_steps: u64 = results.iter().map(|r| r.grain_steps).sum();
     let computed = results.len() - outcome.reused;
     // Only the cells computed now took this wall time: no rate without them.

@@ -69,10 +69,11 @@ impl Progress {
         let mut last = Plain::of(&watched, &unit);
         print_err(&last.line);
         let thread = std::thread::spawn(move || loop {
-            let done = match stopped.recv_timeout(Duration::from_secs(1)) {
-                Err(RecvTimeoutError::Timeout) => false,
-                _ => true,
-            };
+            // A message or a closed channel: finish.
+            let done = !matches!(
+                stopped.recv_timeout(Duration::from_secs(1)),
+                Err(RecvTimeoutError::Timeout)
+            );
             let now = Plain::of(&watched, &unit);
             if done || now.due_after(&last) {
                 print_err(&now.line);
