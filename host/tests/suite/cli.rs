@@ -473,13 +473,17 @@ fn an_output_path_that_is_not_a_directory_is_named() {
 
 #[test]
 fn threads_above_the_maximum_are_refused() {
-    mbs()
-        .args(["run", "--threads", "1025"])
-        .assert()
-        .code(2)
-        .stderr(predicate::str::contains(
-            "--threads = 1025: must be 0 (one per core) to 1024",
-        ));
+    // (A missing configuration and `config`: fast failures if the check breaks.)
+    for args in [&["run", "missing.toml"][..], &["config"]] {
+        mbs()
+            .args(args)
+            .args(["--threads", "1025"])
+            .assert()
+            .code(2)
+            .stderr(predicate::str::contains(
+                "--threads = 1025: must be 0 (one per core) to 1024",
+            ));
+    }
 }
 
 #[test]
