@@ -809,8 +809,8 @@ pub fn bench_command(
     spinner.enable_steady_tick(std::time::Duration::from_millis(200));
     let (case, beta) = (job.case, job.bed.beta);
     let sc = job.bed.scenario(job.bed.columns());
+    // A physics warning: printed even when quiet.
     if precision == Precision::F32
-        && !common.quiet
         && let Some(w) = crate::config::f32_width_warning(sc.bed.width(), sc.step_dt())
     {
         print_err(&format!("warning: {w}"));
