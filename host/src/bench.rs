@@ -409,8 +409,13 @@ pub struct BenchResult {
     pub grains: usize,
     /// Repetitions timed (steps, rebuilds or passes over the contacts).
     pub repetitions: u64,
-    /// Wall time per grain and repetition (ns).
+    /// Wall time per grain and repetition (ns), over all repetitions.
     pub ns_per_grain_step: f64,
+    /// The same in each of [`ROUNDS`] rounds of the repetitions: (min,
+    /// median, max).
+    pub ns_spread: (f64, f64, f64),
+    /// Rounds timed (fewer than [`ROUNDS`] for fewer repetitions).
+    pub rounds: u64,
     /// Contacts per grain when timing started.
     pub contacts_per_grain: f64,
     /// Neighbour-list rebuilds during the timed steps (0 for the rebuild
@@ -419,6 +424,10 @@ pub struct BenchResult {
     /// Share of the time spent in the steps that rebuilt them.
     pub rebuild_share: f64,
 }
+
+/// The repetitions of `mbs bench` are timed in this many rounds, for the
+/// spread (min, median, max) of the time per grain-step.
+pub const ROUNDS: u64 = 5;
 
 /// `mbs bench`: prepare a bed, then time `repetitions` of `case`.
 pub struct Bench<'a> {
@@ -441,11 +450,29 @@ impl SimJob for Bench<'_> {
         let n = bed.sim().len() as f64;
         let contacts = bed.sim().observe().contacts as f64;
         let reps = self.repetitions;
-        let elapsed = bed.time(reps).map_err(HostError::kernel("bench"))?;
+        let rounds = reps.clamp(1, ROUNDS);
+        let ns = |time: Duration, reps: u64| time.as_secs_f64() * 1e9 / (n * reps.max(1) as f64);
+        let mut elapsed = Duration::ZERO;
+        let mut per_round = Vec::new();
+        for k in 0..rounds {
+            // Round k times repetitions [k reps / rounds, (k + 1) reps / rounds).
+            let part = (k + 1) * reps / rounds - k * reps / rounds;
+            let time = bed.time(part).map_err(HostError::kernel("bench"))?;
+            elapsed += time;
+            per_round.push(ns(time, part));
+        }
+        per_round.sort_by(f64::total_cmp);
+        let spread = (
+            per_round[0],
+            per_round[per_round.len() / 2],
+            per_round[per_round.len() - 1],
+        );
         Ok(BenchResult {
             grains: bed.sim().len(),
             repetitions: reps,
-            ns_per_grain_step: elapsed.as_secs_f64() * 1e9 / (n * reps.max(1) as f64),
+            ns_per_grain_step: ns(elapsed, reps),
+            ns_spread: spread,
+            rounds,
             contacts_per_grain: contacts / n,
             rebuilds: bed.rebuilds(),
             rebuild_share: bed.rebuild_time().as_secs_f64() / elapsed.as_secs_f64().max(1e-300),

@@ -8,16 +8,17 @@ use crate::error::HostError;
 use crate::experiment::RunControl;
 use crate::experiment::{aggregate, run_all, write_transport, TransportRow};
 use crate::input::read_text_bounded;
+use crate::log::{Header, Log};
 use crate::output::{create_dir, write_json, write_text};
 use crate::pack::{packing, write_packing, Packing};
 use crate::plot::{save, TransportFigure};
+use crate::progress::Progress;
 use crate::shard::Shard;
 use crate::sims::{with_sim, SimJob, NEIGHBOURS};
 use crate::snapshot::{snapshots, write_snapshots, Snapshots};
-use crate::text::{excerpt, MESSAGE};
 use crate::timeseries::{timeseries_figure, window_warnings, write_timeseries};
 use crate::trace::TRACE_BOUND;
-use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use indicatif::ProgressBar;
 use mbs_kernel::{explicit_damping_number, Real, Scenario, Sim};
 use serde::Serialize;
 use std::io::Write;
@@ -44,45 +45,84 @@ pub fn print(text: &str) -> Result<(), HostError> {
     }
 }
 
-/// Writes `text` and a newline to standard error, long lines as excerpts
-/// ([`excerpt`] of [`MESSAGE`] characters: a message quoting a 1 MB line
-/// stays short); a closed or broken standard error is ignored (a message
-/// cannot change the outcome or the exit status).
-pub fn print_err(text: &str) {
-    let _ = writeln!(std::io::stderr().lock(), "{}", excerpt(text, MESSAGE));
-}
+pub use crate::text::print_err;
 
-/// A progress bar over `len` integration steps on standard error (hidden
-/// when quiet or when standard error is not a terminal).
-pub fn progress(len: u64, what: &str, quiet: bool) -> ProgressBar {
-    let bar = ProgressBar::with_draw_target(
-        Some(len),
-        if quiet {
-            ProgressDrawTarget::hidden()
-        } else {
-            ProgressDrawTarget::stderr()
-        },
-    );
-    if let Ok(style) = ProgressStyle::with_template(
-        "{msg:12} [{elapsed_precise}] {wide_bar} {percent:>3}% (eta {eta})",
-    ) {
-        bar.set_style(style);
+/// The configuration's warnings ([`warnings`]) into `log`: printed even
+/// when quiet, logged, kept for `summary.json`.
+fn report_warnings(config: &Config, log: &Log, under_flow: bool) {
+    for w in warnings(config, under_flow) {
+        log.warn(&w);
     }
-    bar.set_message(what.to_string());
-    bar
 }
 
-fn report_warnings(config: &Config, quiet: bool, under_flow: bool) {
-    if !quiet {
-        for w in warnings(config, under_flow) {
-            print_err(&format!("warning: {w}"));
+/// `out`, else the configuration's output directory; an existing path
+/// that is not a directory is refused (`--out /dev/null`, exit 2).
+fn output_dir(config: &Config, out: Option<&Path>) -> Result<PathBuf, HostError> {
+    match out {
+        Some(dir) => directory("--out", dir),
+        None => directory("run.output", &config.output),
+    }
+}
+
+/// `dir`, given as `key`, if it is a directory or does not exist yet;
+/// anything else is refused (`--out /dev/null: not a directory`, exit 2).
+pub fn directory(key: &str, dir: &Path) -> Result<PathBuf, HostError> {
+    if dir.exists() && !dir.is_dir() {
+        return Err(ConfigError::Invalid {
+            key: key.into(),
+            value: dir.display().to_string(),
+            allowed: "a directory (it exists and is not one)".into(),
         }
+        .into());
     }
+    Ok(dir.to_path_buf())
 }
 
-/// `out`, else the configuration's output directory.
-fn output_dir(config: &Config, out: Option<&Path>) -> PathBuf {
-    out.map_or_else(|| config.output.clone(), Path::to_path_buf)
+/// Opens `dir/mbs.log` for `command` and runs `f` with it; the outcome
+/// (done, or the error and its exit status) ends the invocation's lines.
+fn logged(
+    dir: &Path,
+    header: Header<'_>,
+    f: impl FnOnce(&Log) -> Result<(), HostError>,
+) -> Result<(), HostError> {
+    let log = Log::open(dir, header)?;
+    let result = f(&log);
+    log.end(&result);
+    result
+}
+
+/// The canonical text of a configuration (what `DIR/config.toml` holds).
+fn config_text(config: &Config, dir: &Path) -> Result<String, HostError> {
+    toml::to_string(&config.file)
+        .map_err(|e| HostError::io(dir.join(RUN_CONFIG))(std::io::Error::other(e)))
+}
+
+/// Threads above this are refused: more than any machine `mbs` runs on
+/// has cores, and each worker holds a simulation in memory.
+pub const MAX_THREADS: usize = 1024;
+
+/// Checks `--threads`: at most [`MAX_THREADS`] (exit 2 above); more than
+/// the machine's cores is a warning (results are the same, not faster).
+pub fn check_threads(threads: usize) -> Result<(), HostError> {
+    if threads > MAX_THREADS {
+        return Err(ConfigError::Invalid {
+            key: "--threads".into(),
+            value: threads.to_string(),
+            allowed: format!("0 (one per core) to {MAX_THREADS}"),
+        }
+        .into());
+    }
+    Ok(())
+}
+
+/// The warning for `threads` workers on a machine with fewer cores.
+fn threads_warning(threads: usize) -> Option<String> {
+    let cores = std::thread::available_parallelism().map_or(1, usize::from);
+    (threads > cores).then(|| {
+        format!(
+            "--threads {threads} on {cores} core(s): the results are the same, the run is not faster"
+        )
+    })
 }
 
 /// Runs `f` on a rayon pool of `threads` workers (0: rayon's default).
@@ -155,14 +195,24 @@ struct Summary<'a> {
     config: &'a crate::config::ConfigFile,
     derived: Derived,
     threads: usize,
+    /// Cells computed by this invocation (resumed ones included).
+    cells_computed: usize,
+    /// Cells taken from `cells.jsonl` as they were.
     cells_reused: usize,
     cells_resumed: usize,
     beds_settled: usize,
     beds_resumed: usize,
-    warnings: &'a [String],
+    /// Wall time of this invocation.
     wall_time_s: f64,
+    /// Grain-steps of every cell.
     grain_steps: u64,
-    grain_steps_per_s: f64,
+    /// Grain-steps of the cells computed by this invocation (a resumed
+    /// cell counts whole).
+    grain_steps_computed: u64,
+    /// `grain_steps_computed / wall_time_s`; `null` when every cell was reused.
+    grain_steps_per_s: Option<f64>,
+    /// The warnings of the run (also on standard error and in `mbs.log`).
+    warnings: Vec<String>,
     transport: &'a [TransportRow],
     cells: &'a [crate::cell::CellResult],
 }
@@ -214,25 +264,43 @@ pub fn run(
     options: RunOptions,
     common: Common,
 ) -> Result<(), HostError> {
-    report_warnings(config, common.quiet, true);
+    let dir = output_dir(config, out)?;
+    let _lock = crate::output::lock_dir(&dir)?;
+    let text = config_text(config, &dir)?;
+    let header = Header {
+        command: "run",
+        resumed: options.resuming,
+        config: &text,
+    };
+    logged(&dir, header, |log| {
+        run_logged(config, &dir, &text, options, common, log)
+    })
+}
+
+/// [`run`] once its directory is locked and its log open.
+fn run_logged(
+    config: &Config,
+    dir: &Path,
+    text: &str,
+    options: RunOptions,
+    common: Common,
+    log: &Log,
+) -> Result<(), HostError> {
+    report_warnings(config, log, true);
     let threads = on_pool(common.threads, rayon::current_num_threads)?;
-    if let Some(w) = long_run_warning(config, threads).filter(|_| !common.quiet) {
-        print_err(&format!("warning: {w}"));
+    if let Some(w) = long_run_warning(config, threads) {
+        log.warn(&w);
     }
-    if let Some(every) = options
-        .checkpoint_every
-        .filter(|&s| s < 1.0 && !common.quiet)
-    {
-        print_err(&format!(
-            "warning: --checkpoint-every {} s: each cell writes a checkpoint at most once per \
+    if let Some(w) = threads_warning(common.threads) {
+        log.warn(&w);
+    }
+    if let Some(every) = options.checkpoint_every.filter(|&s| s < 1.0) {
+        log.warn(&format!(
+            "--checkpoint-every {} s: each cell writes a checkpoint at most once per \
              {MIN_CHECKPOINT_STEPS} integration steps",
             crate::text::number(every)
         ));
     }
-    let dir = output_dir(config, out);
-    let _lock = crate::output::lock_dir(&dir)?;
-    let text = toml::to_string(&config.file)
-        .map_err(|e| HostError::io(dir.join(RUN_CONFIG))(std::io::Error::other(e)))?;
     let started = std::fs::read_to_string(dir.join(RUN_CONFIG)).ok();
     let has_checkpoints = std::fs::read_dir(dir.join("checkpoints"))
         .map(|mut d| d.next().is_some())
@@ -259,7 +327,7 @@ pub fn run(
             ),
         });
     }
-    write_text(&dir.join(RUN_CONFIG), &text)?;
+    write_text(&dir.join(RUN_CONFIG), text)?;
     // A second handler cannot be installed (e.g. in-process tests); Ctrl-C then just kills.
     let _ = ctrlc::set_handler(|| STOP.store(true, Ordering::Relaxed));
     let cells = (0..config.tau_stars.len() * config.seeds.len())
@@ -267,21 +335,22 @@ pub fn run(
         .count() as u64;
     // Beds may come to rest before time.settle: the bar's length is the most.
     let beds = config.seeds.len() as u64 * config.durations.settle;
-    let bar = progress(
+    let progress = Progress::steps(
         beds + cells * config.durations.cell(),
-        "transport",
+        &format!("cells 0/{cells}"),
         common.quiet,
     );
     let start = Instant::now();
     let control = RunControl {
-        dir: &dir,
+        dir,
         every: options.checkpoint_every.map(Duration::from_secs_f64),
         stop: &STOP,
         stop_after: options.stop_after_steps,
         shard: options.shard,
+        log,
     };
-    let outcome = on_pool(common.threads, || run_all(config, &bar, &control))?;
-    bar.finish_and_clear();
+    let outcome = on_pool(common.threads, || run_all(config, progress.bar(), &control))?;
+    progress.finish();
     let outcome = match outcome {
         Err(HostError::Interrupted { jobs }) => {
             print_err(&format!(
@@ -296,12 +365,10 @@ pub fn run(
     };
     let results = outcome.results;
     let rows = aggregate(config, &results);
-    let mut warnings = outcome.warnings;
     if options.shard.is_all() {
-        warnings.extend(window_warnings(config, &rows));
-    }
-    for w in &warnings {
-        print_err(&format!("warning: {w}"));
+        for w in window_warnings(config, &rows) {
+            log.warn(&w);
+        }
     }
     if !options.shard.is_all() {
         let Shard { index, count } = options.shard;
@@ -343,11 +410,15 @@ pub fn run(
             config.seeds.len()
         ),
     );
-    save(&figure, &dir, "transport")?;
+    save(&figure, dir, "transport")?;
     write_timeseries(&dir.join("timeseries.csv"), config, &results)?;
-    save(&timeseries_figure(config, &results), &dir, "timeseries")?;
+    save(&timeseries_figure(config, &results), dir, "timeseries")?;
     let grain_steps: u64 =
         results.iter().map(|r| r.grain_steps).sum::<u64>() + outcome.bed_grain_steps;
+    let computed = results.len() - outcome.reused;
+    // Only the cells computed now took this wall time: no rate without them.
+    let rate = (computed > 0)
+        .then(|| (outcome.computed_grain_steps + outcome.bed_grain_steps) as f64 / wall);
     write_json(
         &dir.join("summary.json"),
         &Summary {
@@ -357,14 +428,16 @@ pub fn run(
             config: &config.file,
             derived: Derived::of(config),
             threads,
+            cells_computed: computed,
             cells_reused: outcome.reused,
             cells_resumed: outcome.resumed,
             beds_settled: outcome.beds_settled,
             beds_resumed: outcome.beds_resumed,
-            warnings: &warnings,
             wall_time_s: wall,
             grain_steps,
-            grain_steps_per_s: grain_steps as f64 / wall,
+            grain_steps_computed: outcome.computed_grain_steps + outcome.bed_grain_steps,
+            grain_steps_per_s: rate,
+            warnings: log.warnings(),
             transport: &rows,
             cells: &results,
         },
@@ -377,10 +450,13 @@ pub fn run(
                 r.tau_star, r.q_star, r.q_star_stderr, r.mpm, r.wong_parker
             );
         }
+        let speed = match rate {
+            Some(rate) => format!("{computed} computed in {wall:.1} s ({rate:.3e} grain-steps/s)"),
+            None => format!("all reused from {}", crate::store::STORE),
+        };
         text += &format!(
-            "{} cells in {wall:.1} s ({:.3e} grain-steps/s); wrote {}/transport.csv, transport.png, transport.svg, timeseries.csv, timeseries.png, timeseries.svg, summary.json\n",
+            "{} cells, {speed}; wrote {}/transport.csv, transport.png, transport.svg, timeseries.csv, timeseries.png, timeseries.svg, summary.json\n",
             results.len(),
-            grain_steps as f64 / wall,
             dir.display()
         );
         print(&text)?;
@@ -395,21 +471,40 @@ pub fn pack(
     duration: Option<f64>,
     common: Common,
 ) -> Result<(), HostError> {
-    report_warnings(config, common.quiet, false);
-    let dir = output_dir(config, out);
+    let dir = output_dir(config, out)?;
+    create_dir(&dir)?;
+    let text = config_text(config, &dir)?;
+    let header = Header {
+        command: "pack",
+        resumed: false,
+        config: &text,
+    };
+    logged(&dir, header, |log| {
+        pack_logged(config, &dir, duration, common, log)
+    })
+}
+
+/// [`pack`] once its log is open.
+fn pack_logged(
+    config: &Config,
+    dir: &Path,
+    duration: Option<f64>,
+    common: Common,
+    log: &Log,
+) -> Result<(), HostError> {
+    report_warnings(config, log, false);
     let steps = duration.map_or(config.durations.settle, |d| config.steps_of(d));
     let seed = config.seeds[0];
     let every = u64::from(config.scenario.substeps) * 10;
-    create_dir(&dir)?;
-    let bar = progress(steps, "packing", common.quiet);
+    let progress = Progress::steps(steps, "packing", common.quiet);
     let samples = packing(Packing {
         config,
         seed,
         steps,
         every,
-        progress: &bar,
+        progress: progress.bar(),
     })?;
-    bar.finish_and_clear();
+    progress.finish();
     let sc = &config.scenario;
     let title = format!(
         "Packing: d = {} mm, {}×{}, α_m = {}, α_cn = {}, β = {}",
@@ -420,7 +515,15 @@ pub fn pack(
         sc.rule.alpha_cn,
         sc.rule.beta
     );
-    write_packing(&dir, &samples, &title)?;
+    write_packing(dir, &samples, &title)?;
+    if let (Some(first), Some(last)) = (samples.first(), samples.last()) {
+        log.event(&format!(
+            "packed  y_gc {:.4} mm -> {:.4} mm over {:.3} s",
+            first.y_gc * 1e3,
+            last.y_gc * 1e3,
+            last.time
+        ));
+    }
     if !common.quiet
         && let (Some(first), Some(last)) = (samples.first(), samples.last())
     {
@@ -445,29 +548,42 @@ pub fn snapshot(
     every: f64,
     common: Common,
 ) -> Result<(), HostError> {
-    report_warnings(config, common.quiet, true);
-    let dir = output_dir(config, out);
+    let dir = output_dir(config, out)?;
     create_dir(&dir)?;
-    let every = config.steps_of(every);
-    let bar = progress(
-        config.durations.settle + frames * every,
-        "snapshot",
-        common.quiet,
-    );
-    let list = snapshots(Snapshots {
-        config,
-        tau_star,
-        seed: config.seeds[0],
-        frames,
-        every,
-        progress: &bar,
-    })?;
-    bar.finish_and_clear();
-    write_snapshots(&dir, &list, &format!("τ* = {tau_star}"))?;
+    let text = config_text(config, &dir)?;
+    let header = Header {
+        command: "snapshot",
+        resumed: false,
+        config: &text,
+    };
+    logged(&dir, header, |log| {
+        report_warnings(config, log, true);
+        let every = config.steps_of(every);
+        let progress = Progress::steps(
+            config.durations.settle + frames * every,
+            "snapshot",
+            common.quiet,
+        );
+        let list = snapshots(Snapshots {
+            config,
+            tau_star,
+            seed: config.seeds[0],
+            frames,
+            every,
+            progress: progress.bar(),
+        })?;
+        progress.finish();
+        write_snapshots(&dir, &list, &format!("τ* = {tau_star}"))?;
+        log.event(&format!("{} frames at tau* {tau_star}", list.len()));
+        snapshot_report(&dir, list.len(), common)
+    })
+}
+
+/// What `mbs snapshot` prints when done.
+fn snapshot_report(dir: &Path, frames: usize, common: Common) -> Result<(), HostError> {
     if !common.quiet {
         print(&format!(
-            "{} frames; wrote {dir}/snapshot/bed_NNNN.vtk (open bed.vtk.series in ParaView), {dir}/snapshot.png, snapshot.svg\n",
-            list.len(),
+            "{frames} frames; wrote {dir}/snapshot/bed_NNNN.vtk (open bed.vtk.series in ParaView), {dir}/snapshot.png, snapshot.svg\n",
             dir = dir.display()
         ))?;
     }
@@ -558,7 +674,7 @@ pub fn digest(
     };
     let (settled, flow) = with_sim(precision, config.capacity, job)
         .map_err(HostError::kernel(format!("digest, tau* = {tau_star}")))?;
-    print(&format!("settled {settled:#018x}\nflow {flow:#018x}\n"))
+    print(&format!("settling {settled:#018x}\nflow {flow:#018x}\n"))
 }
 
 /// A trace run's error as the command's: the kernel's (exit 1), a nudge
@@ -631,6 +747,70 @@ pub fn check_trace(path: &Path, nudge: Option<crate::trace::Nudge>) -> Result<()
     }
 }
 
+/// `mbs calibrate`: the calibration into `dir` ([`crate::calibrate`]),
+/// logged in `dir/mbs.log`, with `dir/summary.json` (its warnings and
+/// wall time); returns what it got to.
+pub fn calibrate(
+    base: Config,
+    dir: &Path,
+    options: crate::calibrate::Options,
+    threads: usize,
+) -> Result<crate::calibrate::Progress, HostError> {
+    let dir = directory("--out", dir)?;
+    create_dir(&dir)?;
+    let text = config_text(&base, &dir)?;
+    let header = Header {
+        command: "calibrate",
+        resumed: false,
+        config: &text,
+    };
+    let mut reached = None;
+    logged(&dir, header, |log| {
+        let start = Instant::now();
+        report_warnings(&base, log, true);
+        if let Some(w) = threads_warning(threads) {
+            log.warn(&w);
+        }
+        let progress = on_pool(threads, || {
+            crate::calibrate::calibrate(base, &dir, options, log)
+        })??;
+        let stages = match &progress {
+            crate::calibrate::Progress::Done { stages, .. } => *stages,
+            crate::calibrate::Progress::Waiting { stage } => stage - 1,
+        };
+        log.event(&format!("stages 1-{stages} done"));
+        write_json(
+            &dir.join("summary.json"),
+            &CalibrationSummary {
+                program: "mbs",
+                version: env!("CARGO_PKG_VERSION"),
+                command: "calibrate",
+                stages_done: stages,
+                wall_time_s: start.elapsed().as_secs_f64(),
+                warnings: log.warnings(),
+            },
+        )?;
+        reached = Some(progress);
+        Ok(())
+    })?;
+    reached.ok_or_else(|| HostError::io(&dir)(std::io::Error::other("no calibration result")))
+}
+
+/// `summary.json` of `mbs calibrate`.
+#[derive(Serialize)]
+struct CalibrationSummary {
+    program: &'static str,
+    version: &'static str,
+    command: &'static str,
+    /// Stages finished (all of them, or those before the one waiting for
+    /// other shards).
+    stages_done: usize,
+    /// Wall time of this invocation.
+    wall_time_s: f64,
+    /// The warnings (also on standard error and in `mbs.log`).
+    warnings: Vec<String>,
+}
+
 /// `mbs bench`: ns per grain-step of one case on a prepared bed.
 pub fn bench_command(
     precision: Precision,
@@ -646,8 +826,8 @@ pub fn bench_command(
     spinner.enable_steady_tick(std::time::Duration::from_millis(200));
     let (case, beta) = (job.case, job.bed.beta);
     let sc = job.bed.scenario(job.bed.columns());
+    // A physics warning: printed even when quiet.
     if precision == Precision::F32
-        && !common.quiet
         && let Some(w) = crate::config::f32_width_warning(sc.bed.width(), sc.step_dt())
     {
         print_err(&format!("warning: {w}"));
@@ -656,13 +836,17 @@ pub fn bench_command(
     spinner.finish_and_clear();
     let r = r?;
     print(&format!(
-        "{} grains, {:?}, beta {}, {}: {:.1} ns per grain-step over {} repetitions, {:.2} contacts per grain, {} neighbour rebuilds ({:.0} % of the time in the steps that rebuilt)\n",
+        "{} grains, {:?}, beta {}, {}: {:.1} ns per grain-step over {} repetitions ({} rounds: min {:.1}, median {:.1}, max {:.1}), {:.2} contacts per grain, {} neighbour rebuilds ({:.0} % of the time in the steps that rebuilt)\n",
         r.grains,
         precision,
         beta,
         case.name(),
         r.ns_per_grain_step,
         r.repetitions,
+        r.rounds,
+        r.ns_spread.0,
+        r.ns_spread.1,
+        r.ns_spread.2,
         r.contacts_per_grain,
         r.rebuilds,
         100.0 * r.rebuild_share

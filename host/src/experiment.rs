@@ -14,6 +14,7 @@ use crate::config::Config;
 use crate::control::Control;
 use crate::error::HostError;
 use crate::input::{read_bounded, Bound};
+use crate::log::Log;
 use crate::output::{
     create_dir, decimal, decimals, remove_if_present, remove_temporaries, write_csv,
 };
@@ -29,8 +30,8 @@ use rayon::prelude::*;
 use serde::Serialize;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
-use std::sync::atomic::AtomicBool;
-use std::time::Duration;
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::time::{Duration, Instant};
 
 /// Where `run_all` keeps finished cells and checkpoints, and when it stops.
 pub struct RunControl<'a> {
@@ -44,6 +45,8 @@ pub struct RunControl<'a> {
     pub stop_after: Option<u64>,
     /// The slice of the cells to compute ([`Shard::ALL`] for every cell).
     pub shard: Shard,
+    /// Each cell's start and end are logged here.
+    pub log: &'a Log,
 }
 
 /// What `run_all` did.
@@ -61,8 +64,8 @@ pub struct RunOutcome {
     pub beds_resumed: usize,
     /// Grain-steps of the beds settled in this invocation.
     pub bed_grain_steps: u64,
-    /// Warnings about the beds (one per seed and kind).
-    pub warnings: Vec<String>,
+    /// Grain-steps of the cells computed (not reused) by this call.
+    pub computed_grain_steps: u64,
 }
 
 /// The checkpoint file of a cell: `tau<τ*>_seed<seed>.ckpt`, τ* as
@@ -134,7 +137,6 @@ pub fn run_all(
         .collect();
     let mut settled: BTreeMap<u64, BedState> = BTreeMap::new();
     let (mut beds_stopped, mut beds_settled, mut beds_resumed, mut bed_grain_steps) = (0, 0, 0, 0);
-    let mut warnings = Vec::new();
     for (&seed, o) in seeds.iter().zip(obtained) {
         let o = o?;
         beds_resumed += usize::from(o.resumed);
@@ -142,7 +144,9 @@ pub fn run_all(
         bed_grain_steps += o.grain_steps;
         match o.bed {
             Some(bed) => {
-                warnings.extend(bed_warnings(config, seed, &bed));
+                for w in bed_warnings(config, seed, &bed) {
+                    control.log.warn(&w);
+                }
                 settled.insert(seed, bed);
             }
             None => beds_stopped += 1,
@@ -151,6 +155,13 @@ pub fn run_all(
     if beds_stopped > 0 {
         return Err(HostError::Interrupted { jobs: beds_stopped });
     }
+    let finished = AtomicUsize::new(0);
+    let count = |progress: &ProgressBar| {
+        let k = finished.fetch_add(1, Ordering::Relaxed) + 1;
+        progress.set_message(format!("cells {k}/{}", cells.len()));
+    };
+    progress.set_message(format!("cells 0/{}", cells.len()));
+    let log = control.log;
     let outcomes: Vec<Result<(CellOutcome, u8), HostError>> = cells
         .par_iter()
         .map(|&(tau_star, seed)| {
@@ -160,6 +171,11 @@ pub fn run_all(
                 // A checkpoint left by a crash between storing and removing it.
                 remove_if_present(&path)?;
                 progress.inc(config.durations.cell());
+                log.event(&format!(
+                    "cell reused  tau* {tau_star} seed {seed}  q* {}",
+                    done.q_star
+                ));
+                count(progress);
                 return Ok((CellOutcome::Done(done), 1));
             }
             let key = cell_key(&serde_json::to_string(&spec).unwrap_or_default());
@@ -191,6 +207,14 @@ pub fn run_all(
                 stop: control.stop,
                 stop_after: control.stop_after,
             };
+            let cell = format!("tau* {tau_star} seed {seed}");
+            let from = if resume.is_some() {
+                " (from its checkpoint)"
+            } else {
+                ""
+            };
+            log.event(&format!("cell start  {cell}{from}"));
+            let clock = Instant::now();
             let outcome = run_cell_job(CellJob {
                 config,
                 tau_star,
@@ -200,10 +224,24 @@ pub fn run_all(
                 resume,
                 control: &cell_control,
                 progress,
-            })?;
-            if let CellOutcome::Done(result) = &outcome {
-                store.put(&spec, &Ok::<_, String>(result.clone()))?;
-                remove_if_present(&path)?;
+            })
+            .inspect_err(|e| log.event(&format!("cell failed  {cell}: {e}")))?;
+            let wall = clock.elapsed().as_secs_f64();
+            match &outcome {
+                CellOutcome::Done(result) => {
+                    store.put(&spec, &Ok::<_, String>(result.clone()))?;
+                    remove_if_present(&path)?;
+                    log.event(&format!(
+                        "cell end  {cell}  q* {}  wall {wall:.3} s",
+                        result.q_star
+                    ));
+                    count(progress);
+                }
+                CellOutcome::Stopped => {
+                    log.event(&format!(
+                        "cell stopped  {cell}  checkpointed, wall {wall:.3} s"
+                    ));
+                }
             }
             Ok((outcome, resumed))
         })
@@ -215,7 +253,7 @@ pub fn run_all(
         beds_settled,
         beds_resumed,
         bed_grain_steps,
-        warnings,
+        computed_grain_steps: 0,
     };
     let mut stopped = 0;
     for o in outcomes {
@@ -223,7 +261,12 @@ pub fn run_all(
         out.reused += usize::from(how == 1);
         out.resumed += usize::from(how == 2);
         match outcome {
-            CellOutcome::Done(r) => out.results.push(r),
+            CellOutcome::Done(r) => {
+                if how != 1 {
+                    out.computed_grain_steps += r.grain_steps;
+                }
+                out.results.push(r);
+            }
             CellOutcome::Stopped => stopped += 1,
         }
     }

@@ -20,6 +20,8 @@
 //! | [`bench`] | hot-loop benchmark shared with criterion |
 //! | [`plot`] | figures (PNG + SVG) |
 //! | [`output`] | atomic file writes |
+//! | [`log`] | `DIR/mbs.log` and the warnings of a command |
+//! | [`progress`] | progress: a bar on a terminal, plain lines elsewhere |
 //! | [`input`] | bounded reads: files refused unread beyond the largest valid one |
 //! | [`text`] | excerpts of long lines for messages, numbers that stay short (file names) |
 //! | [`timeseries`] | q*(t) and bed level per cell, per-τ* figure, steadiness and target warnings |
@@ -37,10 +39,12 @@ pub mod error;
 pub mod experiment;
 pub mod framing;
 pub mod input;
+pub mod log;
 pub mod mixture;
 pub mod output;
 pub mod pack;
 pub mod plot;
+pub mod progress;
 pub mod references;
 pub mod shard;
 pub mod sims;

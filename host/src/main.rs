@@ -1,8 +1,8 @@
 //! `mbs`: the DEM numerical movable bed (Gotoh, Harada & Sakai).
 
-use clap::{Parser, Subcommand};
+use clap::{Args, Parser, Subcommand};
 use mbs::bench::{Bench, BenchBed, Case};
-use mbs::calibrate::{calibrate, merge, Options, Progress};
+use mbs::calibrate::{merge, Options, Progress};
 use mbs::commands::{self, Common};
 use mbs::references::Reference;
 use mbs::shard::Shard;
@@ -18,24 +18,50 @@ use std::process::ExitCode;
                   runs the main job (`mbs run`) on the embedded paper's case."
 )]
 struct Cli {
-    /// No progress bars and no report on standard output.
-    #[arg(long, short, global = true)]
+    /// Before the subcommand, for every subcommand (the main job's without one).
+    #[command(flatten)]
+    shared: Shared,
+    #[command(subcommand)]
+    command: Option<Command>,
+}
+
+/// Options a subcommand offers where they apply (each subcommand hides
+/// the others, still accepted as before).
+#[derive(Args, Clone, Default)]
+struct Shared {
+    /// No progress and no report on standard output (warnings are still printed).
+    #[arg(long, short)]
     quiet: bool,
-    /// Worker threads (0: one per core). Results do not depend on it.
-    #[arg(long, global = true, default_value_t = 0)]
+    /// Worker threads (0: one per core; at most 1024). Results do not depend on it.
+    #[arg(long, default_value_t = 0)]
     threads: usize,
     /// Override one configuration key, e.g. --set flow.tau_star=[0.1,0.2]
     /// (repeatable; checked like the file, saved in DIR/config.toml).
-    #[arg(long = "set", global = true, value_name = "SECTION.KEY=VALUE")]
+    #[arg(long = "set", value_name = "SECTION.KEY=VALUE")]
     sets: Vec<String>,
-    #[command(subcommand)]
-    command: Option<Command>,
+}
+
+impl Shared {
+    /// These options given before the subcommand together with `sub`, given after it.
+    fn and(self, sub: Shared) -> Shared {
+        Shared {
+            quiet: self.quiet || sub.quiet,
+            threads: if sub.threads != 0 {
+                sub.threads
+            } else {
+                self.threads
+            },
+            sets: [self.sets, sub.sets].concat(),
+        }
+    }
 }
 
 #[derive(Subcommand)]
 enum Command {
     /// The main job: q* against τ* over seeds → transport.csv, transport.png/.svg, summary.json.
     Run {
+        #[command(flatten)]
+        shared: Shared,
         /// Configuration file (TOML); the embedded paper's case when omitted.
         #[arg(conflicts_with = "resume")]
         config: Option<PathBuf>,
@@ -47,7 +73,7 @@ enum Command {
         resume: Option<PathBuf>,
         /// Checkpoint every running cell every SECONDS of wall time, and at most once per
         /// 2000 integration steps of a cell (Ctrl-C always checkpoints).
-        #[arg(long, value_name = "SECONDS")]
+        #[arg(long, value_name = "SECONDS", allow_negative_numbers = true)]
         checkpoint_every: Option<f64>,
         /// Stop every cell after N steps as if interrupted (for tests of resuming).
         #[arg(long, hide = true)]
@@ -59,7 +85,12 @@ enum Command {
     },
     /// Merges the cell stores of shard output directories (`run` or
     /// `calibrate` with --shard) into one directory.
+    #[command(mut_arg("quiet", |a| a.hide(true)))]
+    #[command(mut_arg("threads", |a| a.hide(true)))]
+    #[command(mut_arg("sets", |a| a.hide(true)))]
     Merge {
+        #[command(flatten)]
+        shared: Shared,
         /// Shard output directories.
         #[arg(required = true)]
         shards: Vec<PathBuf>,
@@ -68,37 +99,53 @@ enum Command {
         out: PathBuf,
     },
     /// Prints the embedded default configuration (the paper's case), commented.
-    Config,
+    #[command(mut_arg("quiet", |a| a.hide(true)))]
+    #[command(mut_arg("threads", |a| a.hide(true)))]
+    #[command(mut_arg("sets", |a| a.hide(true)))]
+    Config {
+        #[command(flatten)]
+        shared: Shared,
+    },
     /// Packing test (docs/model.md §9 step 1): packing.csv and a plot of y_gc(t).
+    #[command(mut_arg("threads", |a| a.hide(true)))]
     Pack {
+        #[command(flatten)]
+        shared: Shared,
         /// Configuration file (TOML).
         config: Option<PathBuf>,
         /// Output directory.
         #[arg(long)]
         out: Option<PathBuf>,
         /// Duration (s); default time.settle.
-        #[arg(long)]
+        #[arg(long, allow_negative_numbers = true)]
         duration: Option<f64>,
     },
     /// Pictures of the bed (PNG/SVG) and VTK frames over time for ParaView.
+    #[command(mut_arg("threads", |a| a.hide(true)))]
     Snapshot {
+        #[command(flatten)]
+        shared: Shared,
         /// Configuration file (TOML).
         config: Option<PathBuf>,
         /// Output directory.
         #[arg(long)]
         out: Option<PathBuf>,
         /// Shields number of the flow.
-        #[arg(long, default_value_t = 0.2)]
+        #[arg(long, default_value_t = 0.2, allow_negative_numbers = true)]
         tau: f64,
         /// Frames after the settled bed.
         #[arg(long, default_value_t = 20)]
         frames: u64,
         /// Time between frames (s).
-        #[arg(long, default_value_t = 0.01)]
+        #[arg(long, default_value_t = 0.01, allow_negative_numbers = true)]
         every: f64,
     },
     /// Prints the state digests after N settling and N flow steps (compare a board run).
+    #[command(mut_arg("quiet", |a| a.hide(true)))]
+    #[command(mut_arg("threads", |a| a.hide(true)))]
     Digest {
+        #[command(flatten)]
+        shared: Shared,
         /// Configuration file (TOML); without one, the golden-digest run: the
         /// paper's case on its 5 columns, as the firmware runs it.
         config: Option<PathBuf>,
@@ -112,7 +159,7 @@ enum Command {
         #[arg(long, value_enum, default_value_t = Precision::F64)]
         precision: Precision,
         /// Shields number of the flow phase.
-        #[arg(long, default_value_t = 0.2)]
+        #[arg(long, default_value_t = 0.2, allow_negative_numbers = true)]
         tau: f64,
         /// Also write a trace of the run (JSON, docs/determinism.md "Traces").
         #[arg(long, value_name = "FILE")]
@@ -143,6 +190,8 @@ enum Command {
     /// The paper's parameter optimisation, automated: α_m, α_cn, β, constants_dt(d, nvd), mixed sizes → report.md.
     #[command(args_conflicts_with_subcommands = true)]
     Calibrate {
+        #[command(flatten)]
+        shared: Shared,
         #[command(subcommand)]
         action: Option<CalibrateAction>,
         /// Base configuration (TOML); the embedded paper's case when omitted.
@@ -164,7 +213,11 @@ enum Command {
         reference: Reference,
     },
     /// Settles a bed of about N grains and prints ns per grain-step of the step loop alone.
+    #[command(mut_arg("threads", |a| a.hide(true)))]
+    #[command(mut_arg("sets", |a| a.hide(true)))]
     Bench {
+        #[command(flatten)]
+        shared: Shared,
         /// Grains (fixed included), 33 to 65536.
         #[arg(long, default_value_t = 1024, value_parser = clap::value_parser!(u32).range(33..=65536))]
         grains: u32,
@@ -181,7 +234,7 @@ enum Command {
         #[arg(long, conflicts_with = "case")]
         flow: bool,
         /// β of the paper's contact constants.
-        #[arg(long, default_value_t = 15.8)]
+        #[arg(long, default_value_t = 15.8, allow_negative_numbers = true)]
         beta: f64,
         /// Keep prepared beds in this directory and reuse them.
         #[arg(long)]
@@ -192,7 +245,12 @@ enum Command {
 #[derive(Subcommand)]
 enum CalibrateAction {
     /// Merges the cell stores of shard output directories into one directory.
+    #[command(mut_arg("quiet", |a| a.hide(true)))]
+    #[command(mut_arg("threads", |a| a.hide(true)))]
+    #[command(mut_arg("sets", |a| a.hide(true)))]
     Merge {
+        #[command(flatten)]
+        shared: Shared,
         /// Shard output directories.
         #[arg(required = true)]
         shards: Vec<PathBuf>,
@@ -232,22 +290,47 @@ fn seconds_arg(key: &str, seconds: f64) -> Result<(), HostError> {
     }
 }
 
+impl Command {
+    /// The subcommand's shared options, taken out of it.
+    fn take_shared(&mut self) -> Shared {
+        match self {
+            Command::Calibrate {
+                shared,
+                action: Some(CalibrateAction::Merge { shared: inner, .. }),
+                ..
+            } => std::mem::take(shared).and(std::mem::take(inner)),
+            Command::Run { shared, .. }
+            | Command::Merge { shared, .. }
+            | Command::Config { shared }
+            | Command::Pack { shared, .. }
+            | Command::Snapshot { shared, .. }
+            | Command::Digest { shared, .. }
+            | Command::Calibrate { shared, .. }
+            | Command::Bench { shared, .. } => std::mem::take(shared),
+        }
+    }
+}
+
 fn execute(cli: Cli) -> Result<(), HostError> {
-    let common = Common {
-        quiet: cli.quiet,
-        threads: cli.threads,
-    };
-    let sets = cli.sets;
-    let load =
-        |path: &Option<PathBuf>| Config::load_with(path.as_deref(), &sets).map_err(HostError::from);
-    match cli.command.unwrap_or(Command::Run {
+    let mut command = cli.command.unwrap_or(Command::Run {
+        shared: Shared::default(),
         config: None,
         out: None,
         resume: None,
         checkpoint_every: None,
         stop_after_steps: None,
         shard: None,
-    }) {
+    });
+    let shared = cli.shared.and(command.take_shared());
+    commands::check_threads(shared.threads)?;
+    let common = Common {
+        quiet: shared.quiet,
+        threads: shared.threads,
+    };
+    let sets = shared.sets;
+    let load =
+        |path: &Option<PathBuf>| Config::load_with(path.as_deref(), &sets).map_err(HostError::from);
+    match command {
         Command::Run {
             config,
             out,
@@ -255,6 +338,7 @@ fn execute(cli: Cli) -> Result<(), HostError> {
             checkpoint_every,
             stop_after_steps,
             shard,
+            ..
         } => {
             if let Some(s) = checkpoint_every
                 .filter(|s| !(*s > 0.0 && std::time::Duration::try_from_secs_f64(*s).is_ok()))
@@ -286,8 +370,8 @@ fn execute(cli: Cli) -> Result<(), HostError> {
             };
             commands::run(&config, out.as_deref(), options, common)
         }
-        Command::Config => commands::config(),
-        Command::Merge { shards, out } => {
+        Command::Config { .. } => commands::config(),
+        Command::Merge { shards, out, .. } => {
             let added = merge(&shards, &out)?;
             commands::print(&format!(
                 "merged {added} new cells into {}; finish with the same command without --shard and with --out {}\n",
@@ -299,6 +383,7 @@ fn execute(cli: Cli) -> Result<(), HostError> {
             config,
             out,
             duration,
+            ..
         } => {
             if let Some(d) = duration {
                 seconds_arg("--duration", d)?;
@@ -311,6 +396,7 @@ fn execute(cli: Cli) -> Result<(), HostError> {
             tau,
             frames,
             every,
+            ..
         } => {
             let tau = tau_arg(tau)?;
             seconds_arg("--every", every)?;
@@ -329,6 +415,7 @@ fn execute(cli: Cli) -> Result<(), HostError> {
             states,
             check,
             nudge,
+            ..
         } => {
             if let Some(file) = check {
                 if !sets.is_empty() {
@@ -368,7 +455,7 @@ fn execute(cli: Cli) -> Result<(), HostError> {
             commands::digest(&config, steps, precision, tau_arg(tau)?, trace)
         }
         Command::Calibrate {
-            action: Some(CalibrateAction::Merge { shards, out }),
+            action: Some(CalibrateAction::Merge { shards, out, .. }),
             ..
         } => {
             let added = merge(&shards, &out)?;
@@ -386,6 +473,7 @@ fn execute(cli: Cli) -> Result<(), HostError> {
             stage,
             shard,
             reference,
+            ..
         } => {
             let base = load(&config)?;
             let options = Options {
@@ -393,10 +481,9 @@ fn execute(cli: Cli) -> Result<(), HostError> {
                 last_stage: usize::from(stage),
                 shard: shard.unwrap_or(Shard::ALL),
                 reference,
-                quiet: cli.quiet,
+                quiet: common.quiet,
             };
-            let message = match commands::on_pool(cli.threads, || calibrate(base, &out, options))??
-            {
+            let message = match commands::calibrate(base, &out, options, common.threads)? {
                 Progress::Done { stages, calibrated } => {
                     let done = if stages == 5 {
                         format!("calibration done: {}/report.md\n", out.display())
@@ -413,7 +500,7 @@ fn execute(cli: Cli) -> Result<(), HostError> {
                      (`mbs calibrate merge DIRS --out DIR`) and run again\n"
                 ),
             };
-            if cli.quiet {
+            if common.quiet {
                 Ok(())
             } else {
                 commands::print(&message)
@@ -427,6 +514,7 @@ fn execute(cli: Cli) -> Result<(), HostError> {
             flow,
             beta,
             beds,
+            ..
         } => {
             let job = Bench {
                 bed: BenchBed {

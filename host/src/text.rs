@@ -8,6 +8,15 @@ pub const QUOTE: usize = 400;
 /// Characters of the longest line of a message on standard error.
 pub const MESSAGE: usize = 1000;
 
+/// Writes `text` and a newline to standard error, long lines as excerpts
+/// ([`excerpt`] of [`MESSAGE`] characters: a message quoting a 1 MB line
+/// stays short); a closed or broken standard error is ignored (a message
+/// cannot change the outcome or the exit status).
+pub fn print_err(text: &str) {
+    use std::io::Write;
+    let _ = writeln!(std::io::stderr().lock(), "{}", excerpt(text, MESSAGE));
+}
+
 /// `text` with each line longer than `max` characters cut to its first
 /// ones and the count of those left out: a message quoting a 1 MB line
 /// stays short.

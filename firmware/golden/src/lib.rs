@@ -1,6 +1,6 @@
 //! The golden run, shared by every board and runner in `firmware/`: build
 //! a scenario's bed, settle it, run it under the flow, and report the state
-//! digest after each phase in the lines `mbs digest` prints (`settled 0x…`,
+//! digest after each phase in the lines `mbs digest` prints (`settling 0x…`,
 //! `flow 0x…`); then the living bed's trace ([`trace`]): so that a run on
 //! any target compares with the host's bit for bit (docs/board.md).
 #![no_std]
@@ -56,7 +56,7 @@ impl Report {
     }
 }
 
-/// The report's lines; the `settled` and `flow` ones are those of
+/// The report's lines; the `settling` and `flow` ones are those of
 /// `mbs digest`.
 impl fmt::Display for Report {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
@@ -67,7 +67,7 @@ impl fmt::Display for Report {
             self.grains, self.capacity, self.slots
         )?;
         writeln!(f, "steps {}", self.steps)?;
-        writeln!(f, "settled {:#018x}", self.settled)?;
+        writeln!(f, "settling {:#018x}", self.settled)?;
         write!(f, "flow {:#018x}", self.flow)
     }
 }

@@ -9,6 +9,7 @@ use crate::cell::{run_cell, CellResult};
 use crate::config::canonical;
 use crate::config::{Config, ConfigFile};
 use crate::error::HostError;
+use crate::log::Log;
 use crate::pack::{packing, Packing};
 use crate::store::Store;
 use indicatif::ProgressBar;
@@ -69,6 +70,8 @@ pub struct Cells<'a> {
     pub progress: &'a ProgressBar,
     /// Where the settled beds are kept.
     pub beds: PathBuf,
+    /// Each computed transport cell's end is logged here.
+    pub log: &'a Log,
 }
 
 /// A calibration's beds are never stopped (its cells are not checkpointed).
@@ -164,9 +167,22 @@ impl Cells<'_> {
                 Some(Err(e)) => return Ok(Err(e.clone())),
                 None => return Ok(Err(format!("no settled bed of seed {seed}"))),
             };
+            let clock = std::time::Instant::now();
+            let cell = format!("tau* {tau} seed {seed} beta {}", config.scenario.rule.beta);
             match run_cell(&config, tau, seed, bed, &ProgressBar::hidden()) {
-                Ok(r) => Ok(Ok(r)),
-                Err(HostError::Kernel { context, error }) => Ok(Err(format!("{context}: {error}"))),
+                Ok(r) => {
+                    self.log.event(&format!(
+                        "cell end  {cell}  q* {}  wall {:.3} s",
+                        r.q_star,
+                        clock.elapsed().as_secs_f64()
+                    ));
+                    Ok(Ok(r))
+                }
+                Err(HostError::Kernel { context, error }) => {
+                    let message = format!("{context}: {error}");
+                    self.log.event(&format!("cell failed  {cell}: {message}"));
+                    Ok(Err(message))
+                }
                 Err(e) => Err(e),
             }
         })

@@ -22,6 +22,7 @@ pub mod stages;
 
 use crate::config::{Config, ConfigFile};
 use crate::error::HostError;
+use crate::log::Log;
 use crate::references::Reference;
 use cells::{Cells, TransportSpec};
 use serde::{Deserialize, Serialize};
@@ -366,6 +367,7 @@ pub fn calibrate(
     base: Config,
     dir: &std::path::Path,
     options: Options,
+    log: &Log,
 ) -> Result<Progress, HostError> {
     use stages::{beta, mixed, settling, timestep};
     let plan = if options.quick {
@@ -385,17 +387,11 @@ pub fn calibrate(
     crate::output::remove_temporaries(dir)?;
     let store = crate::store::Store::open(&dir.join(STORE))?;
     crate::output::write_json(&dir.join("plan.json"), &plan)?;
-    let bar = if options.quiet {
-        indicatif::ProgressBar::hidden()
-    } else {
-        indicatif::ProgressBar::new_spinner()
+    let progress = crate::progress::Progress::counter("cells computed", options.quiet);
+    let stage = |name: &str| {
+        progress.bar().set_message(name.to_string());
+        log.event(name);
     };
-    if let Ok(style) = indicatif::ProgressStyle::with_template(
-        "{spinner} calibrate [{elapsed_precise}] {pos} cells computed, {msg}",
-    ) {
-        bar.set_style(style);
-    }
-    bar.enable_steady_tick(std::time::Duration::from_millis(250));
     let ctx = Context {
         base,
         plan,
@@ -403,13 +399,14 @@ pub fn calibrate(
         cells: Cells {
             store: &store,
             shard: options.shard,
-            progress: &bar,
+            progress: progress.bar(),
+            log,
             beds: dir.join("beds"),
         },
         dir: dir.to_path_buf(),
     };
     let waiting = |stage| Ok(Progress::Waiting { stage });
-    bar.set_message("stage 1 (α_m)");
+    stage("stage 1 (α_m)");
     let Some(s1) = settling::run(&ctx, 1, ctx.base.scenario.rule.alpha_m)? else {
         return waiting(1);
     };
@@ -419,7 +416,7 @@ pub fn calibrate(
             calibrated: None,
         });
     }
-    bar.set_message("stage 2 (α_cn)");
+    stage("stage 2 (α_cn)");
     let Some(s2) = settling::run(&ctx, 2, s1.chosen)? else {
         return waiting(2);
     };
@@ -429,7 +426,7 @@ pub fn calibrate(
             calibrated: None,
         });
     }
-    bar.set_message("stage 3 (β)");
+    stage("stage 3 (β)");
     let Some(s3) = beta::run(&ctx, s1.chosen, s2.chosen)? else {
         return waiting(3);
     };
@@ -443,7 +440,7 @@ pub fn calibrate(
             calibrated: Some(write_calibrated(None)?),
         });
     }
-    bar.set_message("stage 4 (constants_dt for d and nvd)");
+    stage("stage 4 (constants_dt for d and nvd)");
     let Some(s4) = timestep::run(&ctx, s1.chosen, s2.chosen, s3.beta)? else {
         return waiting(4);
     };
@@ -453,11 +450,10 @@ pub fn calibrate(
             calibrated: Some(write_calibrated(Some(&s4))?),
         });
     }
-    bar.set_message("stage 5 (mixed sizes)");
+    stage("stage 5 (mixed sizes)");
     let Some(s5) = mixed::run(&ctx, s1.chosen, s2.chosen, s3.beta)? else {
         return waiting(5);
     };
-    bar.finish_and_clear();
     report::write_report(
         dir,
         &ctx.plan,

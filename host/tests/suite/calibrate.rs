@@ -41,6 +41,16 @@ fn quick_calibration_writes_every_stage_and_the_report() {
     ] {
         assert!(dir.path().join(f).metadata().unwrap().len() > 0, "{f}");
     }
+    // The log and the summary (docs/guarantees.md).
+    let log = read(dir.path(), "mbs.log");
+    let events: Vec<&str> = log.lines().map(|l| l.split_once("  ").unwrap().1).collect();
+    assert_eq!(events[0], "=== mbs calibrate started");
+    assert!(events.contains(&"stage 3 (β)"));
+    assert!(events.iter().any(|e| e.starts_with("cell end  tau* ")));
+    assert_eq!(events.last(), Some(&"done (exit 0)"));
+    let summary = json(dir.path(), "summary.json");
+    assert_eq!(summary["stages_done"], 5);
+    assert!(summary["warnings"].is_array());
     let report = read(dir.path(), "report.md");
     let s1 = json(dir.path(), "stage1.json");
     let s3 = json(dir.path(), "stage3.json");

@@ -243,13 +243,11 @@ fn digest_matches_the_golden_file() {
             .stdout
             .clone();
         let text = String::from_utf8(out).unwrap();
+        // The printed lines name the phases as the golden file does.
+        let phases: Vec<&str> = text.lines().map(|l| l.split(' ').next().unwrap()).collect();
+        assert_eq!(phases, ["settling", "flow"]);
         for line in text.lines() {
             let (phase, hex) = line.split_once(' ').unwrap();
-            let phase = if phase == "settled" {
-                "settling"
-            } else {
-                phase
-            };
             assert!(golden.contains(&format!("{phase} {p} {hex}")), "{line}");
         }
     }
@@ -268,6 +266,8 @@ fn bench_runs_every_case_and_keeps_prepared_beds() {
             .stdout(
                 predicate::str::contains("ns per grain-step")
                     .and(predicate::str::contains("66 grains"))
+                    .and(predicate::str::contains("(5 rounds: min "))
+                    .and(predicate::str::contains(", median "))
                     .and(predicate::str::contains(format!(", {case}: "))),
             );
     }
@@ -514,4 +514,84 @@ fn windows_stop_at_the_target_or_say_they_did_not_reach_it() {
         stderr.contains("warning: target-not-reached: tau* = 0.1: 2 of 2 seed(s) averaged for the whole time.window = 0.05 s"),
         "{stderr}"
     );
+}
+
+#[test]
+fn negative_numbers_get_the_range_error() {
+    for args in [
+        &["snapshot", "--tau", "-1"][..],
+        &["digest", "--tau", "-1"],
+        &["pack", "--duration", "-1"],
+    ] {
+        let key = args[1];
+        mbs()
+            .args(args)
+            .assert()
+            .code(2)
+            .stderr(predicate::str::contains(format!("{key} = -1: must be")));
+    }
+}
+
+#[test]
+fn an_output_path_that_is_not_a_directory_is_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = write(dir.path(), "file", "");
+    for out in [Path::new("/dev/null"), file.as_path()] {
+        for command in ["run", "pack", "snapshot", "calibrate"] {
+            mbs()
+                .arg(command)
+                .arg("--out")
+                .arg(out)
+                .assert()
+                .code(2)
+                .stderr(predicate::str::contains(format!(
+                    "--out = {}: must be a directory (it exists and is not one)",
+                    out.display()
+                )));
+        }
+    }
+}
+
+#[test]
+fn threads_above_the_maximum_are_refused() {
+    // (A missing configuration and `config`: fast failures if the check breaks.)
+    for args in [&["run", "missing.toml"][..], &["config"]] {
+        mbs()
+            .args(args)
+            .args(["--threads", "1025"])
+            .assert()
+            .code(2)
+            .stderr(predicate::str::contains(
+                "--threads = 1025: must be 0 (one per core) to 1024",
+            ));
+    }
+}
+
+#[test]
+fn subcommands_offer_only_the_options_they_use() {
+    let help = |command: &str| {
+        let out = mbs().args([command, "--help"]).assert().success();
+        String::from_utf8(out.get_output().stdout.clone()).unwrap()
+    };
+    let offered = |text: &str| ["--quiet", "--threads", "--set"].map(|o| text.contains(o));
+    assert_eq!(offered(&help("config")), [false; 3]);
+    assert_eq!(offered(&help("merge")), [false; 3]);
+    assert_eq!(offered(&help("bench")), [true, false, false]);
+    assert_eq!(offered(&help("digest")), [false, false, true]);
+    assert_eq!(offered(&help("pack")), [true, false, true]);
+    assert_eq!(offered(&help("snapshot")), [true, false, true]);
+    assert_eq!(offered(&help("run")), [true; 3]);
+    assert_eq!(offered(&help("calibrate")), [true; 3]);
+    // Still accepted wherever they were, before or after the subcommand.
+    for args in [
+        &["--quiet", "--threads", "1", "config"][..],
+        &["config", "--quiet", "--threads", "1"],
+        &["digest", "--steps", "10", "--quiet", "--threads", "2"],
+    ] {
+        assert_cmd::Command::cargo_bin("mbs")
+            .unwrap()
+            .args(args)
+            .assert()
+            .success();
+    }
 }

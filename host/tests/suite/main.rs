@@ -10,6 +10,7 @@ mod calibrate;
 mod cli;
 mod figures;
 mod hostile;
+mod log;
 mod paper_case;
 mod resume;
 mod trace;

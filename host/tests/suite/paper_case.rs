@@ -21,6 +21,7 @@ fn transport(mut config: Config) -> Vec<TransportRow> {
         stop: &never,
         stop_after: None,
         shard: mbs::shard::Shard::ALL,
+        log: &mbs::log::Log::discard(),
     };
     let outcome = run_all(&config, &ProgressBar::hidden(), &control).expect("the case runs");
     aggregate(&config, &outcome.results)

@@ -238,10 +238,12 @@ fn an_unusable_output_directory_is_a_clear_error_and_earlier_results_stay() {
     // A file where the output directory should be: nothing can be created in it.
     let blocked = dir.path().join("blocked");
     std::fs::write(&blocked, "earlier results\n").unwrap();
+    // Refused before anything is written, as a bad argument (exit 2; was 1
+    // with the operating system's "File exists").
     run_into(&cfg, &blocked)
         .assert()
-        .code(1)
-        .stderr(predicates::str::contains("blocked"));
+        .code(2)
+        .stderr(predicates::str::contains("blocked: must be a directory"));
     assert_eq!(
         std::fs::read_to_string(&blocked).unwrap(),
         "earlier results\n"

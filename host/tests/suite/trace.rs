@@ -64,7 +64,7 @@ fn digest_writes_a_trace_of_the_run() {
     // The records at the phases' ends are the printed digests.
     let settled = records[4]["digest"].as_str().unwrap();
     let flow = records[8]["digest"].as_str().unwrap();
-    assert_eq!(printed, format!("settled {settled}\nflow {flow}\n"));
+    assert_eq!(printed, format!("settling {settled}\nflow {flow}\n"));
 }
 
 #[test]
