@@ -13,7 +13,7 @@ use crate::pack::{packing, write_packing, Packing};
 use crate::plot::{save, TransportFigure};
 use crate::shard::Shard;
 use crate::sims::{with_sim, SimJob, NEIGHBOURS};
-use crate::snapshot::{snapshots, write_snapshots, Snapshots};
+use crate::snapshot::{snapshots, write_picture, Snapshots};
 use crate::text::{excerpt, MESSAGE};
 use crate::trace::TRACE_BOUND;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
@@ -412,7 +412,7 @@ pub fn pack(
     Ok(())
 }
 
-/// `mbs snapshot`: pictures and VTK frames of the bed under the flow.
+/// `mbs snapshot`: pictures and particle frames of the bed under the flow.
 pub fn snapshot(
     config: &Config,
     out: Option<&Path>,
@@ -430,20 +430,21 @@ pub fn snapshot(
         "snapshot",
         common.quiet,
     );
-    let list = snapshots(Snapshots {
+    let done = snapshots(Snapshots {
         config,
         tau_star,
         seed: config.seeds[0],
         frames,
         every,
+        dir: &dir.join("snapshot"),
         progress: &bar,
     })?;
     bar.finish_and_clear();
-    write_snapshots(&dir, &list, &format!("τ* = {tau_star}"))?;
+    write_picture(&dir, &done.last, &format!("τ* = {tau_star}"))?;
     if !common.quiet {
         print(&format!(
-            "{} frames; wrote {dir}/snapshot/bed_NNNN.vtk (open bed.vtk.series in ParaView), {dir}/snapshot.png, snapshot.svg\n",
-            list.len(),
+            "{} frames; wrote {dir}/snapshot/bed_NNNN.vtu (open bed.pvd in ParaView; meshio reads the .vtu files), {dir}/snapshot.png, snapshot.svg\n",
+            done.frames,
             dir = dir.display()
         ))?;
     }

@@ -80,7 +80,7 @@ enum Command {
         #[arg(long)]
         duration: Option<f64>,
     },
-    /// Pictures of the bed (PNG/SVG) and VTK frames over time for ParaView.
+    /// Pictures of the bed (PNG/SVG) and particle frames over time for ParaView and meshio (.vtu, .pvd).
     Snapshot {
         /// Configuration file (TOML).
         config: Option<PathBuf>,
