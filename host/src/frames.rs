@@ -262,3 +262,65 @@ pub fn pvd(entries: &[(String, f64)]) -> String {
     s.push_str("</Collection>\n</VTKFile>\n");
     s
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn images_count_the_seam_crossings_both_ways() {
+        let mut images = Images::default();
+        let width = 1.0;
+        // Grain 0 drifts right across the seam twice, grain 1 left once,
+        // grain 2 stays.
+        let frames: [[f64; 3]; 5] = [
+            [0.25, 0.375, 0.5],
+            [0.75, 0.125, 0.5],
+            [0.125, 0.875, 0.5],
+            [0.625, 0.625, 0.5],
+            [0.0625, 0.5, 0.5],
+        ];
+        for x in &frames {
+            images.track(width, x);
+        }
+        assert_eq!(images.count, [2, -1, 0]);
+        assert_eq!(images.unwrapped(), [2.0625, -0.5, 0.5]);
+    }
+
+    #[test]
+    fn images_start_afresh_for_other_grains_or_width() {
+        let mut images = Images::default();
+        images.track(1.0, &[0.9]);
+        images.track(1.0, &[0.1]);
+        assert_eq!(images.count, [1]);
+        images.track(1.0, &[0.1, 0.2]);
+        assert_eq!(images.count, [0, 0]);
+        images.track(1.0, &[0.9, 0.2]);
+        images.track(2.0, &[0.9, 0.2]);
+        assert_eq!(images.count, [0, 0]);
+    }
+
+    #[test]
+    fn the_collection_lists_every_frame_with_its_time() {
+        let entries = [("a_0000.vtu".to_string(), 0.5), ("a_0001.vtu".to_string(), 0.75)];
+        let text = pvd(&entries);
+        let doc = roxmltree::Document::parse(&text).unwrap();
+        let sets: Vec<(&str, f64)> = doc
+            .descendants()
+            .filter(|n| n.has_tag_name("DataSet"))
+            .map(|n| {
+                let t = n.attribute("timestep").unwrap().parse().unwrap();
+                (n.attribute("file").unwrap(), t)
+            })
+            .collect();
+        assert_eq!(sets, [("a_0000.vtu", 0.5), ("a_0001.vtu", 0.75)]);
+    }
+
+    #[test]
+    fn a_frame_without_grains_is_valid_xml() {
+        let text = vtu(&[], &[], 1.0, 0.0);
+        let doc = roxmltree::Document::parse(&text).unwrap();
+        let piece = doc.descendants().find(|n| n.has_tag_name("Piece")).unwrap();
+        assert_eq!(piece.attribute("NumberOfPoints"), Some("0"));
+    }
+}

@@ -1,5 +1,5 @@
 //! The `mbs` command's integration tests, in one test binary (one link
-//! instead of seven; see docs/architecture.md, "Tests"). Each module is one
+//! instead of nine; see docs/architecture.md, "Tests"). Each module is one
 //! topic; `common` holds the shared small configurations and helpers.
 
 mod common;
@@ -8,6 +8,7 @@ mod attack;
 mod calibrate;
 mod cli;
 mod figures;
+mod frames;
 mod hostile;
 mod paper_case;
 mod resume;
