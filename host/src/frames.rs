@@ -302,7 +302,10 @@ mod tests {
 
     #[test]
     fn the_collection_lists_every_frame_with_its_time() {
-        let entries = [("a_0000.vtu".to_string(), 0.5), ("a_0001.vtu".to_string(), 0.75)];
+        let entries = [
+            ("a_0000.vtu".to_string(), 0.5),
+            ("a_0001.vtu".to_string(), 0.75),
+        ];
         let text = pvd(&entries);
         let doc = roxmltree::Document::parse(&text).unwrap();
         let sets: Vec<(&str, f64)> = doc

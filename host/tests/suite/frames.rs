@@ -49,7 +49,10 @@ fn read_frame(path: &Path) -> Frame {
     assert_eq!(root.attribute("byte_order"), Some("LittleEndian"));
     let piece = doc.descendants().find(|n| n.has_tag_name("Piece")).unwrap();
     let points: usize = piece.attribute("NumberOfPoints").unwrap().parse().unwrap();
-    assert_eq!(piece.attribute("NumberOfCells"), Some(points.to_string().as_str()));
+    assert_eq!(
+        piece.attribute("NumberOfCells"),
+        Some(points.to_string().as_str())
+    );
     let (mut arrays, mut fields) = (HashMap::new(), HashMap::new());
     for node in doc.descendants().filter(|n| n.has_tag_name("DataArray")) {
         let parent = node.parent_element().unwrap().tag_name().name();
@@ -107,7 +110,11 @@ fn snapshot(dir: &Path, frames: u32, every: f64) -> Vec<(f64, Frame)> {
         .success();
     let snapshot = dir.join("snapshot");
     let list = read_collection(&snapshot);
-    assert_eq!(list.len(), frames as usize + 1, "the collection lists every frame");
+    assert_eq!(
+        list.len(),
+        frames as usize + 1,
+        "the collection lists every frame"
+    );
     list.iter()
         .enumerate()
         .map(|(k, (file, time))| {
@@ -181,23 +188,29 @@ fn unwrapped_x_follows_the_grains_across_the_seam() {
             let images = (unwrapped[i] - now[i]) / width;
             let k = images.round();
             assert!((images - k).abs() < 1e-9, "t = {t}: x_unwrapped - x = k L");
-            assert_eq!(k, ((here[i] - now[i]) / width).round(), "t = {t}, grain {i}");
+            assert_eq!(
+                k,
+                ((here[i] - now[i]) / width).round(),
+                "t = {t}, grain {i}"
+            );
         }
         previous = now;
-        crossed = unwrapped
-            .iter()
-            .zip(x(f))
-            .filter(|(u, x)| *u != x)
-            .count();
+        crossed = unwrapped.iter().zip(x(f)).filter(|(u, x)| *u != x).count();
     }
     assert!(crossed > 0, "some grain crossed the seam");
     for (t, f) in &coarse {
         let (_, same) = dense.iter().find(|(s, _)| s == t).unwrap();
-        assert_eq!(f.arrays["x_unwrapped"], same.arrays["x_unwrapped"], "t = {t}");
+        assert_eq!(
+            f.arrays["x_unwrapped"], same.arrays["x_unwrapped"],
+            "t = {t}"
+        );
     }
     let far = coarse.windows(2).any(|w| {
         let (before, after) = (&w[0].1.arrays["x_unwrapped"], &w[1].1.arrays["x_unwrapped"]);
         before.iter().zip(after).any(|(b, a)| a - b > 0.5 * width)
     });
-    assert!(far, "a grain moved more than half the width between two frames");
+    assert!(
+        far,
+        "a grain moved more than half the width between two frames"
+    );
 }
