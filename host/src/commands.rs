@@ -15,7 +15,7 @@ use crate::plot::{save, TransportFigure};
 use crate::progress::Progress;
 use crate::shard::Shard;
 use crate::sims::{with_sim, SimJob, NEIGHBOURS};
-use crate::snapshot::{snapshots, write_snapshots, Snapshots};
+use crate::snapshot::{snapshots, write_picture, Snapshots};
 use crate::timeseries::{timeseries_figure, window_warnings, write_timeseries};
 use crate::trace::TRACE_BOUND;
 use indicatif::ProgressBar;
@@ -539,7 +539,7 @@ fn pack_logged(
     Ok(())
 }
 
-/// `mbs snapshot`: pictures and VTK frames of the bed under the flow.
+/// `mbs snapshot`: pictures and particle frames of the bed under the flow.
 pub fn snapshot(
     config: &Config,
     out: Option<&Path>,
@@ -564,18 +564,19 @@ pub fn snapshot(
             "snapshot",
             common.quiet,
         );
-        let list = snapshots(Snapshots {
+        let done = snapshots(Snapshots {
             config,
             tau_star,
             seed: config.seeds[0],
             frames,
             every,
+            dir: &dir.join("snapshot"),
             progress: progress.bar(),
         })?;
         progress.finish();
-        write_snapshots(&dir, &list, &format!("τ* = {tau_star}"))?;
-        log.event(&format!("{} frames at tau* {tau_star}", list.len()));
-        snapshot_report(&dir, list.len(), common)
+        write_picture(&dir, &done.last, &format!("τ* = {tau_star}"))?;
+        log.event(&format!("{} frames at tau* {tau_star}", done.frames));
+        snapshot_report(&dir, done.frames, common)
     })
 }
 
@@ -583,7 +584,7 @@ pub fn snapshot(
 fn snapshot_report(dir: &Path, frames: usize, common: Common) -> Result<(), HostError> {
     if !common.quiet {
         print(&format!(
-            "{frames} frames; wrote {dir}/snapshot/bed_NNNN.vtk (open bed.vtk.series in ParaView), {dir}/snapshot.png, snapshot.svg\n",
+            "{frames} frames; wrote {dir}/snapshot/bed_NNNN.vtu (open bed.pvd in ParaView; meshio reads the .vtu files), {dir}/snapshot.png, snapshot.svg\n",
             dir = dir.display()
         ))?;
     }

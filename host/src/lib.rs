@@ -16,7 +16,8 @@
 //! | [`references`] | bed-load relations of docs/model.md §10 |
 //! | [`mixture`] | fractional transport of a mixture with hiding (Wilcock & Crowe 2003) |
 //! | [`pack`] | packing test (docs/model.md §9 step 1) |
-//! | [`snapshot`] | bed pictures and VTK series |
+//! | [`frames`] | particle frames for ParaView and meshio (`.vtu`, `.pvd`) |
+//! | [`snapshot`] | bed pictures and particle frames of a bed under the flow |
 //! | [`bench`] | hot-loop benchmark shared with criterion |
 //! | [`plot`] | figures (PNG + SVG) |
 //! | [`output`] | atomic file writes |
@@ -37,6 +38,7 @@ pub mod config;
 pub mod control;
 pub mod error;
 pub mod experiment;
+pub mod frames;
 pub mod framing;
 pub mod input;
 pub mod log;

@@ -120,7 +120,7 @@ enum Command {
         #[arg(long, allow_negative_numbers = true)]
         duration: Option<f64>,
     },
-    /// Pictures of the bed (PNG/SVG) and VTK frames over time for ParaView.
+    /// Pictures of the bed (PNG/SVG) and particle frames over time for ParaView and meshio (.vtu, .pvd).
     #[command(mut_arg("threads", |a| a.hide(true)))]
     Snapshot {
         #[command(flatten)]

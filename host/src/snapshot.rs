@@ -1,18 +1,16 @@
-//! Pictures of the bed: PNG/SVG drawn to scale, and VTK files over time for
-//! ParaView (a `.vtk.series` file lists them with their times).
+//! Pictures of the bed: PNG/SVG drawn to scale, and particle frames over
+//! time for ParaView and Python ([`crate::frames`]).
 
 use crate::beds::BedJob;
 use crate::config::Config;
 use crate::control::Control;
 use crate::error::HostError;
-use crate::output::{create_dir, write_json, write_text};
+use crate::frames::{self, FrameWriter};
 use crate::plot::{save, BedFigure, Disc};
-use crate::sims::{run_steps, with_sim, SimJob, NEIGHBOURS};
+use crate::sims::{with_sim, SimJob, NEIGHBOURS};
 use indicatif::ProgressBar;
 use mbs_kernel::flow::Profile;
 use mbs_kernel::{FlowConfig, GrainSpec, Real, Sim};
-use serde::Serialize;
-use std::fmt::Write;
 use std::path::Path;
 use std::sync::atomic::AtomicBool;
 
@@ -44,12 +42,22 @@ pub struct Snapshots<'a> {
     pub frames: u64,
     /// Integration steps between frames.
     pub every: u64,
+    /// Where the frames go: `DIR/bed_NNNN.vtu` and `DIR/bed.pvd`.
+    pub dir: &'a Path,
     /// Progress (in steps).
     pub progress: &'a ProgressBar,
 }
 
+/// What a snapshot run did: the frames written and the last one.
+pub struct Snapshot {
+    /// Frames written.
+    pub frames: usize,
+    /// The last frame.
+    pub last: Frame,
+}
+
 impl SimJob for Snapshots<'_> {
-    type Output = Result<Vec<Frame>, HostError>;
+    type Output = Result<Snapshot, HostError>;
 
     fn run<R: Real, const N: usize>(self, sim: &mut Sim<R, N, NEIGHBOURS>) -> Self::Output {
         let config = self.config;
@@ -79,70 +87,23 @@ impl SimJob for Snapshots<'_> {
             flow: sim.flow().copied(),
             bed_level: flowed.then(|| sim.bed_level()),
         };
-        let mut out = vec![frame(sim, false)];
+        let mut writer = FrameWriter::new(self.dir, "bed")?;
+        writer.write(sim, sim.time())?;
         for _ in 0..self.frames {
-            run_steps(sim, self.every, self.progress).map_err(fail())?;
-            out.push(frame(sim, self.every > 0));
+            frames::run_steps(sim, self.every, self.progress, &mut writer).map_err(fail())?;
+            writer.write(sim, sim.time())?;
         }
-        Ok(out)
+        Ok(Snapshot {
+            frames: writer.len(),
+            last: frame(sim, self.every > 0 && self.frames > 0),
+        })
     }
 }
 
 /// Runs the snapshot job.
-pub fn snapshots(job: Snapshots<'_>) -> Result<Vec<Frame>, HostError> {
+pub fn snapshots(job: Snapshots<'_>) -> Result<Snapshot, HostError> {
     let (precision, capacity) = (job.config.precision, job.config.capacity);
     with_sim(precision, capacity, job)
-}
-
-/// A frame as legacy-VTK polydata: one vertex per grain with diameter,
-/// velocity, speed, spin, fixed flag and size class.
-pub fn vtk(frame: &Frame) -> String {
-    let g = &frame.grains;
-    let n = g.len();
-    let mut s = String::new();
-    // Writing to a String cannot fail.
-    let _ = writeln!(
-        s,
-        "# vtk DataFile Version 3.0\nmbs bed at t = {} s\nASCII\nDATASET POLYDATA\nPOINTS {n} double",
-        frame.time
-    );
-    for p in g {
-        let _ = writeln!(s, "{} {} 0", p.x, p.y);
-    }
-    let _ = writeln!(s, "VERTICES {n} {}", 2 * n);
-    for i in 0..n {
-        let _ = writeln!(s, "1 {i}");
-    }
-    let _ = writeln!(s, "POINT_DATA {n}");
-    let scalar = |s: &mut String, name: &str, kind: &str, f: &dyn Fn(&GrainSpec) -> String| {
-        let _ = writeln!(s, "SCALARS {name} {kind} 1\nLOOKUP_TABLE default");
-        for p in g {
-            let _ = writeln!(s, "{}", f(p));
-        }
-    };
-    scalar(&mut s, "diameter", "double", &|p| p.diameter.to_string());
-    scalar(&mut s, "speed", "double", &|p| p.u.hypot(p.v).to_string());
-    scalar(&mut s, "spin", "double", &|p| p.spin.to_string());
-    scalar(&mut s, "fixed", "int", &|p| u8::from(p.fixed).to_string());
-    scalar(&mut s, "class", "int", &|p| p.class.to_string());
-    let _ = writeln!(s, "VECTORS velocity double");
-    for p in g {
-        let _ = writeln!(s, "{} {} 0", p.u, p.v);
-    }
-    s
-}
-
-#[derive(Serialize)]
-struct SeriesEntry {
-    name: String,
-    time: f64,
-}
-
-#[derive(Serialize)]
-struct Series {
-    #[serde(rename = "file-series-version")]
-    version: &'static str,
-    files: Vec<SeriesEntry>,
 }
 
 /// The mean flow velocity U (14) from the zero level of the log law up to
@@ -170,45 +131,25 @@ fn flow_profile(frame: &Frame) -> Vec<(f64, f64)> {
         .collect()
 }
 
-/// Writes `dir/snapshot/bed_NNNN.vtk` for every frame, the ParaView series
-/// file `dir/snapshot/bed.vtk.series`, and the last frame as
-/// `dir/snapshot.png`/`.svg`.
-pub fn write_snapshots(dir: &Path, frames: &[Frame], title: &str) -> Result<(), HostError> {
-    let vtk_dir = dir.join("snapshot");
-    create_dir(&vtk_dir)?;
-    let mut files = Vec::new();
-    for (k, f) in frames.iter().enumerate() {
-        let name = format!("bed_{k:04}.vtk");
-        write_text(&vtk_dir.join(&name), &vtk(f))?;
-        files.push(SeriesEntry { name, time: f.time });
-    }
-    write_json(
-        &vtk_dir.join("bed.vtk.series"),
-        &Series {
-            version: "1.0",
-            files,
-        },
-    )?;
-    if let Some(last) = frames.last() {
-        let discs: Vec<Disc> = last
-            .grains
-            .iter()
-            .map(|p| Disc {
-                x: p.x,
-                y: p.y,
-                diameter: p.diameter,
-                speed: p.u.hypot(p.v),
-                fixed: p.fixed,
-            })
-            .collect();
-        let figure = BedFigure {
-            discs: &discs,
-            width: last.width,
-            title: format!("{title}, t = {:.3} s", last.time),
-            bed_level: last.bed_level,
-            flow_profile: flow_profile(last),
-        };
-        save(&figure, dir, "snapshot")?;
-    }
-    Ok(())
+/// Draws `frame` as `dir/snapshot.png`/`.svg`.
+pub fn write_picture(dir: &Path, frame: &Frame, title: &str) -> Result<(), HostError> {
+    let discs: Vec<Disc> = frame
+        .grains
+        .iter()
+        .map(|p| Disc {
+            x: p.x,
+            y: p.y,
+            diameter: p.diameter,
+            speed: p.u.hypot(p.v),
+            fixed: p.fixed,
+        })
+        .collect();
+    let figure = BedFigure {
+        discs: &discs,
+        width: frame.width,
+        title: format!("{title}, t = {:.3} s", frame.time),
+        bed_level: frame.bed_level,
+        flow_profile: flow_profile(frame),
+    };
+    save(&figure, dir, "snapshot")
 }

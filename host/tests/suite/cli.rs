@@ -210,7 +210,7 @@ fn pack_writes_the_settling_curve() {
 }
 
 #[test]
-fn snapshot_writes_pictures_and_vtk_series() {
+fn snapshot_writes_pictures_and_particle_frames() {
     let dir = tempfile::tempdir().unwrap();
     let cfg = write(dir.path(), "small.toml", SMALL);
     mbs()
@@ -220,10 +220,10 @@ fn snapshot_writes_pictures_and_vtk_series() {
         .arg(dir.path())
         .assert()
         .success();
-    let vtk = std::fs::read_to_string(dir.path().join("snapshot/bed_0003.vtk")).unwrap();
-    assert!(vtk.starts_with("# vtk DataFile Version 3.0"));
-    assert!(vtk.contains("POINTS 25 double") && vtk.contains("VECTORS velocity double"));
-    let series = std::fs::read_to_string(dir.path().join("snapshot/bed.vtk.series")).unwrap();
+    let vtu = std::fs::read_to_string(dir.path().join("snapshot/bed_0003.vtu")).unwrap();
+    assert!(vtu.starts_with("<?xml") && vtu.contains("<VTKFile type=\"UnstructuredGrid\""));
+    assert!(vtu.contains("NumberOfPoints=\"25\"") && vtu.contains("Name=\"velocity\""));
+    let series = std::fs::read_to_string(dir.path().join("snapshot/bed.pvd")).unwrap();
     assert_eq!(series.matches("bed_00").count(), 4);
     assert!(dir.path().join("snapshot.png").exists() && dir.path().join("snapshot.svg").exists());
 }

@@ -1,5 +1,5 @@
 //! The `mbs` command's integration tests, in one test binary (one link
-//! instead of seven; see docs/architecture.md, "Tests"). Each module is one
+//! instead of nine; see docs/architecture.md, "Tests"). Each module is one
 //! topic; `common` holds the shared small configurations and helpers.
 
 mod common;
@@ -9,6 +9,7 @@ mod beds;
 mod calibrate;
 mod cli;
 mod figures;
+mod frames;
 mod hostile;
 mod log;
 mod paper_case;
