@@ -144,6 +144,16 @@ pub fn run_all(
         bed_grain_steps += o.grain_steps;
         match o.bed {
             Some(bed) => {
+                control.log.event(&format!(
+                    "bed  seed {seed}  {:?} after {:.3} s of settling{}",
+                    bed.status,
+                    bed.seconds(config.scenario.step_dt()),
+                    if o.computed {
+                        ""
+                    } else {
+                        " (read from its file)"
+                    }
+                ));
                 for w in bed_warnings(config, seed, &bed) {
                     control.log.warn(&w);
                 }

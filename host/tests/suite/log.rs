@@ -29,8 +29,9 @@ fn a_run_logs_its_cells_and_a_resume_and_a_rerun_append() {
     let dir = tempfile::tempdir().unwrap();
     let cfg = write(dir.path(), "small.toml", SMALL);
     let out = dir.path().join("out");
+    // The beds settle (20 000 steps), the cells stop after 20 000 of theirs.
     run_into(&cfg, &out)
-        .args(["--stop-after-steps", "3000"])
+        .args(["--stop-after-steps", "20000"])
         .assert()
         .code(130);
     let first = events(&out);
@@ -115,8 +116,11 @@ fn quiet_keeps_the_warnings_on_stderr_in_the_log_and_in_the_summary() {
         .iter()
         .map(|w| w.as_str().unwrap())
         .collect();
-    assert_eq!(warnings.len(), 2, "{warnings:?}");
+    // The configuration's warnings first, then the physics of the run
+    // (SMALL's beds are not at rest after 0.05 s).
+    assert!(warnings.len() > 2, "{warnings:?}");
     assert!(warnings[0].starts_with("bed ") && warnings[1].starts_with("--threads "));
+    assert!(warnings[2].starts_with("bed-not-at-rest: "), "{warnings:?}");
     let log = events(&out);
     for w in warnings {
         assert!(log.contains(&format!("warning {w}")), "{log:?}");
