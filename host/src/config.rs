@@ -6,7 +6,7 @@ use crate::input::{read_text_bounded, Bound};
 use crate::text::{excerpt, number, shown, QUOTE};
 use mbs_kernel::{
     contact_constants, explicit_damping_number, BedSpec, ContactConstants, FlowConfig, FlowSpec,
-    Material, Scenario, SizeClass, Tension, TimeStepRule, MAX_CLASSES,
+    Material, Scenario, SizeClass, Tension, TimeStepRule, G, MAX_CLASSES,
 };
 use serde::{Deserialize, Serialize};
 use std::fmt;
@@ -372,6 +372,13 @@ impl Default for TargetSection {
 pub struct FlowSection {
     /// Shields numbers.
     pub tau_star: Vec<f64>,
+    /// Shear velocities u* (m/s), instead of `tau_star` ([`flow_forms`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub u_star_m_s: Option<Vec<f64>>,
+    /// Slopes S of a uniform flow of depth h, instead of `tau_star`
+    /// ([`flow_forms`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub slope: Option<Vec<f64>>,
     /// κ.
     pub kappa: f64,
     /// h (m).
@@ -516,6 +523,8 @@ impl Default for FlowSection {
             fluid_density: p.material.rho,
             drag_coefficient: p.material.c_d,
             added_mass: p.material.c_m,
+            u_star_m_s: None,
+            slope: None,
         }
     }
 }
@@ -731,10 +740,11 @@ impl Config {
     }
 
     /// Checks every value and builds the typed configuration.
-    pub fn validate(file: ConfigFile) -> Result<Config, ConfigError> {
+    pub fn validate(mut file: ConfigFile) -> Result<Config, ConfigError> {
         let bed = bed_spec(&file)?;
         let d = bed.max_diameter();
         let material = material(&file)?;
+        flow_forms(&mut file, material.s, d)?;
         let rule = time_rule(&file, d, &material)?;
         let explicit_contact = explicit_contact(&file.contact, material.nu)?;
         let t = &file.time;
@@ -1127,6 +1137,68 @@ fn explicit_contact(c: &ContactSection, nu: f64) -> Result<Option<ContactConstan
     }
 }
 
+/// The flow given as shear velocities or slopes (docs/model.md §6), into
+/// `flow.tau_star` on the largest diameter d_max:
+/// τ* = u*²/((s − 1) g d_max) from `flow.u_star_m_s`, and from `flow.slope`
+/// the uniform flow's bed shear τ = ρ g h S, u*² = g h S, so
+/// τ* = h S/((s − 1) d_max). Only the driving shear follows the slope:
+/// gravity on the grains stays vertical (small slopes). `tau_star`, if
+/// also given, must be those values (the saved configuration holds both).
+///
+/// ```
+/// let c = mbs::Config::from_toml("[flow]\nu_star_m_s = [0.03]\n")?;
+/// let tau = 0.03f64 * 0.03 / (1.65 * 9.81 * 0.5e-3);
+/// assert!((c.tau_stars[0] - tau).abs() < 1e-15);
+/// let c = mbs::Config::from_toml("[flow]\nslope = [0.001]\ndepth = 0.05\n")?;
+/// assert!((c.tau_stars[0] - 0.05 * 0.001 / (1.65 * 0.5e-3)).abs() < 1e-15);
+/// assert!(mbs::Config::from_toml("[flow]\nslope = [0.001]\nu_star_m_s = [0.03]\n").is_err());
+/// # Ok::<(), mbs::ConfigError>(())
+/// ```
+pub fn flow_forms(file: &mut ConfigFile, s: f64, d: f64) -> Result<(), ConfigError> {
+    let f = &file.flow;
+    let h = f.depth;
+    let (key, given, tau_of): (&str, &Vec<f64>, &dyn Fn(f64) -> f64) =
+        match (&f.u_star_m_s, &f.slope) {
+            (None, None) => return Ok(()),
+            (Some(_), Some(slope)) => return need(
+                false,
+                "flow.slope",
+                format!("{slope:?}"),
+                "not given with flow.u_star_m_s: give the flow as one of tau_star, u_star_m_s or \
+                 slope",
+            ),
+            (Some(u), None) => ("flow.u_star_m_s", u, &|u: f64| u * u / ((s - 1.0) * G * d)),
+            (None, Some(slope)) => ("flow.slope", slope, &|sl: f64| h * sl / ((s - 1.0) * d)),
+        };
+    need(
+        !given.is_empty() && given.len() <= 1000,
+        key,
+        format!("{given:?}"),
+        "a list of 1 to 1000 values",
+    )?;
+    let mut taus = Vec::with_capacity(given.len());
+    for (k, &v) in given.iter().enumerate() {
+        let tau = tau_of(v);
+        need(
+            v.is_finite() && v > 0.0 && tau > 0.0 && tau <= 5.0,
+            &format!("{key}[{k}]"),
+            v,
+            &format!(
+                "> 0 and giving tau* in (0, 5] (here tau* = {tau:e}, on d_max = {d:e} m, s = {s})"
+            ),
+        )?;
+        taus.push(tau);
+    }
+    need(
+        f.tau_star == FlowSection::default().tau_star || f.tau_star == taus,
+        "flow.tau_star",
+        format!("{:?}", f.tau_star),
+        &format!("not given with {key} (or equal to its values {taus:?})"),
+    )?;
+    file.flow.tau_star = taus;
+    Ok(())
+}
+
 /// `[flow]` except τ* into the kernel's flow specification, its intervals
 /// converted to integration steps (`substeps` per constants_dt); κ, ε0 and the
 /// intervals are checked by the kernel with the flow at each τ*.
@@ -1324,6 +1396,9 @@ pub fn warnings(config: &Config, under_flow: bool) -> Vec<String> {
 pub fn canonical(config: &ConfigFile) -> ConfigFile {
     let mut c = config.clone();
     c.run.output = "-".into();
+    // A validated configuration holds its flow as `tau_star` too.
+    c.flow.u_star_m_s = None;
+    c.flow.slope = None;
     c
 }
 
@@ -1457,6 +1532,55 @@ mod tests {
         assert_eq!(c.scenario_at(1), default_scenario());
         assert_eq!(default_scenario().bed.columns, 40);
         assert!(narrow_bed_warning(&default_scenario().bed, &default_scenario().flow).is_none());
+    }
+
+    #[test]
+    fn the_flow_may_be_given_as_shear_velocities_or_slopes() {
+        let (s, d) = (1.65, 0.5e-3);
+        let by_u = Config::from_toml("[flow]\nu_star_m_s = [0.02, 0.04]\n").unwrap();
+        let by_tau = Config::from_toml(&format!(
+            "[flow]\ntau_star = [{}, {}]\n",
+            0.02f64 * 0.02 / (s * G * d),
+            0.04f64 * 0.04 / (s * G * d)
+        ))
+        .unwrap();
+        assert_eq!(by_u.tau_stars, by_tau.tau_stars);
+        // The same cells whichever form gave them.
+        assert_eq!(canonical(&by_u.file), canonical(&by_tau.file));
+        // τ = ρ g h S on a 5 cm deep flow.
+        let by_slope = Config::from_toml("[flow]\ndepth = 0.05\nslope = [0.002]\n").unwrap();
+        assert_eq!(by_slope.tau_stars, [0.05 * 0.002 / (s * d)]);
+        // The saved configuration (both forms) loads back to the same run.
+        for c in [&by_u, &by_slope] {
+            let saved = toml::to_string(&c.file).unwrap();
+            assert!(saved.contains("tau_star = ["), "{saved}");
+            assert_eq!(Config::from_toml(&saved).unwrap().file, c.file);
+        }
+        for (text, message) in [
+            (
+                "[flow]\nu_star_m_s = [0.03]\nslope = [0.001]",
+                "flow.slope = [0.001]: must be not given with flow.u_star_m_s",
+            ),
+            (
+                "[flow]\nu_star_m_s = [0.03]\ntau_star = [0.2]",
+                "flow.tau_star = [0.2]: must be not given with flow.u_star_m_s",
+            ),
+            (
+                "[flow]\nu_star_m_s = [0.03, -0.01]",
+                "flow.u_star_m_s[1] = -0.01: must be > 0 and giving tau* in (0, 5]",
+            ),
+            (
+                "[flow]\nslope = [0.5]",
+                "flow.slope[0] = 0.5: must be > 0 and giving tau* in (0, 5] (here tau* = 1.2121",
+            ),
+            (
+                "[flow]\nu_star_m_s = []",
+                "flow.u_star_m_s = []: must be a list of 1 to 1000",
+            ),
+        ] {
+            let e = Config::from_toml(text).unwrap_err().to_string();
+            assert!(e.contains(message), "{text}: {e}");
+        }
     }
 
     #[test]
