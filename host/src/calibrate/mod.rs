@@ -302,11 +302,13 @@ impl Context<'_> {
             let (chunk, tail) = rest.split_at(seeds.len().min(rest.len()));
             rest = tail;
             let mut q = Vec::new();
+            let mut blocks = Vec::new();
             let mut per_class = vec![Vec::new(); n_classes];
             for r in chunk.iter().flatten() {
                 match r {
                     Ok(c) => {
                         q.push(c.q_star);
+                        blocks = c.block_means();
                         for (k, v) in c.q_star_class.iter().enumerate().take(n_classes) {
                             per_class[k].push(*v);
                         }
@@ -314,7 +316,10 @@ impl Context<'_> {
                     Err(message) => curve.failures.push(message.clone()),
                 }
             }
-            let (mean, err) = if q.len() == seeds.len() {
+            // One seed: the error of its window's blocks (as in `mbs run`).
+            let (mean, err) = if q.len() == seeds.len() && q.len() == 1 {
+                (q[0], crate::stats::block_stderr(&blocks).1)
+            } else if q.len() == seeds.len() {
                 crate::stats::mean_stderr(&q)
             } else {
                 (f64::NAN, f64::NAN)
