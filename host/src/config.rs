@@ -328,7 +328,7 @@ pub struct TimeSection {
     /// derive (docs/model.md (10)–(13)).
     pub constants_dt: f64,
     /// Integration steps per constants_dt: step_dt = constants_dt/substeps.
-    pub substeps: u32,
+    pub substeps: Substeps,
     /// When settling ends: at rest or after `settle`.
     pub settle_until: SettleUntil,
     /// Settling time (s): the most (`settle_until = "rest"`) or exactly.
@@ -362,6 +362,95 @@ impl Default for TargetSection {
         TargetSection {
             stderr_relative: 0.1,
             stderr_absolute: 5e-4,
+        }
+    }
+}
+
+/// `time.substeps`: a count, or `"auto"`: the fewest that keep the
+/// explicit damping number of every size class at or below
+/// [`SUBSTEP_DAMPING_NUMBER`] ([`Substeps::resolve`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Substeps {
+    /// This many integration steps per constants_dt.
+    Count(u32),
+    /// From the constants in use.
+    Auto,
+}
+
+impl Serialize for Substeps {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        match self {
+            Substeps::Count(n) => s.serialize_u32(*n),
+            Substeps::Auto => s.serialize_str("auto"),
+        }
+    }
+}
+
+impl<'de> Deserialize<'de> for Substeps {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct Visitor;
+        impl serde::de::Visitor<'_> for Visitor {
+            type Value = Substeps;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("an integer in [1, 10000] or \"auto\"")
+            }
+            fn visit_i64<E: serde::de::Error>(self, v: i64) -> Result<Substeps, E> {
+                u32::try_from(v)
+                    .map(Substeps::Count)
+                    .map_err(|_| E::invalid_value(serde::de::Unexpected::Signed(v), &self))
+            }
+            fn visit_u64<E: serde::de::Error>(self, v: u64) -> Result<Substeps, E> {
+                u32::try_from(v)
+                    .map(Substeps::Count)
+                    .map_err(|_| E::invalid_value(serde::de::Unexpected::Unsigned(v), &self))
+            }
+            fn visit_str<E: serde::de::Error>(self, v: &str) -> Result<Substeps, E> {
+                if v == "auto" {
+                    Ok(Substeps::Auto)
+                } else {
+                    Err(E::invalid_value(serde::de::Unexpected::Str(v), &self))
+                }
+            }
+        }
+        d.deserialize_any(Visitor)
+    }
+}
+
+/// The explicit damping number `time.substeps = "auto"` stays at or below:
+/// the default constants (α_cn = 1.3) reach 0.356 at 8 substeps, where q*
+/// agrees with 16 (docs/findings/explicit-damping-limit.md).
+pub const SUBSTEP_DAMPING_NUMBER: f64 = 0.36;
+
+impl Substeps {
+    /// The count: as given, or for `"auto"` the fewest (at most 10 000)
+    /// with the explicit damping number of every class of `bed` with the
+    /// constants `contact` at or below [`SUBSTEP_DAMPING_NUMBER`] (it falls
+    /// as 1/substeps).
+    ///
+    /// ```
+    /// let c = mbs::Config::from_toml("[time]\nsubsteps = \"auto\"")?;
+    /// assert_eq!(c.scenario.substeps, 8); // the default constants: 0.356
+    /// let c = mbs::Config::from_toml("[time]\nsubsteps = \"auto\"\n[contact]\nalpha_cn = 0.65")?;
+    /// assert_eq!(c.scenario.substeps, 4);
+    /// # Ok::<(), mbs::ConfigError>(())
+    /// ```
+    pub fn resolve(
+        self,
+        contact: &ContactConstants,
+        material: &Material,
+        bed: &BedSpec,
+        constants_dt: f64,
+    ) -> u32 {
+        match self {
+            Substeps::Count(n) => n,
+            Substeps::Auto => {
+                let n1 = bed
+                    .classes
+                    .iter()
+                    .map(|c| explicit_damping_number(contact, material, c.diameter, constants_dt))
+                    .fold(0.0, f64::max);
+                (n1 / SUBSTEP_DAMPING_NUMBER).ceil().clamp(1.0, 10_000.0) as u32
+            }
         }
     }
 }
@@ -494,7 +583,7 @@ impl Default for TimeSection {
         let p = Scenario::paper();
         TimeSection {
             constants_dt: p.rule.constants_dt,
-            substeps: p.substeps,
+            substeps: Substeps::Auto,
             settle_until: SettleUntil::Rest,
             settle: 3.0,
             spin_up: 0.2,
@@ -748,13 +837,19 @@ impl Config {
         let rule = time_rule(&file, d, &material)?;
         let explicit_contact = explicit_contact(&file.contact, material.nu)?;
         let t = &file.time;
-        need(
-            (1..=10_000).contains(&t.substeps),
-            "time.substeps",
-            t.substeps,
-            "in [1, 10000]",
-        )?;
-        let flow = flow_spec(&file.flow, d, t.substeps)?;
+        if let Substeps::Count(n) = t.substeps {
+            need(
+                (1..=10_000).contains(&n),
+                "time.substeps",
+                n,
+                "in [1, 10000] or \"auto\"",
+            )?;
+        }
+        let mut substeps = match t.substeps {
+            Substeps::Count(n) => n,
+            Substeps::Auto => 1,
+        };
+        let mut flow = flow_spec(&file.flow, d, substeps)?;
         // A window holds at least one step; settling and spin-up may be skipped.
         for (key, value, zero_allowed) in [
             ("time.settle", t.settle, true),
@@ -825,18 +920,30 @@ impl Config {
             flow.depth,
             &format!("> the bed's height {bed_top:e} m"),
         )?;
-        let scenario = Scenario {
+        let mut scenario = Scenario {
             material,
             rule,
             explicit_contact,
             tension: file.contact.tension.kernel(),
-            substeps: t.substeps,
+            substeps,
             bed,
             flow,
             skin: r.skin_d,
             seed: r.seeds[0],
         };
         let contact = scenario.contact().map_err(ConfigError::kernel)?;
+        if t.substeps == Substeps::Auto {
+            // The constants do not depend on the substeps; the flow's intervals do.
+            substeps = t.substeps.resolve(
+                &contact,
+                &scenario.material,
+                &scenario.bed,
+                scenario.rule.constants_dt,
+            );
+            flow = flow_spec(&file.flow, d, substeps)?;
+            scenario.substeps = substeps;
+            scenario.flow = flow;
+        }
         stability(&scenario, &contact)?;
         for &tau_star in &file.flow.tau_star {
             scenario
@@ -1588,6 +1695,7 @@ mod tests {
         let cases = [
             ("[grains]\ndiameter_mm = -0.5", "grains.diameter_mm = -0.5: must be > 0"),
             ("[bed]\ncolumns = 2", "bed.columns = 2: must be in [3, 100000]"),
+            ("[time]\nsubsteps = 0", "time.substeps = 0: must be in [1, 10000] or \"auto\""),
             ("[flow]\ntau_star = [0.1, -1.0]", "flow.tau_star[1] = -1: must be in (0, 5]"),
             ("[run]\ncapacity = 100", "run.capacity = 100: must be one of"),
             ("[run]\ncapacity = 256\n[bed]\ncolumns = 30", "run.capacity = 256: must be >= the bed's 330 grains"),
@@ -1604,6 +1712,16 @@ mod tests {
                 "{text}\n  gave: {e}\n  want: {message}"
             );
         }
+        let e = Config::from_toml("[time]\nsubsteps = \"fast\"")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("substeps = \"fast\"")
+                && e.ends_with(
+                    "invalid value: string \"fast\", expected an integer in [1, 10000] or \"auto\""
+                ),
+            "{e}"
+        );
         // Checks the kernel makes are the kernel's: its error is kept as a value.
         let kernel_cases = [
             (

@@ -8,7 +8,7 @@
 
 use super::{save_stage, slot_of};
 use crate::calibrate::{Context, Curve, Q_FLOOR};
-use crate::config::ClassEntry;
+use crate::config::{ClassEntry, Config, Substeps};
 use crate::error::HostError;
 use crate::mixture::{geometric_mean, wilcock_crowe};
 use crate::output::{decimal, write_csv};
@@ -97,9 +97,9 @@ pub fn run(
             .collect(),
     );
     let d_max = plan.mixed.iter().map(|c| c.0).fold(0.0, f64::max);
-    let d_min = plan.mixed.iter().map(|c| c.0).fold(f64::INFINITY, f64::min);
-    let ratio = (d_max / d_min).powi(3);
-    c.time.substeps = (f64::from(c.time.substeps) * ratio).ceil() as u32;
+    // The finest class sets the substeps (its damping number grows as (d_max/d)³).
+    c.time.substeps = Substeps::Auto;
+    let curve_substeps = Config::validate(c.clone()).map_or(0, |v| v.scenario.substeps);
     let Some(curve) = ctx.curve(&c, &plan.fit_points(), plan.window, &slot_of(0, 0))? else {
         return Ok(None);
     };
@@ -130,7 +130,7 @@ pub fn run(
     let worst_factor = worst(points.iter().map(ClassPoint::ratio));
     let worst_factor_hiding = worst(points.iter().map(ClassPoint::ratio_hiding));
     let result = MixedStage {
-        substeps: c.time.substeps,
+        substeps: curve_substeps,
         curve,
         points,
         worst_factor,
