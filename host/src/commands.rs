@@ -251,7 +251,7 @@ pub fn dump_steps(config: &Config, seconds: f64) -> Result<u64, HostError> {
         key: "--dump-every".into(),
         value: crate::text::number(seconds),
         allowed: format!(
-            "from one integration step (step_dt = constants_dt/substeps = {} s) to time.window              ({} s) of simulated time",
+            "from one integration step (step_dt = constants_dt/substeps = {} s) to time.window ({} s) of simulated time",
             crate::text::number(step_dt),
             crate::text::number(most as f64 * step_dt)
         ),
