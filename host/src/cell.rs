@@ -4,7 +4,8 @@
 //! of steps the cell can write a checkpoint (its progress and accumulated
 //! sums plus the kernel's checkpoint) and stop; restoring it continues bit
 //! for bit, so a cell stopped anywhere gives the same result as one never
-//! stopped.
+//! stopped. With a [`FramePlan`] the cell also writes particle frames
+//! ([`Dumps`]), which change none of its numbers.
 //!
 //! Checkpoint file (version 3, framed by [`crate::framing`]): magic `MBSC`,
 //! the cell's key (FNV-1a of its specification) u64, phase u8 (1 spin-up,
