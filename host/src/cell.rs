@@ -4,7 +4,8 @@
 //! of steps the cell can write a checkpoint (its progress and accumulated
 //! sums plus the kernel's checkpoint) and stop; restoring it continues bit
 //! for bit, so a cell stopped anywhere gives the same result as one never
-//! stopped.
+//! stopped. With a [`FramePlan`] the cell also writes particle frames
+//! ([`Dumps`]), which change none of its numbers.
 //!
 //! Checkpoint file (version 3, framed by [`crate::framing`]): magic `MBSC`,
 //! the cell's key (FNV-1a of its specification) u64, phase u8 (1 spin-up,
@@ -22,6 +23,7 @@ use crate::beds::{BedRecord, BedState};
 use crate::config::{canonical, Config, ConfigFile, Durations};
 use crate::control::{Checkpoints, Control};
 use crate::error::HostError;
+use crate::frames::Dumps;
 pub use crate::framing::CheckpointError;
 use crate::framing::{Reader, Writer};
 use crate::sims::{check_restored, with_sim, SimJob, NEIGHBOURS};
@@ -30,6 +32,7 @@ use crate::text::number;
 use indicatif::ProgressBar;
 use mbs_kernel::{Fnv1a, Real, Sim, G};
 use serde::{Deserialize, Serialize};
+use std::path::PathBuf;
 use std::sync::atomic::AtomicBool;
 
 /// Steps run between checks for stopping and checkpointing.
@@ -343,6 +346,29 @@ pub enum CellOutcome {
     Stopped,
 }
 
+/// Where and how often a cell writes particle frames (`mbs run
+/// --dump-every`, [`Dumps`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct FramePlan {
+    /// The cell's frame directory.
+    pub dir: PathBuf,
+    /// Integration steps between frames (at least 1).
+    pub every: u64,
+}
+
+/// Runs `n` steps, through `dumps` if the cell writes frames: the same bits.
+fn advance<R: Real, const N: usize>(
+    sim: &mut Sim<R, N, NEIGHBOURS>,
+    dumps: Option<&mut Dumps>,
+    n: u64,
+    fail: &dyn Fn(mbs_kernel::Error) -> HostError,
+) -> Result<(), HostError> {
+    match dumps {
+        Some(d) => d.run(sim, n, fail),
+        None => sim.run(n).map_err(fail),
+    }
+}
+
 /// A cell to run, possibly from a checkpoint.
 pub struct CellJob<'a> {
     /// Configuration.
@@ -361,6 +387,8 @@ pub struct CellJob<'a> {
     pub control: &'a Control<'a>,
     /// Progress (steps).
     pub progress: &'a ProgressBar,
+    /// Particle frames under the flow, if any.
+    pub frames: Option<FramePlan>,
 }
 
 impl SimJob for CellJob<'_> {
@@ -379,6 +407,7 @@ impl SimJob for CellJob<'_> {
             message,
         };
         let settled = self.bed.steps;
+        let resumed = self.resume.is_some();
         let mut state = match self.resume {
             Some(ck) => {
                 let s = &ck.state;
@@ -415,6 +444,13 @@ impl SimJob for CellJob<'_> {
                 CellState::new(classes.len())
             }
         };
+        // The frames' time is the time since the flow started (step `settled`).
+        let mut dumps = match &self.frames {
+            None => None,
+            Some(f) if resumed => Some(Dumps::resume(&f.dir, f.every, settled, sim)?),
+            Some(f) => Some(Dumps::start(&f.dir, f.every, settled, sim)?),
+        };
+        let kernel_error = |e| fail()(e);
         let (d_max, s) = (sc.bed.max_diameter(), sc.material.s);
         let mut checkpoints = Checkpoints::new(self.control);
         let mut stepped = 0u64;
@@ -433,7 +469,13 @@ impl SimJob for CellJob<'_> {
                 state.done = 0;
                 continue;
             }
+            let mut saved = Ok(());
             let stop = checkpoints.due(stepped, || {
+                // The frames' record first: a crash between the two leaves
+                // a record that does not fit the checkpoint.
+                if let Some(d) = dumps.as_mut() {
+                    saved = d.save(sim);
+                }
                 let mut bytes = Vec::new();
                 sim.checkpoint(|b| bytes.extend_from_slice(b));
                 CellCheckpoint {
@@ -443,12 +485,13 @@ impl SimJob for CellJob<'_> {
                 }
                 .encode()
             })?;
+            saved?;
             if stop {
                 return Ok(CellOutcome::Stopped);
             }
             if state.phase == Phase::Window {
                 let sample = durations.sample;
-                sim.run(sample).map_err(fail())?;
+                advance(sim, dumps.as_mut(), sample, &kernel_error)?;
                 let o = sim.observe();
                 let q = o.q_star(d_max, s, G);
                 state.total += q;
@@ -470,11 +513,14 @@ impl SimJob for CellJob<'_> {
                 self.progress.inc(sample);
             } else {
                 let n = (durations.spin_up - state.done).min(CHUNK);
-                sim.run(n).map_err(fail())?;
+                advance(sim, dumps.as_mut(), n, &kernel_error)?;
                 state.done += n;
                 stepped += n;
                 self.progress.inc(n);
             }
+        }
+        if let Some(d) = dumps {
+            d.finish()?;
         }
         let n = state.samples.max(1) as f64;
         let step_dt = sc.step_dt();
@@ -527,6 +573,7 @@ pub fn run_cell(
         resume: None,
         control: &control,
         progress,
+        frames: None,
     };
     match run_cell_job(job)? {
         CellOutcome::Done(r) => Ok(r),

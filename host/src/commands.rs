@@ -231,6 +231,32 @@ pub struct RunOptions {
     pub resuming: bool,
     /// `--shard I/N`: compute only this slice of the cells, write no table.
     pub shard: Shard,
+    /// `--dump-every SECONDS`: particle frames of each computed cell every
+    /// SECONDS of simulated time under the flow ([`dump_steps`]).
+    pub dump_every: Option<f64>,
+}
+
+/// `--dump-every SECONDS` in integration steps (rounded): from one
+/// integration step to the longest window (`time.window`), else a
+/// configuration error (exit 2).
+pub fn dump_steps(config: &Config, seconds: f64) -> Result<u64, HostError> {
+    let step_dt = config.scenario.step_dt();
+    let most = config.durations.window();
+    let steps = seconds / step_dt;
+    // A float-to-int cast saturates; NaN and infinities fail the range.
+    if seconds.is_finite() && steps >= 1.0 - 1e-9 && (steps.round() as u64) <= most {
+        return Ok((steps.round() as u64).max(1));
+    }
+    Err(ConfigError::Invalid {
+        key: "--dump-every".into(),
+        value: crate::text::number(seconds),
+        allowed: format!(
+            "from one integration step (step_dt = constants_dt/substeps = {} s) to time.window ({} s) of simulated time",
+            crate::text::number(step_dt),
+            crate::text::number(most as f64 * step_dt)
+        ),
+    }
+    .into())
 }
 
 /// The configuration a run directory was started with (`mbs run --resume`).
@@ -264,6 +290,9 @@ pub fn run(
     options: RunOptions,
     common: Common,
 ) -> Result<(), HostError> {
+    if let Some(seconds) = options.dump_every {
+        dump_steps(config, seconds)?;
+    }
     let dir = output_dir(config, out)?;
     let _lock = crate::output::lock_dir(&dir)?;
     let text = config_text(config, &dir)?;
@@ -348,6 +377,10 @@ fn run_logged(
         stop_after: options.stop_after_steps,
         shard: options.shard,
         log,
+        dump_every: options
+            .dump_every
+            .map(|s| dump_steps(config, s))
+            .transpose()?,
     };
     let outcome = on_pool(common.threads, || run_all(config, progress.bar(), &control))?;
     progress.finish();

@@ -8,7 +8,8 @@
 
 use crate::beds::{bed_warnings, BedState, Beds};
 use crate::cell::{
-    cell_key, run_cell_job, CellCheckpoint, CellJob, CellOutcome, CellResult, TransportSpec,
+    cell_key, run_cell_job, CellCheckpoint, CellJob, CellOutcome, CellResult, FramePlan,
+    TransportSpec,
 };
 use crate::config::Config;
 use crate::control::Control;
@@ -47,6 +48,9 @@ pub struct RunControl<'a> {
     pub shard: Shard,
     /// Each cell's start and end are logged here.
     pub log: &'a Log,
+    /// Integration steps between particle frames of each computed cell
+    /// (`--dump-every`, in [`frames_dir`]); none without.
+    pub dump_every: Option<u64>,
 }
 
 /// What `run_all` did.
@@ -74,6 +78,13 @@ pub struct RunOutcome {
 pub fn checkpoint_path(dir: &Path, tau_star: f64, seed: u64) -> PathBuf {
     dir.join("checkpoints")
         .join(format!("tau{}_seed{seed}.ckpt", number(tau_star)))
+}
+
+/// The particle frames' directory of a cell (`--dump-every`):
+/// `frames/tau<τ*>_seed<seed>/`, τ* as in [`checkpoint_path`].
+pub fn frames_dir(dir: &Path, tau_star: f64, seed: u64) -> PathBuf {
+    dir.join("frames")
+        .join(format!("tau{}_seed{seed}", number(tau_star)))
 }
 
 /// Settles the bed of every seed whose cells are still to compute, then
@@ -234,6 +245,10 @@ pub fn run_all(
                 resume,
                 control: &cell_control,
                 progress,
+                frames: control.dump_every.map(|every| FramePlan {
+                    dir: frames_dir(control.dir, tau_star, seed),
+                    every,
+                }),
             })
             .inspect_err(|e| log.event(&format!("cell failed  {cell}: {e}")))?;
             let wall = clock.elapsed().as_secs_f64();

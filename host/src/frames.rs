@@ -18,14 +18,24 @@
 //! counts each grain's crossings of the periodic seam itself from the x it
 //! sees at every [`FrameWriter::track`]: `x_unwrapped = x + images L`, with
 //! the images counted from the writer's first look. That is right while no
-//! grain moves half the width between two looks; [`run_steps`] looks every
-//! [`TRACK_SECONDS`] of simulated time.
+//! grain moves half the width between two looks; [`run_steps`] and
+//! [`Dumps`] look every [`TRACK_SECONDS`] of simulated time.
+//!
+//! [`Dumps`] writes the frames of a cell of `mbs run --dump-every`: every
+//! so many integration steps since the flow started, the frame time being
+//! the time since then. It keeps beside its frames, at each of the cell's
+//! checkpoints, what it needs to continue them ([`RESUME`]: the frames
+//! written and the image counts), so a resumed cell continues its
+//! collection; without a record that fits the checkpoint it starts the
+//! collection afresh. Frames are an output: nothing is computed from them.
 
 use crate::error::HostError;
-use crate::output::{create_dir, write_text};
+use crate::input::{read_bounded, Bound};
+use crate::output::{create_dir, remove_if_present, write_json, write_text};
 use base64::Engine;
 use indicatif::ProgressBar;
 use mbs_kernel::{GrainSpec, Real, Sim};
+use serde::{Deserialize, Serialize};
 use std::fmt::Write;
 use std::path::{Path, PathBuf};
 
@@ -118,13 +128,18 @@ impl FrameWriter {
     ) -> Result<PathBuf, HostError> {
         self.track(sim);
         let grains: Vec<GrainSpec> = (0..sim.len()).filter_map(|i| sim.grain(i)).collect();
-        let name = format!("{}_{:04}.vtu", self.stem, self.entries.len());
+        let name = self.name(self.entries.len());
         let path = self.dir.join(&name);
         let unwrapped = self.images.unwrapped();
         write_text(&path, &vtu(&grains, &unwrapped, self.images.width, time))?;
         self.entries.push((name, time));
         write_text(&self.pvd_path(), &pvd(&self.entries))?;
         Ok(path)
+    }
+
+    /// The file name of frame `k`, `stem_NNNN.vtu`.
+    fn name(&self, k: usize) -> String {
+        format!("{}_{k:04}.vtu", self.stem)
     }
 
     /// The collection file, `dir/stem.pvd`.
@@ -162,6 +177,221 @@ pub fn run_steps<R: Real, const N: usize, const K: usize>(
         left -= n;
     }
     Ok(())
+}
+
+/// The file beside a cell's frames that records, at the cell's last
+/// checkpoint, what its frames need to continue ([`Dumps::resume`]);
+/// removed when the cell ends.
+pub const RESUME: &str = "frames_resume.json";
+
+/// The record in [`RESUME`]: all integers, so it reads back exactly.
+#[derive(Debug, PartialEq, Serialize, Deserialize)]
+struct Record {
+    /// Steps between frames.
+    every: u64,
+    /// Steps since the flow started, at the checkpoint.
+    step: u64,
+    /// The periodic width's bits.
+    width: u64,
+    /// The frames written: steps since the flow started, in order.
+    frames: Vec<u64>,
+    /// Each grain's periodic images.
+    images: Vec<i64>,
+}
+
+/// The frames of a cell under the flow (`mbs run --dump-every`): one every
+/// `every` integration steps since the flow started (step `origin` of the
+/// simulation), at the time since then, into `dir/frames_NNNN.vtu` and
+/// `dir/frames.pvd`.
+#[derive(Debug)]
+pub struct Dumps {
+    writer: FrameWriter,
+    /// Steps between frames (at least 1).
+    every: u64,
+    /// Steps between looks at the grains (at least 1).
+    track: u64,
+    /// The simulation's step count when the flow started.
+    origin: u64,
+    step_dt: f64,
+    /// Each frame's steps since the flow started.
+    steps: Vec<u64>,
+}
+
+impl Dumps {
+    /// Starts the frames of a cell in `dir` afresh (earlier files of the
+    /// directory are removed): the first frame now if the flow starts now.
+    pub fn start<R: Real, const N: usize, const K: usize>(
+        dir: &Path,
+        every: u64,
+        origin: u64,
+        sim: &Sim<R, N, K>,
+    ) -> Result<Self, HostError> {
+        match std::fs::remove_dir_all(dir) {
+            Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
+                return Err(HostError::io(dir)(e))
+            }
+            _ => {}
+        }
+        let step_dt = sim.config().step_dt;
+        let mut dumps = Dumps {
+            writer: FrameWriter::new(dir, "frames")?,
+            every: every.max(1),
+            // At least one step per look; a float-to-int cast saturates.
+            track: ((TRACK_SECONDS / step_dt) as u64).max(1),
+            origin,
+            step_dt,
+            steps: Vec::new(),
+        };
+        dumps.writer.track(sim);
+        if dumps.since(sim) == 0 {
+            dumps.write(sim)?;
+        }
+        Ok(dumps)
+    }
+
+    /// Continues the frames in `dir` of a cell restored from its checkpoint
+    /// (`sim`): with the [`RESUME`] record of that very checkpoint (same
+    /// step, interval, width and grains) the frames written up to it are
+    /// kept, later ones removed, and the image counts taken over; else the
+    /// collection starts afresh ([`Dumps::start`]).
+    pub fn resume<R: Real, const N: usize, const K: usize>(
+        dir: &Path,
+        every: u64,
+        origin: u64,
+        sim: &Sim<R, N, K>,
+    ) -> Result<Self, HostError> {
+        let mut dumps = Self::start_keeping(dir, every, origin, sim)?;
+        let path = dir.join(RESUME);
+        // A frame step, and a width and image count per grain, in at most
+        // 24 bytes each.
+        let frames = dumps.since(sim) / dumps.every + 2;
+        let bound = Bound {
+            bytes: 1024 + 24 * (frames + 2 * sim.len() as u64),
+            reason: "the record of a cell's frames at its checkpoint",
+        };
+        let record = read_bounded(&path, bound)
+            .ok()
+            .and_then(|bytes| serde_json::from_slice::<Record>(&bytes).ok())
+            .filter(|r| {
+                r.every == dumps.every
+                    && r.step == dumps.since(sim)
+                    && r.width == sim.config().width.to_bits()
+                    && r.images.len() == sim.len()
+                    && r.frames.windows(2).all(|w| w[0] < w[1])
+                    && r.frames.last().is_none_or(|&s| s <= r.step)
+            });
+        let Some(record) = record else {
+            return Self::start(dir, every, origin, sim);
+        };
+        // Frames written after the checkpoint by the interrupted run.
+        let mut k = record.frames.len();
+        while dir.join(dumps.writer.name(k)).exists() {
+            remove_if_present(&dir.join(dumps.writer.name(k)))?;
+            k += 1;
+        }
+        dumps.writer.images.count = record.images;
+        dumps.writer.entries = record
+            .frames
+            .iter()
+            .enumerate()
+            .map(|(k, &s)| (dumps.writer.name(k), s as f64 * dumps.step_dt))
+            .collect();
+        dumps.steps = record.frames;
+        write_text(&dumps.writer.pvd_path(), &pvd(&dumps.writer.entries))?;
+        Ok(dumps)
+    }
+
+    /// A writer in `dir` without removing anything, looking at `sim`.
+    fn start_keeping<R: Real, const N: usize, const K: usize>(
+        dir: &Path,
+        every: u64,
+        origin: u64,
+        sim: &Sim<R, N, K>,
+    ) -> Result<Self, HostError> {
+        let step_dt = sim.config().step_dt;
+        let mut writer = FrameWriter::new(dir, "frames")?;
+        writer.track(sim);
+        Ok(Dumps {
+            writer,
+            every: every.max(1),
+            track: ((TRACK_SECONDS / step_dt) as u64).max(1),
+            origin,
+            step_dt,
+            steps: Vec::new(),
+        })
+    }
+
+    /// Steps since the flow started.
+    fn since<R: Real, const N: usize, const K: usize>(&self, sim: &Sim<R, N, K>) -> u64 {
+        sim.step_count().saturating_sub(self.origin)
+    }
+
+    /// Writes the frame of now.
+    fn write<R: Real, const N: usize, const K: usize>(
+        &mut self,
+        sim: &Sim<R, N, K>,
+    ) -> Result<(), HostError> {
+        let step = self.since(sim);
+        self.writer.write(sim, step as f64 * self.step_dt)?;
+        self.steps.push(step);
+        Ok(())
+    }
+
+    /// Runs `steps` steps in pieces that end on every frame (written) and
+    /// at least every [`TRACK_SECONDS`] (a look): the same bits as one
+    /// `sim.run(steps)`. A kernel error goes through `fail`.
+    pub fn run<R: Real, const N: usize, const K: usize>(
+        &mut self,
+        sim: &mut Sim<R, N, K>,
+        steps: u64,
+        fail: impl Fn(mbs_kernel::Error) -> HostError,
+    ) -> Result<(), HostError> {
+        let mut left = steps;
+        while left > 0 {
+            let to_frame = self.every - self.since(sim) % self.every;
+            let n = left.min(self.track).min(to_frame);
+            sim.run(n).map_err(&fail)?;
+            left -= n;
+            if n == to_frame {
+                self.write(sim)?;
+            } else {
+                self.writer.track(sim);
+            }
+        }
+        Ok(())
+    }
+
+    /// Writes the [`RESUME`] record of now: call it with each checkpoint of
+    /// the cell, before the checkpoint is written.
+    pub fn save<R: Real, const N: usize, const K: usize>(
+        &mut self,
+        sim: &Sim<R, N, K>,
+    ) -> Result<(), HostError> {
+        self.writer.track(sim);
+        let record = Record {
+            every: self.every,
+            step: self.since(sim),
+            width: sim.config().width.to_bits(),
+            frames: self.steps.clone(),
+            images: self.writer.images.count.clone(),
+        };
+        write_json(&self.writer.dir.join(RESUME), &record)
+    }
+
+    /// The cell has ended: its [`RESUME`] record is removed.
+    pub fn finish(self) -> Result<(), HostError> {
+        remove_if_present(&self.writer.dir.join(RESUME))
+    }
+
+    /// Frames written so far.
+    pub fn len(&self) -> usize {
+        self.writer.len()
+    }
+
+    /// No frame written yet.
+    pub fn is_empty(&self) -> bool {
+        self.writer.is_empty()
+    }
 }
 
 /// One `<DataArray>` of VTK type `kind` with `attributes`: the

@@ -82,6 +82,13 @@ enum Command {
         /// task; `mbs merge` joins the slices.
         #[arg(long, value_name = "I/N")]
         shard: Option<Shard>,
+        /// Write particle frames (XML VTK, for ParaView and meshio) of each computed
+        /// cell every SECONDS of simulated time under the flow, from the flow's start
+        /// (time 0), to DIR/frames/tau<τ*>_seed<seed>/frames.pvd; at least one
+        /// integration step, at most time.window. Cells reused from cells.jsonl
+        /// write none; a resumed cell continues its frames.
+        #[arg(long, value_name = "SECONDS", allow_negative_numbers = true)]
+        dump_every: Option<f64>,
     },
     /// Merges the cell stores of shard output directories (`run` or
     /// `calibrate` with --shard) into one directory.
@@ -320,6 +327,7 @@ fn execute(cli: Cli) -> Result<(), HostError> {
         checkpoint_every: None,
         stop_after_steps: None,
         shard: None,
+        dump_every: None,
     });
     let shared = cli.shared.and(command.take_shared());
     commands::check_threads(shared.threads)?;
@@ -338,6 +346,7 @@ fn execute(cli: Cli) -> Result<(), HostError> {
             checkpoint_every,
             stop_after_steps,
             shard,
+            dump_every,
             ..
         } => {
             if let Some(s) = checkpoint_every
@@ -355,6 +364,7 @@ fn execute(cli: Cli) -> Result<(), HostError> {
                 stop_after_steps,
                 resuming: resume.is_some(),
                 shard: shard.unwrap_or(Shard::ALL),
+                dump_every,
             };
             let (config, out) = match resume {
                 Some(_) if !sets.is_empty() => return Err(mbs::ConfigError::Invalid {

@@ -2,12 +2,13 @@
 //! (`bed_NNNN.vtu`) and their collection (`bed.pvd`) with each grain's id,
 //! radius, velocity, spin, fixed flag, size class and unwrapped x, and the
 //! time. The arrays are read here as ParaView and meshio read them: the
-//! base64 block after its UInt64 length, little-endian.
+//! base64 block after its UInt64 length, little-endian. `mbs run
+//! --dump-every` writes the same frames for each cell under the flow.
 
 use crate::common::*;
 use base64::Engine;
 use std::collections::HashMap;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// One frame's arrays by name (the points as `points`), as f64, and its
 /// field data.
@@ -84,7 +85,12 @@ fn read_frame(path: &Path) -> Frame {
 
 /// `bed.pvd`'s frames: file name and time.
 fn read_collection(dir: &Path) -> Vec<(String, f64)> {
-    let text = std::fs::read_to_string(dir.join("bed.pvd")).unwrap();
+    read_pvd(&dir.join("bed.pvd"))
+}
+
+/// A collection's frames: file name and time.
+fn read_pvd(path: &Path) -> Vec<(String, f64)> {
+    let text = std::fs::read_to_string(path).unwrap();
     let doc = roxmltree::Document::parse(&text).unwrap();
     assert_eq!(doc.root_element().attribute("type"), Some("Collection"));
     doc.descendants()
@@ -213,4 +219,157 @@ fn unwrapped_x_follows_the_grains_across_the_seam() {
         far,
         "a grain moved more than half the width between two frames"
     );
+}
+
+/// The SMALL job's cells: (τ*, seed) as their frame directories name them.
+const CELLS: [&str; 4] = [
+    "tau0.1_seed1",
+    "tau0.1_seed2",
+    "tau0.3_seed1",
+    "tau0.3_seed2",
+];
+
+/// Every file under `dir` (relative path, bytes), sorted.
+fn files(dir: &Path) -> Vec<(PathBuf, Vec<u8>)> {
+    let mut out = Vec::new();
+    let mut todo = vec![dir.to_path_buf()];
+    while let Some(d) = todo.pop() {
+        for e in std::fs::read_dir(&d).unwrap() {
+            let p = e.unwrap().path();
+            if p.is_dir() {
+                todo.push(p);
+            } else {
+                let bytes = std::fs::read(&p).unwrap();
+                out.push((p.strip_prefix(dir).unwrap().to_path_buf(), bytes));
+            }
+        }
+    }
+    out.sort();
+    out
+}
+
+/// `mbs run --dump-every 0.01` on the SMALL job (0.02 s spin-up, 0.05 s
+/// window): each cell writes a frame at the flow's start and every 0.01 s
+/// after, 8 in all, timed from the flow's start, and the same
+/// `transport.csv` as a run without frames.
+#[test]
+fn run_dump_every_writes_each_cells_frames_and_the_same_table() {
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = write(dir.path(), "small.toml", SMALL);
+    let (plain, dumped) = (dir.path().join("plain"), dir.path().join("dumped"));
+    run_into(&cfg, &plain).assert().success();
+    run_into(&cfg, &dumped)
+        .args(["--dump-every", "0.01"])
+        .assert()
+        .success();
+    assert_eq!(
+        std::fs::read(plain.join("transport.csv")).unwrap(),
+        std::fs::read(dumped.join("transport.csv")).unwrap(),
+        "frames change no result"
+    );
+    assert!(!plain.join("frames").exists());
+    for cell in CELLS {
+        let cell_dir = dumped.join("frames").join(cell);
+        let list = read_pvd(&cell_dir.join("frames.pvd"));
+        assert_eq!(list.len(), 8, "{cell}: {list:?}");
+        for (k, (file, time)) in list.iter().enumerate() {
+            assert_eq!(file, &format!("frames_{k:04}.vtu"));
+            assert!((time - 0.01 * k as f64).abs() < 1e-12, "{cell}: {list:?}");
+            let frame = read_frame(&cell_dir.join(file));
+            assert_eq!(frame.fields["TimeValue"], *time);
+            assert_eq!(frame.points, 25);
+        }
+        assert!(
+            !cell_dir.join("frames_resume.json").exists(),
+            "{cell}: the record for resuming goes when the cell ends"
+        );
+        // The first frame is the settled bed at rest under the new flow.
+        let first = read_frame(&cell_dir.join("frames_0000.vtu"));
+        assert_eq!(first.arrays["x_unwrapped"], {
+            let p = &first.arrays["points"];
+            p.chunks(3).map(|p| p[0]).collect::<Vec<_>>()
+        });
+    }
+}
+
+/// A run stopped in its cells and resumed with the same --dump-every ends
+/// with the very files of an uninterrupted run (unwrapped x included);
+/// resumed with another interval, a cell's collection starts afresh at
+/// the resume point on the new interval's times.
+#[test]
+fn resumed_cells_continue_their_frames() {
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = write(dir.path(), "small.toml", SMALL);
+    let whole = dir.path().join("whole");
+    run_into(&cfg, &whole)
+        .args(["--dump-every", "0.01"])
+        .assert()
+        .success();
+    // Each bed and cell stops 13 000 steps into its invocation: the beds
+    // (20 000 steps) in the first, the cells (28 000) in the second, after
+    // their frame at 0.03 s of 0.0325 s.
+    let stop = |dir: &Path| {
+        run_into(&cfg, dir)
+            .args(["--dump-every", "0.01", "--stop-after-steps", "13000"])
+            .assert()
+            .code(130);
+        resume_in(dir)
+            .args(["--dump-every", "0.01", "--stop-after-steps", "13000"])
+            .assert()
+            .code(130);
+    };
+    let resumed = dir.path().join("resumed");
+    stop(&resumed);
+    let cell = resumed.join("frames").join("tau0.3_seed2");
+    assert_eq!(read_pvd(&cell.join("frames.pvd")).len(), 4);
+    assert!(cell.join("frames_resume.json").exists());
+    resume_in(&resumed)
+        .args(["--dump-every", "0.01"])
+        .assert()
+        .success();
+    assert_eq!(files(&whole.join("frames")), files(&resumed.join("frames")));
+    assert_eq!(
+        std::fs::read(whole.join("transport.csv")).unwrap(),
+        std::fs::read(resumed.join("transport.csv")).unwrap()
+    );
+
+    let other = dir.path().join("other");
+    stop(&other);
+    resume_in(&other)
+        .args(["--dump-every", "0.015"])
+        .assert()
+        .success();
+    for cell in CELLS {
+        let list = read_pvd(&other.join("frames").join(cell).join("frames.pvd"));
+        let times: Vec<f64> = list.iter().map(|(_, t)| *t).collect();
+        // 0.0325 s at the stop: 0.045 and 0.06 s.
+        assert_eq!(times.len(), 2, "{cell}: {times:?}");
+        for (t, want) in times.iter().zip([0.045, 0.06]) {
+            assert!((t - want).abs() < 1e-12, "{cell}: {times:?}");
+        }
+    }
+}
+
+/// --dump-every outside (one integration step, time.window) is refused
+/// before anything is written, exit 2, naming the option, the value and
+/// the range.
+#[test]
+fn an_invalid_dump_every_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = write(dir.path(), "small.toml", SMALL);
+    for bad in ["0", "-0.01", "1e-7", "0.06", "NaN", "inf"] {
+        let out = dir.path().join("out");
+        let assert = run_into(&cfg, &out)
+            .args(["--dump-every", bad])
+            .assert()
+            .code(2);
+        let stderr = String::from_utf8_lossy(&assert.get_output().stderr).to_string();
+        assert!(stderr.contains("--dump-every"), "{bad}: {stderr}");
+        assert!(
+            stderr.contains("step_dt = constants_dt/substeps = 0.0000025 s")
+                && stderr.contains("time.window (0.05 s)"),
+            "{bad}: {stderr}"
+        );
+        assert!(!out.exists(), "{bad}: nothing written");
+    }
 }

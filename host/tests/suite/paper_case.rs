@@ -22,6 +22,7 @@ fn transport(mut config: Config) -> Vec<TransportRow> {
         stop_after: None,
         shard: mbs::shard::Shard::ALL,
         log: &mbs::log::Log::discard(),
+        dump_every: None,
     };
     let outcome = run_all(&config, &ProgressBar::hidden(), &control).expect("the case runs");
     aggregate(&config, &outcome.results)
