@@ -78,15 +78,24 @@ pub fn directory(key: &str, dir: &Path) -> Result<PathBuf, HostError> {
     Ok(dir.to_path_buf())
 }
 
-/// Opens `dir/mbs.log` for `command` and runs `f` with it; the outcome
-/// (done, or the error and its exit status) ends the invocation's lines.
+/// Opens `dir/mbs.log` for `command` on `config` and runs `f` with it and
+/// the configuration's canonical text; the outcome (done, or the error and
+/// its exit status) ends the invocation's lines.
 fn logged(
+    config: &Config,
     dir: &Path,
-    header: Header<'_>,
-    f: impl FnOnce(&Log) -> Result<(), HostError>,
+    command: &'static str,
+    resumed: bool,
+    f: impl FnOnce(&Log, &str) -> Result<(), HostError>,
 ) -> Result<(), HostError> {
+    let text = config_text(config, dir)?;
+    let header = Header {
+        command,
+        resumed,
+        config: &text,
+    };
     let log = Log::open(dir, header)?;
-    let result = f(&log);
+    let result = f(&log, &text);
     log.end(&result);
     result
 }
@@ -295,14 +304,8 @@ pub fn run(
     }
     let dir = output_dir(config, out)?;
     let _lock = crate::output::lock_dir(&dir)?;
-    let text = config_text(config, &dir)?;
-    let header = Header {
-        command: "run",
-        resumed: options.resuming,
-        config: &text,
-    };
-    logged(&dir, header, |log| {
-        run_logged(config, &dir, &text, options, common, log)
+    logged(config, &dir, "run", options.resuming, |log, text| {
+        run_logged(config, &dir, text, options, common, log)
     })
 }
 
@@ -506,13 +509,7 @@ pub fn pack(
 ) -> Result<(), HostError> {
     let dir = output_dir(config, out)?;
     create_dir(&dir)?;
-    let text = config_text(config, &dir)?;
-    let header = Header {
-        command: "pack",
-        resumed: false,
-        config: &text,
-    };
-    logged(&dir, header, |log| {
+    logged(config, &dir, "pack", false, |log, _| {
         pack_logged(config, &dir, duration, common, log)
     })
 }
@@ -583,13 +580,7 @@ pub fn snapshot(
 ) -> Result<(), HostError> {
     let dir = output_dir(config, out)?;
     create_dir(&dir)?;
-    let text = config_text(config, &dir)?;
-    let header = Header {
-        command: "snapshot",
-        resumed: false,
-        config: &text,
-    };
-    logged(&dir, header, |log| {
+    logged(config, &dir, "snapshot", false, |log, _| {
         report_warnings(config, log, true);
         let every = config.steps_of(every);
         let progress = Progress::steps(
@@ -792,14 +783,9 @@ pub fn calibrate(
 ) -> Result<crate::calibrate::Progress, HostError> {
     let dir = directory("--out", dir)?;
     create_dir(&dir)?;
-    let text = config_text(&base, &dir)?;
-    let header = Header {
-        command: "calibrate",
-        resumed: false,
-        config: &text,
-    };
     let mut reached = None;
-    logged(&dir, header, |log| {
+    let logged_config = base.clone();
+    logged(&logged_config, &dir, "calibrate", false, |log, _| {
         let start = Instant::now();
         report_warnings(&base, log, true);
         if let Some(w) = threads_warning(threads) {
