@@ -241,6 +241,26 @@ impl Curve {
             / n
     }
 
+    /// The misfit that noise alone gives: the mean over τ* of the squared
+    /// relative standard error (σ/q*)², the expected ln²(q*/q*_ref) of a
+    /// curve that matches the reference and scatters by its errors.
+    pub fn misfit_noise(&self) -> f64 {
+        let n = self.tau_stars.len().max(1) as f64;
+        self.q_star
+            .iter()
+            .zip(&self.stderr)
+            .map(|(&q, &e)| {
+                let r = e / q.abs().max(Q_FLOOR);
+                if r.is_finite() {
+                    r * r
+                } else {
+                    0.0
+                }
+            })
+            .sum::<f64>()
+            / n
+    }
+
     /// Largest factor between q* and `reference` (either way) over the curve.
     pub fn worst_factor(&self, reference: Reference) -> f64 {
         self.tau_stars

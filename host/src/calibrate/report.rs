@@ -266,6 +266,17 @@ pub fn write_report(
     }
     let _ = writeln!(
         o,
+        "\nβ = {:.3}; the β whose misfit is within twice the noise misfit of the minimum \
+         (the mean (σ/q*)² of the fitted curve, {:.4}) span **[{:.3}, {:.3}]**: β's uncertainty. \
+         The seeds are the same at every τ* (one settled bed per seed), so the points' errors \
+         are correlated along the curve.",
+        s.beta.beta,
+        s.beta.after.misfit_noise(),
+        s.beta.beta_range.0,
+        s.beta.beta_range.1
+    );
+    let _ = writeln!(
+        o,
         "\n| τ* | q* at β = 1 | q* at β = {:.3} | ± | {} |\n|---|---|---|---|---|",
         s.beta.beta,
         reference.label()

@@ -55,6 +55,18 @@ fn quick_calibration_writes_every_stage_and_the_report() {
     let s1 = json(dir.path(), "stage1.json");
     let s3 = json(dir.path(), "stage3.json");
     let s4 = json(dir.path(), "stage4.json");
+    // β's uncertainty: the evaluated β within the noise of the minimum,
+    // the fitted one among them, stated in the report.
+    let beta = s3["beta"].as_f64().unwrap();
+    let (lo, hi) = (
+        s3["beta_range"][0].as_f64().unwrap(),
+        s3["beta_range"][1].as_f64().unwrap(),
+    );
+    assert!(lo <= beta && beta <= hi, "{lo} {beta} {hi}");
+    assert!(
+        report.contains(&format!("span **[{lo:.3}, {hi:.3}]**: β's uncertainty")),
+        "{report}"
+    );
     // The summary table states our values next to the paper's, from the stage results.
     let alpha_m = s1["chosen"].as_f64().unwrap();
     assert!(

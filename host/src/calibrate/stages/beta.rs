@@ -30,6 +30,35 @@ pub struct BetaStage {
     pub worst_factor: f64,
     /// Misfit (mean squared log-ratio) after the fit.
     pub misfit: f64,
+    /// β's uncertainty: the smallest and largest β evaluated whose misfit
+    /// is within twice the noise misfit of the minimum ([`beta_range`]).
+    #[serde(default)]
+    pub beta_range: (f64, f64),
+}
+
+/// The β evaluated (grid and refinement) whose misfit lies within
+/// `2 noise` of the smallest misfit: (smallest, largest) of them. Misfits
+/// that differ by less than what the points' standard errors give alone
+/// (`noise`, [`Curve::misfit_noise`]) do not tell the β apart.
+///
+/// ```
+/// use mbs::calibrate::stages::beta::beta_range;
+///
+/// let evaluations = [(1.0, 2.0), (2.0, 0.30), (4.0, 0.10), (8.0, 0.25), (16.0, 1.0)];
+/// assert_eq!(beta_range(&evaluations, 0.1), (2.0, 8.0));
+/// assert_eq!(beta_range(&evaluations, 0.01), (4.0, 4.0));
+/// ```
+pub fn beta_range(evaluations: &[(f64, f64)], noise: f64) -> (f64, f64) {
+    let best = evaluations
+        .iter()
+        .map(|e| e.1)
+        .fold(f64::INFINITY, f64::min);
+    evaluations
+        .iter()
+        .filter(|e| e.1 <= best + 2.0 * noise)
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), e| {
+            (lo.min(e.0), hi.max(e.0))
+        })
 }
 
 /// Runs stage 3.
@@ -57,9 +86,16 @@ pub fn run(ctx: &Context<'_>, alpha_m: f64, alpha_cn: f64) -> Result<Option<Beta
     let (Some(before), Some(after)) = (curve_at(1.0, extra)?, curve_at(beta, extra + 1)?) else {
         return Ok(None);
     };
+    let evaluations: Vec<(f64, f64)> = search
+        .grid
+        .iter()
+        .chain(&search.refinement)
+        .copied()
+        .collect();
     let result = BetaStage {
         alpha_m,
         alpha_cn,
+        beta_range: beta_range(&evaluations, after.misfit_noise()),
         worst_factor: after.worst_factor(ctx.reference),
         misfit: after.misfit(ctx.reference),
         search,
