@@ -29,7 +29,47 @@ use serde::{Deserialize, Serialize};
 
 use crate::store::STORE;
 
-/// The grids, seeds and durations of a calibration.
+/// How precisely the points of a curve are computed (docs/calibration.md,
+/// "Precision-driven points"). A cell averages from `window_min` on, in
+/// blocks of `window_min`/5, until its standard error reaches the base
+/// configuration's `[target]` or `window` is up; a point starts with
+/// `seeds` seeds (1, 2, …) and adds `seeds` more while the standard error
+/// of their mean misses the same target, up to its cap, unless the point is
+/// already beyond the fit's target factor by twice its error.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Fidelity {
+    /// Shortest averaging window of a cell (s).
+    pub window_min: f64,
+    /// Longest averaging window of a cell (s): the cap.
+    pub window: f64,
+    /// Seeds a point starts with, and adds at a time.
+    pub seeds: usize,
+    /// The most seeds of a point above `threshold_tau_star`.
+    pub seeds_max: usize,
+    /// The most seeds of a point at τ* ≤ `threshold_tau_star`, where q*
+    /// comes from rare events.
+    pub threshold_seeds_max: usize,
+}
+
+impl Fidelity {
+    /// One seed and one fixed window: a cheap look.
+    pub fn coarse(window: f64) -> Fidelity {
+        Fidelity {
+            window_min: window,
+            window,
+            seeds: 1,
+            seeds_max: 1,
+            threshold_seeds_max: 1,
+        }
+    }
+
+    /// The block of a cell's window (s).
+    pub fn block(&self) -> f64 {
+        self.window_min / 5.0
+    }
+}
+
+/// The grids, fidelities and durations of a calibration.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Plan {
     /// Quick mode.
@@ -45,9 +85,8 @@ pub struct Plan {
     /// Stages 1–2: lattice columns of the packing bed (docs/model.md §9
     /// step 1: nld = 5); the flow stages use the base bed's columns.
     pub pack_columns: u32,
-    /// Stages 3–5: lattice columns instead of the base bed's (the quick plan
-    /// uses 10: q* above τ* = 0.1 is the same as on 40, near the threshold
-    /// it is not; docs/findings/bed-width.md).
+    /// Stages 3–5: lattice columns instead of the base bed's (near the
+    /// threshold q* depends on the width below 40; docs/findings/bed-width.md).
     pub flow_columns: Option<u32>,
     /// Stage 4: lattice columns instead of the flow stages' (its τ* ≥ 0.1
     /// converge by 20 columns; docs/findings/bed-width.md), so the 50-layer
@@ -57,38 +96,41 @@ pub struct Plan {
     pub settle_tolerance_d: f64,
     /// Stages 1–2: at rest when the largest speed at the end is below this (m/s).
     pub rest_speed: f64,
-    /// Stage 3: β grid (searched first; the search refines around its best).
+    /// Stage 3: the coarse grid of β.
     pub beta_grid: Vec<f64>,
-    /// Stage 3: stop when the β bracket is narrower than this ratio.
+    /// Stage 3: the ratio between the first three precise β.
+    pub beta_step: f64,
+    /// Stage 3: the search ends when the parabola's vertex is within this
+    /// ratio of a β already evaluated precisely.
     pub beta_tolerance: f64,
+    /// Stage 3: the most precise curves.
+    pub beta_evaluations: usize,
+    /// The worst factor to the reference the fit aims at; a point beyond it
+    /// by twice its error adds no seeds (its verdict is clear).
+    pub target_factor: f64,
     /// Stages 3, 5: Shields numbers of the fit.
     pub tau_stars: Vec<f64>,
-    /// Stages 3, 5: seeds.
-    pub seeds: Vec<u64>,
-    /// Stages 3, 5: seeds instead of `seeds` at τ* ≤ `threshold_tau_star`,
-    /// where q* comes from rare events and 4 seeds leave ±45 %
-    /// (docs/calibration.md).
-    pub threshold_seeds: Vec<u64>,
-    /// Stages 3, 5: the largest τ* that uses `threshold_seeds`.
+    /// The largest τ* that counts as near the threshold
+    /// ([`Fidelity::threshold_seeds_max`]).
     pub threshold_tau_star: f64,
-    /// Transport window (s) of stages 3 and 5.
-    pub window: f64,
-    /// Transport window (s) of stage 4.
-    pub timestep_window: f64,
+    /// Stage 3's coarse grid.
+    pub coarse: Fidelity,
+    /// Stage 3's fine search and stage 5.
+    pub fine: Fidelity,
+    /// Stage 4.
+    pub timestep: Fidelity,
     /// Stage 4: grain diameters (mm), searched at the first of `layers`.
     pub sizes_mm: Vec<f64>,
     /// Stage 4: layer thicknesses nvd, searched at the study diameter.
     pub layers: Vec<u32>,
     /// Stage 4: the diameter of the layer study (mm).
     pub study_mm: f64,
-    /// Stage 4: constants_dt grid as multiples of the base configuration's.
-    pub constants_dt_grid: Vec<f64>,
-    /// Stage 4: stop when the constants_dt bracket is narrower than this ratio.
-    pub constants_dt_tolerance: f64,
+    /// Stage 4: the first step of the secant search, as a ratio of constants_dt.
+    pub constants_dt_step: f64,
+    /// Stage 4: the most curves per (d, nvd) search.
+    pub constants_dt_evaluations: usize,
     /// Stage 4: Shields numbers.
     pub timestep_tau_stars: Vec<f64>,
-    /// Stage 4: seeds.
-    pub timestep_seeds: Vec<u64>,
     /// Stage 5: size classes (mm, fraction).
     pub mixed: Vec<(f64, f64)>,
 }
@@ -108,66 +150,80 @@ impl Plan {
             settle_tolerance_d: 0.01,
             rest_speed: 5e-3,
             beta_grid: vec![1.0, 1.6, 2.5, 4.0, 6.3, 10.0, 15.8, 25.0],
+            beta_step: 1.3,
             beta_tolerance: 1.05,
+            beta_evaluations: 8,
+            target_factor: 1.5,
             tau_stars: vec![0.06, 0.08, 0.1, 0.15, 0.2, 0.3, 0.4, 0.5],
-            seeds: vec![1, 2, 3, 4],
-            threshold_seeds: (1..=12).collect(),
             threshold_tau_star: 0.06,
-            window: 2.0,
-            timestep_window: 1.0,
+            coarse: Fidelity::coarse(0.5),
+            fine: Fidelity {
+                window_min: 0.5,
+                window: 2.0,
+                seeds: 4,
+                seeds_max: 4,
+                threshold_seeds_max: 12,
+            },
+            timestep: Fidelity {
+                window_min: 0.5,
+                window: 1.0,
+                seeds: 2,
+                seeds_max: 2,
+                threshold_seeds_max: 2,
+            },
             sizes_mm: vec![0.1, 0.2, 0.5, 1.0, 2.0],
             layers: vec![10, 20, 30, 40, 50],
             study_mm: 0.5,
-            constants_dt_grid: vec![0.5, 1.0, 2.0],
-            constants_dt_tolerance: 1.15,
+            constants_dt_step: 1.5,
+            constants_dt_evaluations: 4,
             timestep_tau_stars: vec![0.1, 0.2, 0.4],
-            timestep_seeds: vec![1, 2],
             mixed: vec![(0.7, 0.5), (0.5, 0.5)],
         }
     }
 
-    /// A few minutes on 2 cores: coarser grids, one or two seeds, short windows.
+    /// Under 3 minutes on 2 cores: the same packing stages (seconds), a
+    /// coarser β grid, fewer seeds, shorter windows, two grain sizes and two
+    /// layer thicknesses; the fit leaves out τ* = 0.06, where q* needs a
+    /// dozen seeds.
     pub fn quick() -> Plan {
         Plan {
             quick: true,
-            alpha_m: vec![10.0, 20.0, 40.0],
-            alpha_cn: vec![0.7, 1.3, 2.5],
-            pack_duration: 0.25,
-            pack_seeds: vec![1],
-            flow_columns: Some(10),
-            timestep_columns: None,
             beta_grid: vec![1.5, 3.0, 6.0, 12.0],
-            beta_tolerance: 1.25,
-            tau_stars: vec![0.06, 0.1, 0.2, 0.4],
-            seeds: vec![1],
-            threshold_seeds: vec![1],
-            window: 0.5,
-            timestep_window: 0.5,
+            tau_stars: vec![0.08, 0.1, 0.2, 0.4],
+            threshold_tau_star: 0.08,
+            fine: Fidelity {
+                window_min: 0.5,
+                window: 1.0,
+                seeds: 2,
+                seeds_max: 2,
+                threshold_seeds_max: 4,
+            },
+            timestep: Fidelity::coarse(0.5),
             sizes_mm: vec![0.1, 0.5],
             layers: vec![10, 20],
-            constants_dt_grid: vec![0.5, 1.0],
-            constants_dt_tolerance: 1.5,
+            constants_dt_evaluations: 2,
             timestep_tau_stars: vec![0.1, 0.4],
-            timestep_seeds: vec![1],
-            study_mm: 0.5,
             ..Plan::full()
         }
     }
 
-    /// The (τ*, seeds) of the transport curves of stages 3 and 5.
-    pub fn fit_points(&self) -> Vec<(f64, &[u64])> {
-        self.tau_stars
-            .iter()
-            .map(|&t| {
-                let seeds = if t <= self.threshold_tau_star {
-                    &self.threshold_seeds
-                } else {
-                    &self.seeds
-                };
-                (t, seeds.as_slice())
-            })
-            .collect()
+    /// The most seeds of a point at `tau_star` under `fidelity`.
+    pub fn seeds_max(&self, fidelity: &Fidelity, tau_star: f64) -> usize {
+        if tau_star <= self.threshold_tau_star {
+            fidelity.threshold_seeds_max.max(fidelity.seeds)
+        } else {
+            fidelity.seeds_max.max(fidelity.seeds)
+        }
     }
+}
+
+/// How the cells of a request are numbered for sharding.
+#[derive(Debug, Clone, Copy)]
+pub enum Slots {
+    /// One number per cell from this one on: cells spread over the shards.
+    From(usize),
+    /// This number for every cell: the whole request on one shard.
+    All(usize),
 }
 
 /// Everything a stage needs.
@@ -197,6 +253,13 @@ pub struct Curve {
     pub classes: Vec<Vec<f64>>,
     /// Kernel failures (cell message), if any.
     pub failures: Vec<String>,
+    /// Seeds averaged per τ*.
+    #[serde(default)]
+    pub seeds: Vec<usize>,
+    /// Per τ*: whether the point's standard error reached the target (or
+    /// its verdict was clear) before the seed cap.
+    #[serde(default)]
+    pub reached: Vec<bool>,
 }
 
 /// Misfit of a failed or non-positive point: a large but finite penalty so
@@ -221,44 +284,73 @@ impl Curve {
             .collect()
     }
 
-    /// Mean squared log-ratio of q* to `reference` (the objective of stages
-    /// 3 and 4), q* floored at [`MISFIT_FLOOR`] × reference;
+    /// The log-ratio ln(q*/q*_ref) of every point, q* floored at
+    /// [`MISFIT_FLOOR`] × reference, with its relative standard error.
+    pub fn log_ratios(&self, reference: Reference) -> Vec<(f64, f64)> {
+        self.tau_stars
+            .iter()
+            .zip(self.q_star.iter().zip(&self.stderr))
+            .map(|(&t, (&q, &e))| {
+                let q_ref = reference.q_star(t).max(Q_FLOOR);
+                let q = q.max(MISFIT_FLOOR * q_ref);
+                let relative = e / q;
+                (
+                    (q / q_ref).ln(),
+                    if relative.is_finite() { relative } else { 0.0 },
+                )
+            })
+            .collect()
+    }
+
+    /// The weight of a point with relative standard error `relative`:
+    /// 1/(relative² + floor²). A point resolved to the `floor` (the target's
+    /// relative error) weighs about fully, a noisier one less.
+    fn weight(relative: f64, floor: f64) -> f64 {
+        1.0 / (relative * relative + floor * floor)
+    }
+
+    /// The misfit (the objective of stage 3): the mean squared log-ratio of
+    /// q* to `reference`, each point weighted by its error ([`Self::log_ratios`],
+    /// weights 1/(σ_r² + floor²), `floor` the target's relative error);
     /// [`FAILED_MISFIT`] if any cell failed.
-    pub fn misfit(&self, reference: Reference) -> f64 {
+    pub fn misfit(&self, reference: Reference, floor: f64) -> f64 {
         if !self.failures.is_empty() {
             return FAILED_MISFIT;
         }
-        let n = self.tau_stars.len().max(1) as f64;
-        self.tau_stars
-            .iter()
-            .zip(&self.q_star)
-            .map(|(&t, &q)| {
-                let q_ref = reference.q_star(t).max(Q_FLOOR);
-                let r = (q.max(MISFIT_FLOOR * q_ref) / q_ref).ln();
-                r * r
-            })
-            .sum::<f64>()
-            / n
+        self.weighted(reference, floor, |r, _| r * r)
     }
 
-    /// The misfit that noise alone gives: the mean over τ* of the squared
-    /// relative standard error (σ/q*)², the expected ln²(q*/q*_ref) of a
-    /// curve that matches the reference and scatters by its errors.
-    pub fn misfit_noise(&self) -> f64 {
-        let n = self.tau_stars.len().max(1) as f64;
-        self.q_star
+    /// The misfit that noise alone gives: the weighted mean of the squared
+    /// relative standard errors σ_r², the expected misfit of a curve that
+    /// matches the reference and scatters by its errors.
+    pub fn misfit_noise(&self, reference: Reference, floor: f64) -> f64 {
+        self.weighted(reference, floor, |_, e| e * e)
+    }
+
+    /// The weighted mean log-ratio (the root stage 4 searches) and its
+    /// standard error.
+    pub fn mean_log_ratio(&self, reference: Reference, floor: f64) -> (f64, f64) {
+        let ratios = self.log_ratios(reference);
+        let total: f64 = ratios.iter().map(|&(_, e)| Self::weight(e, floor)).sum();
+        let mean = self.weighted(reference, floor, |r, _| r);
+        let variance: f64 = ratios
             .iter()
-            .zip(&self.stderr)
-            .map(|(&q, &e)| {
-                let r = e / q.abs().max(Q_FLOOR);
-                if r.is_finite() {
-                    r * r
-                } else {
-                    0.0
-                }
-            })
-            .sum::<f64>()
-            / n
+            .map(|&(_, e)| (Self::weight(e, floor) / total * e).powi(2))
+            .sum();
+        (mean, variance.sqrt())
+    }
+
+    fn weighted(&self, reference: Reference, floor: f64, f: impl Fn(f64, f64) -> f64) -> f64 {
+        let ratios = self.log_ratios(reference);
+        let (sum, total) = ratios.iter().fold((0.0, 0.0), |(s, w), &(r, e)| {
+            let weight = Self::weight(e, floor);
+            (s + weight * f(r, e), w + weight)
+        });
+        if total > 0.0 {
+            sum / total
+        } else {
+            FAILED_MISFIT
+        }
     }
 
     /// Largest factor between q* and `reference` (either way) over the curve.
@@ -285,42 +377,132 @@ impl Context<'_> {
         c
     }
 
-    /// The transport curve of `config` at `points` (τ* and the seeds averaged
-    /// there); `None` while cells owned by other shards are missing.
-    /// `slot(k)` numbers the cells for sharding.
-    pub fn curve(
+    /// The relative standard error the fit aims at (the base configuration's
+    /// `[target] stderr_relative`), also the floor of the misfit's weights.
+    pub fn floor(&self) -> f64 {
+        self.base.file.target.stderr_relative
+    }
+
+    /// The transport curves of `configs` at `tau_stars`, computed to
+    /// `fidelity` ([`Fidelity`]) in rounds: every point's first seeds, then
+    /// more seeds for the points that miss the target, until none does or
+    /// all are capped. `judge`: the reference whose verdict also ends a
+    /// point (beyond `target_factor` by twice its error). `None` while cells
+    /// owned by other shards are missing; `slots` numbers the cells for
+    /// sharding.
+    pub fn curves(
+        &self,
+        configs: &[ConfigFile],
+        tau_stars: &[f64],
+        fidelity: &Fidelity,
+        judge: Option<Reference>,
+        slots: Slots,
+    ) -> Result<Option<Vec<Curve>>, HostError> {
+        let caps: Vec<usize> = tau_stars
+            .iter()
+            .map(|&t| self.plan.seeds_max(fidelity, t))
+            .collect();
+        let per_config: usize = caps.iter().sum();
+        let configs: Vec<ConfigFile> = configs
+            .iter()
+            .map(|c| {
+                let mut c = c.clone();
+                c.time.window = fidelity.window;
+                c.time.window_min = fidelity.window_min;
+                c.time.block = fidelity.block();
+                c
+            })
+            .collect();
+        let mut seeds: Vec<Vec<usize>> = vec![
+            caps.iter()
+                .map(|&cap| fidelity.seeds.min(cap).max(1))
+                .collect();
+            configs.len()
+        ];
+        loop {
+            let mut specs = Vec::new();
+            let mut numbers = Vec::new();
+            for (c, config) in configs.iter().enumerate() {
+                let mut slot = c * per_config;
+                for (p, &t) in tau_stars.iter().enumerate() {
+                    for seed in 1..=seeds[c][p] {
+                        specs.push(TransportSpec::new(config, t, seed as u64));
+                        numbers.push(match slots {
+                            Slots::From(first) => first + slot + seed - 1,
+                            Slots::All(unit) => unit,
+                        });
+                    }
+                    slot += caps[p];
+                }
+            }
+            let results = self.cells.transport(&specs, &|k| numbers[k])?;
+            if results.iter().any(Option::is_none) {
+                return Ok(None);
+            }
+            let mut rest = results.as_slice();
+            let mut curves = Vec::new();
+            let mut more = false;
+            for (c, config) in configs.iter().enumerate() {
+                let counts: Vec<usize> = seeds[c].clone();
+                let mut chunks = Vec::new();
+                for &n in &counts {
+                    let (chunk, tail) = rest.split_at(n);
+                    rest = tail;
+                    chunks.push(chunk);
+                }
+                let mut curve = self.curve_of(config, tau_stars, &chunks);
+                for p in 0..tau_stars.len() {
+                    let done = self.point_done(&curve, p, judge);
+                    if !done && seeds[c][p] < caps[p] {
+                        seeds[c][p] = (seeds[c][p] + fidelity.seeds).min(caps[p]);
+                        more = true;
+                    }
+                    curve.reached.push(done);
+                }
+                curves.push(curve);
+            }
+            if !more {
+                return Ok(Some(curves));
+            }
+        }
+    }
+
+    /// Whether point `p` of `curve` needs no more seeds: its standard error
+    /// reaches the target, or its factor to `judge` exceeds the plan's
+    /// target factor by twice its relative error.
+    fn point_done(&self, curve: &Curve, p: usize, judge: Option<Reference>) -> bool {
+        let (q, e) = (curve.q_star[p], curve.stderr[p]);
+        if !q.is_finite() || !e.is_finite() {
+            return true;
+        }
+        let target = &self.base.file.target;
+        if e <= (target.stderr_relative * q.abs()).max(target.stderr_absolute) {
+            return true;
+        }
+        judge.is_some_and(|reference| {
+            let (r, sigma) = curve.log_ratios(reference)[p];
+            r.abs() - 2.0 * sigma > self.plan.target_factor.ln()
+        })
+    }
+
+    /// The curve of the finished cells `chunks` (one chunk of seeds per τ*).
+    fn curve_of(
         &self,
         config: &ConfigFile,
-        points: &[(f64, &[u64])],
-        window: f64,
-        slot: &(dyn Fn(usize) -> usize + Sync),
-    ) -> Result<Option<Curve>, HostError> {
-        let mut config = config.clone();
-        // Fixed windows of ten blocks (the calibration's own plan).
-        config.time.window = window;
-        config.time.window_min = window;
-        config.time.block = window / 10.0;
-        let specs: Vec<TransportSpec> = points
-            .iter()
-            .flat_map(|&(t, seeds)| seeds.iter().map(move |&s| (t, s)))
-            .map(|(t, s)| TransportSpec::new(&config, t, s))
-            .collect();
-        let results = self.cells.transport(&specs, slot)?;
-        if results.iter().any(Option::is_none) {
-            return Ok(None);
-        }
+        tau_stars: &[f64],
+        chunks: &[&[Option<cells::Outcome<crate::cell::CellResult>>]],
+    ) -> Curve {
         let n_classes = config.grains.classes.as_ref().map_or(1, Vec::len);
         let mut curve = Curve {
-            tau_stars: points.iter().map(|p| p.0).collect(),
+            tau_stars: tau_stars.to_vec(),
             q_star: Vec::new(),
             stderr: Vec::new(),
             classes: vec![Vec::new(); n_classes],
             failures: Vec::new(),
+            seeds: chunks.iter().map(|c| c.len()).collect(),
+            reached: Vec::new(),
         };
-        let mut rest = results.as_slice();
-        for &(_, seeds) in points {
-            let (chunk, tail) = rest.split_at(seeds.len().min(rest.len()));
-            rest = tail;
+        for chunk in chunks {
             let mut q = Vec::new();
             let mut blocks = Vec::new();
             let mut per_class = vec![Vec::new(); n_classes];
@@ -337,9 +519,9 @@ impl Context<'_> {
                 }
             }
             // One seed: the error of its window's blocks (as in `mbs run`).
-            let (mean, err) = if q.len() == seeds.len() && q.len() == 1 {
+            let (mean, err) = if q.len() == chunk.len() && q.len() == 1 {
                 (q[0], crate::stats::block_stderr(&blocks).1)
-            } else if q.len() == seeds.len() {
+            } else if q.len() == chunk.len() {
                 crate::stats::mean_stderr(&q)
             } else {
                 (f64::NAN, f64::NAN)
@@ -350,7 +532,7 @@ impl Context<'_> {
                 curve.classes[k].push(crate::stats::mean_stderr(values).0);
             }
         }
-        Ok(Some(curve))
+        curve
     }
 }
 
@@ -505,12 +687,51 @@ mod tests {
     use super::Plan;
 
     #[test]
-    fn threshold_points_get_their_own_seeds() {
+    fn threshold_points_get_their_own_seed_cap() {
         let plan = Plan::full();
-        let points = plan.fit_points();
-        let taus: Vec<f64> = points.iter().map(|p| p.0).collect();
-        assert_eq!(taus, plan.tau_stars);
-        assert_eq!(points[0], (0.06, &(1..=12).collect::<Vec<u64>>()[..]));
-        assert!(points[1..].iter().all(|p| p.1 == [1, 2, 3, 4]));
+        assert_eq!(plan.seeds_max(&plan.fine, 0.06), 12);
+        assert_eq!(plan.seeds_max(&plan.fine, 0.08), 4);
+        assert_eq!(plan.seeds_max(&plan.coarse, 0.06), 1);
+    }
+
+    fn curve(factors: &[f64], relative: &[f64]) -> super::Curve {
+        let r = crate::references::Reference::MeyerPeterMuller;
+        let tau_stars = vec![0.1, 0.2];
+        let q_star: Vec<f64> = tau_stars
+            .iter()
+            .zip(factors)
+            .map(|(&t, f)| f * r.q_star(t))
+            .collect();
+        super::Curve {
+            stderr: q_star.iter().zip(relative).map(|(q, e)| q * e).collect(),
+            q_star,
+            tau_stars,
+            classes: vec![],
+            failures: vec![],
+            seeds: vec![4, 4],
+            reached: vec![true, true],
+        }
+    }
+
+    #[test]
+    fn the_misfit_weights_each_point_by_its_error() {
+        let r = crate::references::Reference::MeyerPeterMuller;
+        let ln2 = 2f64.ln();
+        let exact = curve(&[1.0, 1.0], &[0.0, 0.0]);
+        assert_eq!(exact.misfit(r, 0.1), 0.0);
+        assert_eq!(exact.mean_log_ratio(r, 0.1), (0.0, 0.0));
+        let double = curve(&[2.0, 2.0], &[0.0, 0.3]);
+        assert!((double.misfit(r, 0.1) - ln2 * ln2).abs() < 1e-12);
+        // A precise point off by 2 (weight 100) and a noisy exact one (σ_r
+        // 0.3: weight 10): the precise one dominates.
+        let mixed = curve(&[2.0, 1.0], &[0.0, 0.3]);
+        assert!((mixed.misfit(r, 0.1) - ln2 * ln2 * 100.0 / 110.0).abs() < 1e-12);
+        let (mean, sigma) = mixed.mean_log_ratio(r, 0.1);
+        assert!((mean - ln2 * 100.0 / 110.0).abs() < 1e-12);
+        assert!((sigma - 0.3 * 10.0 / 110.0).abs() < 1e-12);
+        assert!((mixed.misfit_noise(r, 0.1) - 0.09 * 10.0 / 110.0).abs() < 1e-12);
+        let mut failed = mixed.clone();
+        failed.failures.push("lost".into());
+        assert_eq!(failed.misfit(r, 0.1), super::FAILED_MISFIT);
     }
 }

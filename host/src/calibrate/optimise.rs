@@ -1,181 +1,131 @@
-//! One-dimensional minimisation by golden-section search.
+//! The one-dimensional model fits of the searches: a least-squares parabola
+//! (stage 3's minimum of the misfit in ln β) and false position (stage 4's
+//! root of the mean log-ratio in ln constants_dt).
 
-use crate::error::HostError;
 use serde::{Deserialize, Serialize};
 
-/// The result of a search.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Minimum {
-    /// Best argument found.
-    pub x: f64,
-    /// Objective there.
-    pub value: f64,
-    /// Every (argument, objective) evaluated, in order.
-    pub evaluations: Vec<(f64, f64)>,
+/// y = y_min + curvature (x − x_min)², fitted by least squares.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Parabola {
+    /// Where the parabola is lowest (or highest, if `curvature` < 0).
+    pub x_min: f64,
+    /// Its value there.
+    pub y_min: f64,
+    /// The coefficient of (x − x_min)².
+    pub curvature: f64,
 }
 
-/// Minimises `f` over `[a, b]` by golden-section search until the bracket is
-/// narrower than `tol`. `f` returns `None` when it cannot be evaluated yet
-/// (cells owned by other shards): the search then returns `None`.
-pub fn golden_section(
-    mut a: f64,
-    mut b: f64,
-    tol: f64,
-    mut f: impl FnMut(f64) -> Result<Option<f64>, HostError>,
-) -> Result<Option<Minimum>, HostError> {
-    let ratio = (5f64.sqrt() - 1.0) / 2.0;
-    let mut evaluations = Vec::new();
-    let mut eval = |x: f64, log: &mut Vec<(f64, f64)>| -> Result<Option<f64>, HostError> {
-        let v = f(x)?;
-        if let Some(v) = v {
-            log.push((x, v));
+impl Parabola {
+    /// The least-squares parabola through `points` (x, y); `None` with
+    /// fewer than three distinct x or a degenerate fit.
+    ///
+    /// ```
+    /// use mbs::calibrate::optimise::Parabola;
+    ///
+    /// let p = Parabola::fit(&[(0.0, 5.0), (1.0, 2.0), (2.0, 1.0), (3.0, 2.0)]).unwrap();
+    /// assert!((p.x_min - 2.0).abs() < 0.3 && p.curvature > 0.0);
+    /// let exact = Parabola::fit(&[(-1.0, 4.0), (1.0, 0.0), (2.0, 1.0)]).unwrap();
+    /// assert!((exact.x_min - 1.0).abs() < 1e-12 && exact.y_min.abs() < 1e-12);
+    /// assert!((exact.at(3.0) - 4.0).abs() < 1e-12);
+    /// ```
+    pub fn fit(points: &[(f64, f64)]) -> Option<Parabola> {
+        let n = points.len() as f64;
+        if points.len() < 3 {
+            return None;
         }
-        Ok(v)
-    };
-    let mut c = b - ratio * (b - a);
-    let mut d = a + ratio * (b - a);
-    let (Some(mut fc), Some(mut fd)) = (eval(c, &mut evaluations)?, eval(d, &mut evaluations)?)
-    else {
-        return Ok(None);
-    };
-    while (b - a).abs() > tol {
-        if fc <= fd {
-            b = d;
-            (d, fd) = (c, fc);
-            c = b - ratio * (b - a);
-            let Some(v) = eval(c, &mut evaluations)? else {
-                return Ok(None);
-            };
-            fc = v;
-        } else {
-            a = c;
-            (c, fc) = (d, fd);
-            d = a + ratio * (b - a);
-            let Some(v) = eval(d, &mut evaluations)? else {
-                return Ok(None);
-            };
-            fd = v;
+        // Centre x for conditioning, then solve the 3×3 normal equations.
+        let mean = points.iter().map(|p| p.0).sum::<f64>() / n;
+        let mut s = [0.0f64; 5];
+        let mut t = [0.0f64; 3];
+        for &(x, y) in points {
+            let u = x - mean;
+            let mut power = 1.0;
+            for (k, sk) in s.iter_mut().enumerate() {
+                *sk += power;
+                if k < 3 {
+                    t[k] += power * y;
+                }
+                power *= u;
+            }
         }
-    }
-    let (x, value) = if fc <= fd { (c, fc) } else { (d, fd) };
-    Ok(Some(Minimum {
-        x,
-        value,
-        evaluations,
-    }))
-}
-
-/// A grid scan refined by golden section.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Search {
-    /// (argument, objective) on the grid.
-    pub grid: Vec<(f64, f64)>,
-    /// (argument, objective) of the golden-section refinement, in order.
-    pub refinement: Vec<(f64, f64)>,
-    /// The best (argument, objective) of all.
-    pub best: (f64, f64),
-}
-
-/// Minimises `f` over positive arguments: evaluates every `grid` point
-/// (all of them, so a shard computes all its cells), then searches ln x by
-/// golden section between the neighbours of the best grid point (half or
-/// twice the end point beyond the grid's ends) until the bracket ratio is
-/// below `ratio`. Returns the best evaluation of all (the objective may be
-/// rough), or `None` while any value is missing.
-pub fn grid_then_golden(
-    grid: &[f64],
-    ratio: f64,
-    mut f: impl FnMut(f64) -> Result<Option<f64>, HostError>,
-) -> Result<Option<Search>, HostError> {
-    let mut scanned = Vec::new();
-    for &x in grid {
-        if let Some(v) = f(x)? {
-            scanned.push((x, v));
+        let m = [[s[0], s[1], s[2]], [s[1], s[2], s[3]], [s[2], s[3], s[4]]];
+        let det = |m: &[[f64; 3]; 3]| {
+            m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
+                - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+                + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
+        };
+        let d = det(&m);
+        // Fewer than three distinct x: the determinant vanishes against the
+        // product of the diagonal.
+        if d.is_nan() || d.abs() <= 1e-12 * s[0] * s[2] * s[4] {
+            return None;
         }
-    }
-    if scanned.len() < grid.len() || scanned.is_empty() {
-        return Ok(None);
-    }
-    let best = scanned
-        .iter()
-        .enumerate()
-        .min_by(|a, b| a.1 .1.total_cmp(&b.1 .1))
-        .map_or(0, |(i, _)| i);
-    let lo = if best == 0 {
-        scanned[0].0 / 2.0
-    } else {
-        scanned[best - 1].0
-    };
-    let hi = if best + 1 == scanned.len() {
-        scanned[best].0 * 2.0
-    } else {
-        scanned[best + 1].0
-    };
-    let Some(m) = golden_section(lo.ln(), hi.ln(), ratio.ln(), |x| f(x.exp()))? else {
-        return Ok(None);
-    };
-    let refinement: Vec<(f64, f64)> = m.evaluations.iter().map(|&(x, v)| (x.exp(), v)).collect();
-    let best = scanned
-        .iter()
-        .chain(&refinement)
-        .copied()
-        .min_by(|a, b| a.1.total_cmp(&b.1))
-        .unwrap_or(scanned[0]);
-    Ok(Some(Search {
-        grid: scanned,
-        refinement,
-        best,
-    }))
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn finds_the_minimum_of_a_parabola_within_the_tolerance() {
-        let m = golden_section(0.0, 3.0, 1e-4, |x| Ok(Some((x - 1.3) * (x - 1.3) + 2.0)))
-            .unwrap()
-            .unwrap();
-        assert!((m.x - 1.3).abs() < 1e-4, "{}", m.x);
-        assert!((m.value - 2.0).abs() < 1e-8);
-        // Each iteration shrinks the bracket by 0.618: ln(3e4)/ln(1/0.618) ≈ 22.
-        assert!(m.evaluations.len() <= 25, "{}", m.evaluations.len());
-    }
-
-    #[test]
-    fn grid_then_golden_refines_around_the_best_grid_point() {
-        let f = |x: f64| Ok(Some((x.ln() - 3.1f64.ln()).powi(2)));
-        let s = grid_then_golden(&[1.0, 2.0, 4.0, 8.0], 1.01, f)
-            .unwrap()
-            .unwrap();
-        assert_eq!(s.grid.len(), 4);
-        assert!((s.best.0 / 3.1 - 1.0).abs() < 0.01, "{:?}", s.best);
-        // The best grid point is 4: the search runs between its neighbours 2 and 8.
-        assert!(s
-            .refinement
-            .iter()
-            .all(|&(x, _)| (1.999..=8.001).contains(&x)));
-        let beyond = grid_then_golden(&[1.0, 2.0], 1.01, |x| Ok(Some((x - 3.0).abs())))
-            .unwrap()
-            .unwrap();
-        assert!(
-            (beyond.best.0 - 3.0).abs() < 0.05,
-            "past the end: {:?}",
-            beyond.best
-        );
-        let missing = grid_then_golden(&[1.0, 2.0], 1.1, |x| Ok((x < 1.5).then_some(x))).unwrap();
-        assert_eq!(missing, None);
-    }
-
-    #[test]
-    fn stops_when_a_value_is_missing() {
-        let mut n = 0;
-        let r = golden_section(0.0, 1.0, 1e-3, |x| {
-            n += 1;
-            Ok(if n < 4 { Some(x) } else { None })
+        // Cramer's rule for the coefficients (a, b, c) of a + b u + c u².
+        let solve = |col: usize| {
+            let mut mk = m;
+            for (row, value) in mk.iter_mut().zip(t) {
+                row[col] = value;
+            }
+            det(&mk) / d
+        };
+        let (a, b, c) = (solve(0), solve(1), solve(2));
+        if c == 0.0 || !c.is_finite() {
+            return None;
+        }
+        let u_min = -b / (2.0 * c);
+        Some(Parabola {
+            x_min: mean + u_min,
+            y_min: a - b * b / (4.0 * c),
+            curvature: c,
         })
-        .unwrap();
-        assert_eq!(r, None);
     }
+
+    /// The parabola at `x`.
+    pub fn at(&self, x: f64) -> f64 {
+        self.y_min + self.curvature * (x - self.x_min).powi(2)
+    }
+
+    /// The x where the parabola is within `excess` of its minimum:
+    /// (x_min − w, x_min + w), w = √(excess / curvature); `None` unless convex.
+    pub fn within(&self, excess: f64) -> Option<(f64, f64)> {
+        (self.curvature > 0.0).then(|| {
+            let w = (excess.max(0.0) / self.curvature).sqrt();
+            (self.x_min - w, self.x_min + w)
+        })
+    }
+}
+
+/// The next x of a root search of a decreasing f from the evaluations
+/// (x, f) so far: where the line through the nearest pair with opposite
+/// signs crosses zero (false position, never outside the bracket), or else
+/// one `step` from the evaluation nearest zero, towards the root (up where
+/// f > 0). `None` without evaluations.
+///
+/// ```
+/// use mbs::calibrate::optimise::next_root_guess;
+///
+/// // f(x) = 1 − 2x: bracketed by 0 and 1, the line's root is exact.
+/// assert_eq!(next_root_guess(&[(0.0, 1.0), (1.0, -1.0)], 0.4), Some(0.5));
+/// // Not bracketed yet: one step up from the point nearest zero.
+/// assert_eq!(next_root_guess(&[(0.0, 1.0), (0.2, 0.6)], 0.4), Some(0.6000000000000001));
+/// // A noisy pair that would extrapolate far is never followed outside.
+/// let x = next_root_guess(&[(0.0, 0.10), (0.1, 0.097), (0.5, -0.3)], 0.4).unwrap();
+/// assert!(x > 0.1 && x < 0.5);
+/// ```
+pub fn next_root_guess(points: &[(f64, f64)], step: f64) -> Option<f64> {
+    let mut bracket: Option<((f64, f64), (f64, f64))> = None;
+    for &p in points.iter().filter(|p| p.1 > 0.0) {
+        for &n in points.iter().filter(|n| n.1 < 0.0) {
+            if bracket.is_none_or(|(a, b)| (p.0 - n.0).abs() < (a.0 - b.0).abs()) {
+                bracket = Some((p, n));
+            }
+        }
+    }
+    if let Some((p, n)) = bracket {
+        return Some(p.0 + (n.0 - p.0) * p.1 / (p.1 - n.1));
+    }
+    let nearest = points
+        .iter()
+        .min_by(|a, b| a.1.abs().total_cmp(&b.1.abs()))?;
+    Some(nearest.0 + step * nearest.1.signum())
 }

@@ -256,28 +256,51 @@ pub fn write_report(
     let _ = writeln!(o, "\nChosen: **α_cn = {}**.\n", s.alpha_cn.chosen);
     let _ = writeln!(
         o,
-        "## Stage 3: β (paper Figs. 5–6)\n\nMisfit = mean over τ* of ln²(q*/q*_ref), q* the mean of seeds {:?} ({:?} at τ* ≤ {}) over a {} s window; a grid of β, then golden-section search on ln β (to a bracket ratio {}).\n\n![](stage3.png)\n\n![](stage3_misfit.png)\n\n| β | misfit |\n|---|---|",
-        plan.seeds, plan.threshold_seeds, plan.threshold_tau_star, plan.window, plan.beta_tolerance
+        "## Stage 3: β (paper Figs. 5–6)\n\nMisfit = mean over τ* of ln²(q*/q*_ref), each point weighted by 1/(σ_r² + {floor}²) (σ_r its relative standard error). First a coarse grid of β ({coarse}); then precise curves ({fine}) where the coarse curves cross the reference on average (the root of their weighted mean log-ratio in ln β) and ×{step} either side, one more beyond whichever end is best, then at the vertex of the parabola in ln β through the best precise curve and its neighbours, until that vertex lies within a ratio {tolerance} of a β already evaluated (that β is the result; at most {most} precise curves).\n\n![](stage3.png)\n\n![](stage3_misfit.png)\n\n| β | fidelity | misfit |\n|---|---|---|",
+        floor = base.file.target.stderr_relative,
+        coarse = fidelity_text(&plan.coarse, plan),
+        fine = fidelity_text(&plan.fine, plan),
+        step = plan.beta_step,
+        tolerance = plan.beta_tolerance,
+        most = plan.beta_evaluations,
     );
-    let mut evaluations = s.beta.search.grid.clone();
-    evaluations.extend(s.beta.search.refinement.iter().copied());
-    for (b, v) in &evaluations {
-        let _ = writeln!(o, "| {b:.4} | {v:.4} |");
+    for (b, v) in &s.beta.coarse {
+        let _ = writeln!(o, "| {b:.4} | coarse | {v:.4} |");
+    }
+    for (b, v) in &s.beta.fine {
+        let _ = writeln!(o, "| {b:.4} | precise | {v:.4} |");
     }
     let _ = writeln!(
         o,
-        "\nβ = {:.3}; the β whose misfit is within twice the noise misfit of the minimum \
-         (the mean (σ/q*)² of the fitted curve, {:.4}) span **[{:.3}, {:.3}]**: β's uncertainty. \
+        "\nβ = {:.3}; where the parabola lies within twice the noise misfit of its minimum \
+         (the weighted mean (σ/q*)² of the fitted curve, {:.4}) β spans **[{:.3}, {:.3}]**: β's uncertainty. \
          The seeds are the same at every τ* (one settled bed per seed), so the points' errors \
          are correlated along the curve.",
         s.beta.beta,
-        s.beta.after.misfit_noise(),
+        s.beta.misfit_noise,
         s.beta.beta_range.0,
         s.beta.beta_range.1
     );
+    let missed: Vec<String> = s
+        .beta
+        .after
+        .tau_stars
+        .iter()
+        .zip(&s.beta.after.reached)
+        .filter(|p| !p.1)
+        .map(|p| p.0.to_string())
+        .collect();
+    if !missed.is_empty() {
+        let _ = writeln!(
+            o,
+            "\n**Capped:** at τ* = {} the fitted curve's standard error misses the target with the most seeds.",
+            missed.join(", ")
+        );
+    }
     let _ = writeln!(
         o,
-        "\n| τ* | q* at β = 1 | q* at β = {:.3} | ± | {} |\n|---|---|---|---|---|",
+        "\n| τ* | q* at β = {} (coarse) | q* at β = {:.3} | ± | seeds | {} |\n|---|---|---|---|---|---|",
+        s.beta.coarse[0].0,
         s.beta.beta,
         reference.label()
     );
@@ -285,33 +308,36 @@ pub fn write_report(
         let t = s.beta.after.tau_stars[k];
         let _ = writeln!(
             o,
-            "| {t} | {:.4} | {:.4} | {:.4} | {:.4} |",
+            "| {t} | {:.4} | {:.4} | {:.4} | {} | {:.4} |",
             s.beta.before.q_star[k],
             s.beta.after.q_star[k],
             s.beta.after.stderr[k],
+            s.beta.after.seeds.get(k).copied().unwrap_or(0),
             reference.q_star(t)
         );
     }
     if !s.beta.before.failures.is_empty() {
         let _ = writeln!(
             o,
-            "\nAt β = 1 some cells failed: {}.",
+            "\nAt β = {} some cells failed: {}.",
+            s.beta.coarse[0].0,
             s.beta.before.failures.join("; ")
         );
     }
     let _ = writeln!(
         o,
-        "\n## Stage 4: constants_dt for other sizes and layers (paper Figs. 7–11)\n\nThe constants' time step constants_dt (the paper's Δt) searched for every d at nvd = {}, every nvd at d = {} mm, on {} columns. α_m, α_cn, β fixed; base constants_dt = {:.2e} s; τ* {:?}, seeds {:?}, {} s windows; constants_dt grid ×{:?}, then golden section to a bracket ratio {}.\n\n![](stage4_dt.png)\n\n![](stage4_dt_layers.png)\n\n![](stage4_sizes.png)\n\n![](stage4_layers.png)\n\n| d (mm) | nvd | constants_dt (s) | constants_dt / base | misfit | worst factor |\n|---|---|---|---|---|---|",
-        plan.layers.first().copied().unwrap_or(10), plan.study_mm, plan.timestep_columns.unwrap_or(base.scenario.bed.columns), s.timestep.base_constants_dt, plan.timestep_tau_stars, plan.timestep_seeds, plan.timestep_window, plan.constants_dt_grid, plan.constants_dt_tolerance
+        "\n## Stage 4: constants_dt for other sizes and layers (paper Figs. 7–11)\n\nThe constants' time step constants_dt (the paper's Δt) searched for every d at nvd = {}, every nvd at d = {} mm, on {} columns. α_m, α_cn, β fixed; base constants_dt = {:.2e} s; τ* {:?}, {}. From the base constants_dt × √(d/d_base), steps of ×{} in constants_dt towards the root of the weighted mean of ln(q*/q*_ref), then false position between the nearest pair of opposite signs, until the mean is within twice its error of zero or after {} curves.\n\n![](stage4_dt.png)\n\n![](stage4_dt_layers.png)\n\n![](stage4_sizes.png)\n\n![](stage4_layers.png)\n\n| d (mm) | nvd | constants_dt (s) | constants_dt / base | curves | misfit | worst factor |\n|---|---|---|---|---|---|---|",
+        plan.layers.first().copied().unwrap_or(10), plan.study_mm, plan.timestep_columns.unwrap_or(base.scenario.bed.columns), s.timestep.base_constants_dt, plan.timestep_tau_stars, fidelity_text(&plan.timestep, plan), plan.constants_dt_step, plan.constants_dt_evaluations
     );
     for r in &s.timestep.rows {
         let _ = writeln!(
             o,
-            "| {} | {} | {:.3e} | {:.3} | {:.4} | {:.2} |",
+            "| {} | {} | {:.3e} | {:.3} | {} | {:.4} | {:.2} |",
             r.diameter_mm,
             r.layers,
             r.constants_dt,
             r.constants_dt / s.timestep.base_constants_dt,
+            r.evaluations.len(),
             r.misfit,
             r.worst_factor
         );
@@ -345,4 +371,29 @@ pub fn write_report(
         let _ = writeln!(o, "\nFailed cells: {}.", s.mixed.curve.failures.join("; "));
     }
     write_text(&dir.join("report.md"), &o)
+}
+
+/// A fidelity in words, for the report.
+fn fidelity_text(f: &crate::calibrate::Fidelity, plan: &Plan) -> String {
+    let windows = if f.window_min == f.window {
+        format!("{} s windows", f.window)
+    } else {
+        format!(
+            "windows of {}–{} s until a cell's standard error reaches the target",
+            f.window_min, f.window
+        )
+    };
+    let (most, threshold) = (
+        plan.seeds_max(f, 1.0),
+        plan.seeds_max(f, plan.threshold_tau_star),
+    );
+    let seeds = if most == f.seeds && threshold == f.seeds {
+        format!("{} seed{}", f.seeds, if f.seeds == 1 { "" } else { "s" })
+    } else {
+        format!(
+            "{} seeds, {} more while a point's standard error misses the target, up to {} ({} at τ* ≤ {})",
+            f.seeds, f.seeds, most, threshold, plan.threshold_tau_star
+        )
+    };
+    format!("{seeds}, {windows}")
 }

@@ -64,7 +64,7 @@ fn quick_calibration_writes_every_stage_and_the_report() {
     );
     assert!(lo <= beta && beta <= hi, "{lo} {beta} {hi}");
     assert!(
-        report.contains(&format!("span **[{lo:.3}, {hi:.3}]**: β's uncertainty")),
+        report.contains(&format!("spans **[{lo:.3}, {hi:.3}]**: β's uncertainty")),
         "{report}"
     );
     // The summary table states our values next to the paper's, from the stage results.
@@ -108,7 +108,44 @@ fn quick_calibration_writes_every_stage_and_the_report() {
         .map(|v| v.as_f64().unwrap())
         .collect();
     assert_eq!(before.len(), after.len());
-    assert!(s3["misfit"].as_f64().unwrap() < s3["search"]["grid"][0][1].as_f64().unwrap());
+    assert!(s3["misfit"].as_f64().unwrap() < s3["coarse"][0][1].as_f64().unwrap());
+    // Precision-driven points: every point of the fitted curve reached its
+    // target (or a clear verdict) or used the most seeds of the plan.
+    let plan = json(dir.path(), "plan.json");
+    let fine = &plan["fine"];
+    let threshold = plan["threshold_tau_star"].as_f64().unwrap();
+    for (k, t) in s3["after"]["tau_stars"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .enumerate()
+    {
+        let seeds = s3["after"]["seeds"][k].as_u64().unwrap();
+        let cap = if t.as_f64().unwrap() <= threshold {
+            fine["threshold_seeds_max"].as_u64().unwrap()
+        } else {
+            fine["seeds_max"].as_u64().unwrap()
+        };
+        assert!(
+            seeds >= fine["seeds"].as_u64().unwrap() && seeds <= cap,
+            "{t}: {seeds}"
+        );
+        assert!(
+            s3["after"]["reached"][k].as_bool().unwrap() || seeds == cap,
+            "{t}"
+        );
+    }
+    // Two fidelities in the search, the precise ones around the result.
+    let csv = read(dir.path(), "stage3.csv");
+    assert!(
+        csv.lines().any(|l| l.starts_with("coarse,"))
+            && csv.lines().any(|l| l.starts_with("fine,"))
+    );
+    assert!(s3["fine"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .any(|e| e[0].as_f64() == Some(beta)));
     // calibrated.toml: what `mbs run` reads as it is, with the fitted constants.
     let calibrated = mbs::Config::load(Some(&dir.path().join("calibrated.toml")))
         .expect("mbs run accepts calibrated.toml");

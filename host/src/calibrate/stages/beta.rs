@@ -1,11 +1,14 @@
 //! Stage 3 (docs/model.md §9 step 3): scale α_m and α_cn by β (18) until
-//! q*(τ*) matches the reference relation: a grid of β first (its cells can
-//! be sharded), then a golden-section search on ln β around the best grid
-//! point.
+//! q*(τ*) matches the reference relation, in two fidelities: a coarse grid
+//! of β (one seed, short windows) locates where q* crosses the reference on
+//! average; precise curves ([`crate::calibrate::Fidelity`]) there and a
+//! step either side, moved outwards while the best is at an end, then at
+//! the vertex of the parabola in ln β through the best and its neighbours
+//! until that vertex is next to a β already evaluated.
 
-use super::{save_stage, slot_of};
-use crate::calibrate::optimise::{grid_then_golden, Search};
-use crate::calibrate::{Context, Curve};
+use super::save_stage;
+use crate::calibrate::optimise::{next_root_guess, Parabola};
+use crate::calibrate::{Context, Curve, Slots};
 use crate::error::HostError;
 use crate::output::{decimal, write_csv};
 use crate::plot::{save, LinesFigure, TransportFigure, Q_STAR_AXIS, TAU_STAR_AXIS};
@@ -18,28 +21,34 @@ pub struct BetaStage {
     pub alpha_m: f64,
     /// α_cn of stage 2.
     pub alpha_cn: f64,
-    /// The grid scan and its golden-section refinement in β.
-    pub search: Search,
+    /// (β, misfit) of the coarse grid.
+    pub coarse: Vec<(f64, f64)>,
+    /// (β, misfit) of the precise curves, in the order evaluated.
+    pub fine: Vec<(f64, f64)>,
+    /// The parabola through the best precise misfit and its neighbours,
+    /// in x = ln β (`None` when not convex: β is then the best evaluated).
+    pub parabola: Option<Parabola>,
     /// The fitted β.
     pub beta: f64,
-    /// q*(τ*) at β = 1 (before).
+    /// q*(τ*) at the first β of the coarse grid (before), coarse fidelity.
     pub before: Curve,
     /// q*(τ*) at the fitted β (after).
     pub after: Curve,
     /// Largest factor between q* and the reference after the fit.
     pub worst_factor: f64,
-    /// Misfit (mean squared log-ratio) after the fit.
+    /// Misfit after the fit.
     pub misfit: f64,
-    /// β's uncertainty: the smallest and largest β evaluated whose misfit
-    /// is within twice the noise misfit of the minimum ([`beta_range`]).
-    #[serde(default)]
+    /// The misfit noise alone gives after the fit ([`Curve::misfit_noise`]).
+    pub misfit_noise: f64,
+    /// β's uncertainty: where the parabola lies within twice the noise
+    /// misfit of its minimum, or else [`beta_range`] of the precise curves.
     pub beta_range: (f64, f64),
 }
 
-/// The β evaluated (grid and refinement) whose misfit lies within
-/// `2 noise` of the smallest misfit: (smallest, largest) of them. Misfits
-/// that differ by less than what the points' standard errors give alone
-/// (`noise`, [`Curve::misfit_noise`]) do not tell the β apart.
+/// The β evaluated whose misfit lies within `2 noise` of the smallest
+/// misfit: (smallest, largest) of them. Misfits that differ by less than
+/// what the points' standard errors give alone (`noise`,
+/// [`Curve::misfit_noise`]) do not tell the β apart.
 ///
 /// ```
 /// use mbs::calibrate::stages::beta::beta_range;
@@ -61,46 +70,164 @@ pub fn beta_range(evaluations: &[(f64, f64)], noise: f64) -> (f64, f64) {
         })
 }
 
+/// The best of `evaluations` (x, y) sorted by x, and the parabola through
+/// it and its neighbours in ln x whose vertex lies between them.
+fn vertex(sorted: &[(f64, f64)]) -> (usize, Option<Parabola>) {
+    let best = sorted
+        .iter()
+        .enumerate()
+        .min_by(|a, b| a.1 .1.total_cmp(&b.1 .1))
+        .map_or(0, |(i, _)| i);
+    if best == 0 || best + 1 >= sorted.len() {
+        return (best, None);
+    }
+    let three: Vec<(f64, f64)> = sorted[best - 1..=best + 1]
+        .iter()
+        .map(|&(x, y)| (x.ln(), y))
+        .collect();
+    let parabola = Parabola::fit(&three)
+        .filter(|p| p.curvature > 0.0 && p.x_min > three[0].0 && p.x_min < three[2].0);
+    (best, parabola)
+}
+
+/// The β around `sorted[best]`: it and its neighbours in `sorted`, beyond
+/// an end one ratio of the nearest spacing further.
+///
+/// ```
+/// use mbs::calibrate::stages::beta::bracket;
+///
+/// assert_eq!(bracket(&[1.0, 2.0, 4.0, 8.0], 2), vec![2.0, 4.0, 8.0]);
+/// assert_eq!(bracket(&[1.0, 2.0, 4.0, 8.0], 3), vec![4.0, 8.0, 16.0]);
+/// assert_eq!(bracket(&[1.0, 2.0, 4.0, 8.0], 0), vec![0.5, 1.0, 2.0]);
+/// ```
+pub fn bracket(sorted: &[f64], best: usize) -> Vec<f64> {
+    let at = |k: usize| sorted[k.min(sorted.len() - 1)];
+    let below = if best == 0 {
+        at(0) * at(0) / at(1)
+    } else {
+        at(best - 1)
+    };
+    let above = if best + 1 >= sorted.len() {
+        at(best) * at(best) / at(best.saturating_sub(1))
+    } else {
+        at(best + 1)
+    };
+    vec![below, at(best), above]
+}
+
 /// Runs stage 3.
 pub fn run(ctx: &Context<'_>, alpha_m: f64, alpha_cn: f64) -> Result<Option<BetaStage>, HostError> {
     let plan = &ctx.plan;
-    let points = plan.fit_points();
-    let cells = points.iter().map(|p| p.1.len()).sum();
-    let window = plan.window;
-    let curve_at = |beta: f64, evaluation: usize| {
-        let c = ctx.configure(alpha_m, alpha_cn, beta);
-        ctx.curve(&c, &points, window, &slot_of(evaluation, cells))
+    let (reference, floor) = (ctx.reference, ctx.floor());
+    let configs = |betas: &[f64]| -> Vec<_> {
+        betas
+            .iter()
+            .map(|&b| ctx.configure(alpha_m, alpha_cn, b))
+            .collect()
     };
-    // The grid's cells can go to other shards; the refinement follows it.
-    let mut evaluation = 0;
-    let search = grid_then_golden(&plan.beta_grid, plan.beta_tolerance, |beta| {
-        let curve = curve_at(beta, evaluation)?;
-        evaluation += 1;
-        Ok(curve.map(|c| c.misfit(ctx.reference)))
-    })?;
-    let Some(search) = search else {
+    // Cells are numbered for sharding per evaluation round.
+    const ROUND: usize = 1 << 16;
+    let Some(coarse_curves) = ctx.curves(
+        &configs(&plan.beta_grid),
+        &plan.tau_stars,
+        &plan.coarse,
+        None,
+        Slots::From(0),
+    )?
+    else {
         return Ok(None);
     };
-    let beta = search.best.0;
-    let extra = evaluation;
-    let (Some(before), Some(after)) = (curve_at(1.0, extra)?, curve_at(beta, extra + 1)?) else {
-        return Ok(None);
-    };
-    let evaluations: Vec<(f64, f64)> = search
-        .grid
+    let coarse: Vec<(f64, f64)> = plan
+        .beta_grid
         .iter()
-        .chain(&search.refinement)
-        .copied()
+        .zip(&coarse_curves)
+        .map(|(&b, c)| (b, c.misfit(reference, floor)))
         .collect();
+    // The precise curves: first at the β where the coarse curves cross the
+    // reference on average (their weighted mean log-ratio falls with β; a
+    // root is robust where the misfit's minimum is noisy) and a step either
+    // side; then one more beyond whichever end is best, or at the vertex of
+    // the parabola through the best and its neighbours, until that vertex
+    // is within `beta_tolerance` of a β already evaluated, at most
+    // `beta_evaluations` curves.
+    let mut crossings: Vec<(f64, f64)> = plan
+        .beta_grid
+        .iter()
+        .zip(&coarse_curves)
+        .filter(|(_, c)| c.failures.is_empty())
+        .map(|(&b, c)| (b.ln(), c.mean_log_ratio(reference, floor).0))
+        .filter(|p| p.1.is_finite())
+        .collect();
+    crossings.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let centre =
+        next_root_guess(&crossings, plan.beta_step.ln()).map_or(plan.beta_grid[0], f64::exp);
+    let mut candidates = vec![centre / plan.beta_step, centre, centre * plan.beta_step];
+    let mut fine: Vec<(f64, f64)> = Vec::new();
+    let mut curves: Vec<Curve> = Vec::new();
+    let mut round = 1;
+    let (beta, parabola) = loop {
+        let Some(new) = ctx.curves(
+            &configs(&candidates),
+            &plan.tau_stars,
+            &plan.fine,
+            Some(reference),
+            Slots::From(round * ROUND),
+        )?
+        else {
+            return Ok(None);
+        };
+        for (&b, c) in candidates.iter().zip(&new) {
+            fine.push((b, c.misfit(reference, floor)));
+        }
+        curves.extend(new);
+        round += 1;
+        let mut sorted = fine.clone();
+        sorted.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let xs: Vec<f64> = sorted.iter().map(|e| e.0).collect();
+        let (best, parabola) = vertex(&sorted);
+        let next = if best == 0 || best + 1 == sorted.len() {
+            bracket(&xs, best)
+                .into_iter()
+                .find(|b| !xs.contains(b))
+                .unwrap_or(xs[best])
+        } else {
+            parabola.map_or(xs[best], |p| p.x_min.exp())
+        };
+        let near = xs
+            .iter()
+            .copied()
+            .min_by(|a, b| (a / next).ln().abs().total_cmp(&(b / next).ln().abs()))
+            .unwrap_or(next);
+        if (near / next).ln().abs() <= plan.beta_tolerance.ln()
+            || fine.len() >= plan.beta_evaluations
+        {
+            break (near, parabola);
+        }
+        candidates = vec![next];
+    };
+    let after = fine
+        .iter()
+        .position(|e| e.0 == beta)
+        .map_or_else(|| curves[0].clone(), |k| curves[k].clone());
+    let misfit_noise = after.misfit_noise(reference, floor);
+    let beta_range = parabola
+        .and_then(|p| p.within(2.0 * misfit_noise))
+        .map_or_else(
+            || beta_range(&fine, misfit_noise),
+            |(lo, hi)| (lo.exp(), hi.exp()),
+        );
     let result = BetaStage {
         alpha_m,
         alpha_cn,
-        beta_range: beta_range(&evaluations, after.misfit_noise()),
-        worst_factor: after.worst_factor(ctx.reference),
-        misfit: after.misfit(ctx.reference),
-        search,
+        worst_factor: after.worst_factor(reference),
+        misfit: after.misfit(reference, floor),
+        misfit_noise,
+        coarse,
+        fine,
+        parabola,
         beta,
-        before,
+        beta_range,
+        before: coarse_curves[0].clone(),
         after,
     };
     write_outputs(ctx, &result)?;
@@ -110,6 +237,7 @@ pub fn run(ctx: &Context<'_>, alpha_m: f64, alpha_cn: f64) -> Result<Option<Beta
 /// A line of `stage3.csv`: one evaluation of the search.
 #[derive(Serialize)]
 struct EvaluationLine {
+    fidelity: &'static str,
     #[serde(serialize_with = "decimal")]
     beta: f64,
     #[serde(serialize_with = "decimal")]
@@ -134,11 +262,19 @@ struct TransportLine {
 }
 
 fn write_outputs(ctx: &Context<'_>, r: &BetaStage) -> Result<(), HostError> {
-    let mut evaluations: Vec<(f64, f64)> = r.search.grid.clone();
-    evaluations.extend(r.search.refinement.iter().copied());
-    let lines: Vec<EvaluationLine> = evaluations
+    let lines: Vec<EvaluationLine> = r
+        .coarse
         .iter()
-        .map(|&(beta, misfit)| EvaluationLine { beta, misfit })
+        .map(|&(beta, misfit)| EvaluationLine {
+            fidelity: "coarse",
+            beta,
+            misfit,
+        })
+        .chain(r.fine.iter().map(|&(beta, misfit)| EvaluationLine {
+            fidelity: "fine",
+            beta,
+            misfit,
+        }))
         .collect();
     write_csv(&ctx.dir.join("stage3.csv"), None, &lines)?;
     let lines: Vec<TransportLine> = (0..r.after.tau_stars.len())
@@ -158,7 +294,10 @@ fn write_outputs(ctx: &Context<'_>, r: &BetaStage) -> Result<(), HostError> {
     let figure = TransportFigure {
         series: vec![
             (format!("β = {:.3} (fitted)", r.beta), r.after.points()),
-            ("β = 1 (before)".to_string(), r.before.points()),
+            (
+                format!("β = {} (before; coarse: one seed)", r.coarse[0].0),
+                r.before.points(),
+            ),
         ],
         references: vec![ctx.reference],
         title: format!(
@@ -169,17 +308,33 @@ fn write_outputs(ctx: &Context<'_>, r: &BetaStage) -> Result<(), HostError> {
         y_label: Q_STAR_AXIS.into(),
     };
     save(&figure, &ctx.dir, "stage3")?;
-    let mut grid = r.search.grid.clone();
+    let mut grid = r.coarse.clone();
     grid.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let mut series = vec![(String::new(), grid.clone())];
+    if let Some(p) = r.parabola {
+        // The fitted parabola over the precise curves' span, where positive.
+        let (lo, hi) = r.fine.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), e| {
+            (lo.min(e.0), hi.max(e.0))
+        });
+        let line = (0..=40)
+            .map(|k| (lo.ln() + (hi / lo).ln() * f64::from(k) / 40.0).exp())
+            .map(|b| (b, p.at(b.ln())))
+            .filter(|e| e.1 > 0.0)
+            .collect();
+        series.push(("parabola in ln β".into(), line));
+    }
     let misfit = LinesFigure {
         x_ticks: grid.iter().map(|p| p.0).collect(),
-        series: vec![("grid".into(), grid)],
-        dots: vec![("golden-section search".into(), r.search.refinement.clone())],
+        series,
+        dots: vec![
+            ("coarse grid (one seed, short windows)".into(), grid.clone()),
+            ("precise curves".into(), r.fine.clone()),
+        ],
         title: format!("Stage 3: misfit to {} against β", ctx.reference.label()),
         x_label: "β".into(),
-        y_label: "misfit: mean squared ln(q*/q*_ref)".into(),
+        y_label: "misfit: weighted mean of ln²(q*/q*_ref)".into(),
         log_axes: true,
-        markers: true,
+        markers: false,
         marks: vec![(r.beta, format!("chosen β = {:.3}", r.beta))],
     };
     save(&misfit, &ctx.dir, "stage3_misfit")?;

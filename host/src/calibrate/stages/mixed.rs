@@ -6,8 +6,8 @@
 //! by (d_max/d_min)³ so that the finest grains stay inside the explicit
 //! damping limit (docs/findings/explicit-damping-limit.md).
 
-use super::{save_stage, slot_of};
-use crate::calibrate::{Context, Curve, Q_FLOOR};
+use super::save_stage;
+use crate::calibrate::{Context, Curve, Slots, Q_FLOOR};
 use crate::config::{ClassEntry, Config, Substeps};
 use crate::error::HostError;
 use crate::mixture::{geometric_mean, wilcock_crowe};
@@ -100,7 +100,10 @@ pub fn run(
     // The finest class sets the substeps (its damping number grows as (d_max/d)³).
     c.time.substeps = Substeps::Auto;
     let curve_substeps = Config::validate(c.clone()).map_or(0, |v| v.scenario.substeps);
-    let Some(curve) = ctx.curve(&c, &plan.fit_points(), plan.window, &slot_of(0, 0))? else {
+    let Some(curve) = ctx
+        .curves(&[c], &plan.tau_stars, &plan.fine, None, Slots::From(0))?
+        .map(|mut curves| curves.remove(0))
+    else {
         return Ok(None);
     };
     // Volume fractions (the configuration's `grains.fractions` is "volume"),

@@ -17,9 +17,3 @@ use std::path::Path;
 pub fn save_stage<T: Serialize>(dir: &Path, name: &str, value: &T) -> Result<(), HostError> {
     write_json(&dir.join(format!("{name}.json")), value)
 }
-
-/// Cell numbering of a search: evaluation `e` of a stage whose evaluations
-/// have `cells` cells each.
-pub fn slot_of(e: usize, cells: usize) -> impl Fn(usize) -> usize + Sync {
-    move |k| e * cells + k
-}

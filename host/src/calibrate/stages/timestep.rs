@@ -1,12 +1,16 @@
 //! Stage 4 (docs/model.md §9 steps 4–5): for other grain sizes d and layer
 //! thicknesses nvd, keep α_m, α_cn and β and search the constants' time step
-//! constants_dt that restores agreement with the reference (a grid of
-//! constants_dt, then golden section on its logarithm).
+//! constants_dt that restores agreement with the reference: the root of the
+//! curve's weighted mean log-ratio to it ([`Curve::mean_log_ratio`]) in
+//! ln constants_dt, from the base constants_dt scaled by √(d/d_base) (the
+//! grains' gravity time scale √(d/g)), by steps and false position
+//! ([`next_root_guess`]), until the mean log-ratio is within twice its
+//! error of zero.
 //! Each (d, nvd) search is one unit of sharding.
 
 use super::save_stage;
-use crate::calibrate::optimise::grid_then_golden;
-use crate::calibrate::{Context, Curve};
+use crate::calibrate::optimise::next_root_guess;
+use crate::calibrate::{Context, Curve, Slots};
 use crate::error::HostError;
 use crate::output::{decimal, write_csv};
 use crate::plot::{save, LinesFigure, TransportFigure, Q_STAR_AXIS, TAU_STAR_AXIS};
@@ -25,12 +29,12 @@ pub struct TimestepRow {
     pub misfit: f64,
     /// Worst factor to the reference there.
     pub worst_factor: f64,
-    /// q*(τ*) at the base constants_dt.
+    /// q*(τ*) at the start: the base constants_dt × √(d/d_base).
     pub before: Curve,
     /// q*(τ*) at the fitted constants_dt.
     pub after: Curve,
-    /// Every (constants_dt, misfit) evaluated.
-    pub evaluations: Vec<(f64, f64)>,
+    /// Every (constants_dt, mean log-ratio, its standard error) evaluated.
+    pub evaluations: Vec<(f64, f64, f64)>,
 }
 
 /// The outcome of stage 4.
@@ -86,18 +90,13 @@ pub fn run(
     beta: f64,
 ) -> Result<Option<TimestepStage>, HostError> {
     let plan = &ctx.plan;
+    let (reference, floor) = (ctx.reference, ctx.floor());
     let base_constants_dt = ctx.base.scenario.rule.constants_dt;
+    let base_d = ctx.base.scenario.bed.max_diameter() * 1e3;
     let mut rows = Vec::new();
     let mut complete = true;
-    let units = units(plan);
-    let points: Vec<(f64, &[u64])> = plan
-        .timestep_tau_stars
-        .iter()
-        .map(|&t| (t, plan.timestep_seeds.as_slice()))
-        .collect();
-    for (unit, &(d, layers)) in units.iter().enumerate() {
-        let slot = move |_k: usize| unit;
-        let curve_at = |constants_dt: f64| {
+    for (unit, &(d, layers)) in units(plan).iter().enumerate() {
+        let curve_at = |constants_dt: f64| -> Result<Option<Curve>, HostError> {
             let mut c = ctx.configure(alpha_m, alpha_cn, beta);
             c.grains.diameter_mm = Some(d);
             c.grains.classes = None;
@@ -106,37 +105,60 @@ pub fn run(
                 c.bed.columns = columns;
             }
             c.time.constants_dt = constants_dt;
-            ctx.curve(&c, &points, plan.timestep_window, &slot)
+            Ok(ctx
+                .curves(
+                    &[c],
+                    &plan.timestep_tau_stars,
+                    &plan.timestep,
+                    None,
+                    Slots::All(unit),
+                )?
+                .map(|mut curves| curves.remove(0)))
         };
-        let grid: Vec<f64> = plan
-            .constants_dt_grid
+        // Secant iterations on x = ln constants_dt; f = the mean log-ratio.
+        let mut points: Vec<(f64, f64, f64)> = Vec::new();
+        let mut curves = Vec::new();
+        let mut x = (base_constants_dt * (d / base_d).sqrt()).ln();
+        let step = plan.constants_dt_step.ln();
+        let waiting = loop {
+            let Some(curve) = curve_at(x.exp())? else {
+                break true;
+            };
+            let (f, sigma) = if curve.failures.is_empty() {
+                curve.mean_log_ratio(reference, floor)
+            } else {
+                (f64::NAN, f64::NAN)
+            };
+            points.push((x, f, sigma));
+            curves.push(curve);
+            let resolved = f.abs() <= 2.0 * sigma;
+            if resolved || !f.is_finite() || points.len() >= plan.constants_dt_evaluations {
+                break false;
+            }
+            // Too much transport (f > 0): a longer constants_dt (softer,
+            // more damped contacts) lowers it.
+            let tried: Vec<(f64, f64)> = points.iter().map(|p| (p.0, p.1)).collect();
+            x = next_root_guess(&tried, step).unwrap_or(x);
+        };
+        if waiting {
+            complete = false;
+            continue;
+        }
+        let chosen = points
             .iter()
-            .map(|m| base_constants_dt * m)
-            .collect();
-        let search = grid_then_golden(&grid, plan.constants_dt_tolerance, |constants_dt| {
-            Ok(curve_at(constants_dt)?.map(|c| c.misfit(ctx.reference)))
-        })?;
-        let Some(search) = search else {
-            complete = false;
-            continue;
-        };
-        let (constants_dt, misfit) = search.best;
-        let mut evaluations = search.grid;
-        evaluations.extend(search.refinement);
-        let (Some(before), Some(after)) = (curve_at(base_constants_dt)?, curve_at(constants_dt)?)
-        else {
-            complete = false;
-            continue;
-        };
+            .enumerate()
+            .min_by(|a, b| a.1 .1.abs().total_cmp(&b.1 .1.abs()))
+            .map_or(0, |(k, _)| k);
+        let after = curves[chosen].clone();
         rows.push(TimestepRow {
             diameter_mm: d,
             layers,
-            constants_dt,
-            misfit,
-            worst_factor: after.worst_factor(ctx.reference),
-            before,
+            constants_dt: points[chosen].0.exp(),
+            misfit: after.misfit(reference, floor),
+            worst_factor: after.worst_factor(reference),
+            before: curves[0].clone(),
             after,
-            evaluations,
+            evaluations: points.iter().map(|p| (p.0.exp(), p.1, p.2)).collect(),
         });
     }
     if !complete {
@@ -238,12 +260,12 @@ fn write_outputs(ctx: &Context<'_>, r: &TimestepStage) -> Result<(), HostError> 
     for (name, title, rows) in [
         (
             "stage4_sizes",
-            format!("Stage 4: q* for each d (nvd = {first_layers}), base and fitted constants_dt"),
+            format!("Stage 4: q* for each d (nvd = {first_layers}), start and fitted constants_dt"),
             &by_size,
         ),
         (
             "stage4_layers",
-            format!("Stage 4: q* for each nvd (d = {study_d} mm), base and fitted constants_dt"),
+            format!("Stage 4: q* for each nvd (d = {study_d} mm), start and fitted constants_dt"),
             &by_layers,
         ),
     ] {
@@ -251,7 +273,10 @@ fn write_outputs(ctx: &Context<'_>, r: &TimestepStage) -> Result<(), HostError> 
         for row in rows.iter() {
             let label = format!("d = {} mm, nvd = {}", row.diameter_mm, row.layers);
             series.push((
-                format!("{label}, constants_dt = {:.2e} s", r.base_constants_dt),
+                format!(
+                    "{label}, constants_dt = {:.2e} s (start)",
+                    row.evaluations.first().map_or(f64::NAN, |e| e.0)
+                ),
                 row.before.points(),
             ));
             series.push((
@@ -282,6 +307,8 @@ mod tests {
             stderr: vec![],
             classes: vec![],
             failures: vec![],
+            seeds: vec![],
+            reached: vec![],
         };
         TimestepRow {
             diameter_mm,
