@@ -110,6 +110,7 @@ mod error;
 mod events;
 mod fields;
 pub mod flow;
+pub mod fluid;
 mod grains;
 mod neighbours;
 mod observe;
