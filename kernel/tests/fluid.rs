@@ -91,7 +91,8 @@ fn fitted_roughness<R: Real>(column: &Col<R>, h: f64, u_star: f64) -> f64 {
 }
 
 /// With no mobile grains the steady profile is the log law (14) over the
-/// outer 80 % of the depth: within 2 % with the roughness k_s that fits it.
+/// outer 80 % of the depth: within 2 % with the paper's roughness k_s = d,
+/// and with the roughness that fits it best.
 /// `steady` bounds the last step's relative change (the f32 solve of a
 /// nearly steady diffusion has round-off noise of about 1e-4).
 fn log_law_over_a_fixed_rough_bed<R: Real>(steady: f64) {
@@ -110,10 +111,8 @@ fn log_law_over_a_fixed_rough_bed<R: Real>(steady: f64) {
     );
     let top = column.velocities().last().unwrap().to_f64();
     assert!(change < steady * top, "not steady: {change:e}");
-    assert!(fitted < 0.02, "log law: {fitted}");
-    // A hydraulically smooth-to-transitional bed (k_s u*/ν = 15 for k_s = d):
-    // the fitted roughness is a fraction of a diameter.
-    assert!((0.01 * D..D).contains(&k_s), "k_s = {k_s}");
+    assert!(fitted < 0.02, "log law, fitted k_s: {fitted}");
+    assert!(paper < 0.02, "log law, k_s = d: {paper}");
 }
 
 #[test]
@@ -125,8 +124,10 @@ fn log_law() {
 /// Grains at prescribed velocities with a constant drag factor in the
 /// bottom slabs: at steady state the fluid's stress at the bottom plus the
 /// drag it gives the grains equals the driving stress (C5), and above the
-/// grains the stress is the driving of the water above.
-fn momentum_balance_with_a_drag_sink<R: Real>(tol: f64) {
+/// grains the stress is the driving of the water above. `dt` and `steps`
+/// reach the steady state to within `tol` (f32 takes shorter steps: its
+/// round-off noise grows with the weight of diffusion over the time term).
+fn momentum_balance_with_a_drag_sink<R: Real>(dt: f64, steps: usize, tol: f64) {
     let (h, u_star) = (0.1, 0.03);
     let config = rough_config(h, u_star);
     let mut column = Box::new(Col::<R>::new());
@@ -141,8 +142,8 @@ fn momentum_balance_with_a_drag_sink<R: Real>(tol: f64) {
             slabs.add_grain(y, r, R::from_f64(u_p), xi).unwrap();
         }
     }
-    for _ in 0..3000 {
-        column.advance(&slabs, R::from_f64(0.5)).unwrap();
+    for _ in 0..steps {
+        column.advance(&slabs, R::from_f64(dt)).unwrap();
     }
     let grid = column.grid();
     let dy = grid.dy().to_f64();
@@ -182,8 +183,8 @@ fn momentum_balance_with_a_drag_sink<R: Real>(tol: f64) {
 
 #[test]
 fn momentum_balance() {
-    momentum_balance_with_a_drag_sink::<f64>(1e-6);
-    momentum_balance_with_a_drag_sink::<f32>(2e-3);
+    momentum_balance_with_a_drag_sink::<f64>(0.5, 6000, 1e-9);
+    momentum_balance_with_a_drag_sink::<f32>(0.02, 60_000, 2e-3);
 }
 
 /// Slice volumes (C1): a grain inside one slab, a grain cut in two, caps,
@@ -382,8 +383,8 @@ fn bits<R: Real>(golden: u64) {
 
 #[test]
 fn bit_reproducible() {
-    bits::<f64>(0x1672cbe2aa1bbf8a);
-    bits::<f32>(0xa5561555bf471134);
+    bits::<f64>(0xb1c53c7681f85b81);
+    bits::<f32>(0x1f38c88594719626);
 }
 
 /// Bad parameters and inputs are `Error` values naming what is wrong.

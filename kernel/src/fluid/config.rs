@@ -44,8 +44,9 @@ pub struct FluidConfig {
 
 impl FluidConfig {
     /// `cells` cells from `bottom` to `surface`, slabs of `cross_section`,
-    /// water (1000 kg/m³, ν = 1.0e-6 m²/s), κ = 0.4, φ_max = 0.55
-    /// (docs/model.md §13), no driving.
+    /// water (1000 kg/m³, ν = 1.0e-6 m²/s), κ = 0.4, φ_max = π/4
+    /// (docs/model.md §13: the largest solid fraction of a slab of spheres
+    /// in a slice one diameter thick), no driving.
     pub const fn new(cells: usize, bottom: f64, surface: f64, cross_section: f64) -> Self {
         FluidConfig {
             cells,
@@ -55,7 +56,7 @@ impl FluidConfig {
             density: 1000.0,
             viscosity: 1.0e-6,
             kappa: 0.4,
-            phi_max: 0.55,
+            phi_max: core::f64::consts::FRAC_PI_4,
             driving: 0.0,
         }
     }
