@@ -23,7 +23,8 @@ use crate::real::Real;
 ///
 /// // Clear water 4 cm deep over a no-slip bottom, u* = 1 cm/s.
 /// let mut config = FluidConfig::new(40, 0.0, 0.04, 1e-6);
-/// config.driving = FluidConfig::driving_for(0.01, 0.04);
+/// let g_s = FluidConfig::driving_for(0.01, 0.04);
+/// config.driving = g_s;
 /// let mut column = Column::<f64, 64>::new();
 /// column.reset(&config)?;
 /// let mut slabs = Slabs::<f64, 64>::new();
@@ -31,8 +32,10 @@ use crate::real::Real;
 /// for _ in 0..10 {
 ///     column.advance(&slabs, 0.01)?;
 /// }
-/// // Accelerating from rest: faster higher up, still 0 at the bottom.
-/// assert!(column.velocity_at(0.03) > column.velocity_at(0.01));
+/// // From rest, away from the bottom the water accelerates freely, g S t…
+/// assert!((column.velocity_at(0.03) - g_s * 0.1).abs() < 1e-9 * g_s);
+/// // …and a boundary layer grows at the no-slip bottom.
+/// assert!(column.velocity_at(0.0005) < column.velocity_at(0.03));
 /// assert_eq!(column.velocity_at(0.0), 0.0);
 /// # Ok::<(), mbs_kernel::Error>(())
 /// ```
@@ -115,9 +118,9 @@ impl<R: Real, const C: usize> Column<R, C> {
         self.grid
     }
 
-    /// One implicit Euler step of `dt` seconds of (C5) with the grains of
-    /// `slabs` (C6): their solid fraction and drag at the end of the step,
-    /// the eddy viscosity (C4) from the velocities at its start (lagged),
+    /// One implicit Euler step of `dt` seconds of docs/model.md (C5) as (C6),
+    /// with the grains of `slabs`: their solid fraction and drag at the end of
+    /// the step, the eddy viscosity (C4) from the velocities at its start (lagged),
     /// the drag sink implicit in u_f. On an error the velocities are
     /// unchanged (the solid fractions may be those of `slabs`).
     pub fn advance(&mut self, slabs: &Slabs<R, C>, dt: R) -> Result<(), Error> {
@@ -241,8 +244,9 @@ impl<R: Real, const C: usize> Column<R, C> {
         self.u[i] + (self.u[i + 1] - self.u[i]) * frac
     }
 
-    /// The fluid's shear stress at face `j` (Pa): ρ (1 − φ)(ν + ν_t) du/dy
-    /// (C4); face 0 is the bottom, face `cells` and above the free surface (0).
+    /// The fluid's shear stress at face `j` (Pa): ρ (1 − φ)(ν + ν_t) du/dy,
+    /// docs/model.md (C4); face 0 is the bottom, face `cells` and above the
+    /// free surface (0).
     pub fn shear_stress(&self, j: usize) -> R {
         if j < self.grid.cells {
             let (open, nu, grad) = self.face(j);
@@ -252,7 +256,7 @@ impl<R: Real, const C: usize> Column<R, C> {
         }
     }
 
-    /// The Reynolds stress at face `j` (Pa): ρ (1 − φ) ν_t du/dy (C4).
+    /// The Reynolds stress at face `j` (Pa): ρ (1 − φ) ν_t du/dy, docs/model.md (C4).
     pub fn reynolds_stress(&self, j: usize) -> R {
         if j < self.grid.cells {
             let (open, nu, grad) = self.face(j);
@@ -263,7 +267,8 @@ impl<R: Real, const C: usize> Column<R, C> {
     }
 
     /// The local shear velocity at height `y` (m/s), √(τ_t/ρ) of the
-    /// Reynolds stress τ_t (C4), linear between faces; 0 outside the column.
+    /// Reynolds stress τ_t (docs/model.md (C4)), linear between faces; 0
+    /// outside the column.
     pub fn shear_velocity_at(&self, y: R) -> R {
         let s = (y - self.grid.bottom) * self.grid.inv_dy;
         let inside = s > R::ZERO && s < R::from_f64(self.grid.cells as f64);
@@ -278,7 +283,8 @@ impl<R: Real, const C: usize> Column<R, C> {
     }
 
     /// The driving stress ρ g S Σ (1 − φ_j) Δy (Pa): at steady state the
-    /// stress at the bottom plus the grains' drag per unit area (C5).
+    /// stress at the bottom plus the grains' drag per unit area
+    /// (docs/model.md (C5)).
     pub fn driving_stress(&self) -> R {
         let mut open = R::ZERO;
         for &phi in self.solid_fractions() {
@@ -287,7 +293,8 @@ impl<R: Real, const C: usize> Column<R, C> {
         self.density * self.driving * open * self.grid.dy
     }
 
-    /// (1 − φ), ν + ν_t and du/dy at face `j` < cells, from the state (C4):
+    /// (1 − φ), ν + ν_t and du/dy at face `j` < cells, from the state
+    /// (docs/model.md (C4)):
     /// φ the mean of the two cells (the bottom cell's at face 0), du/dy
     /// from the two centres (from the wall's u_f = 0 at face 0).
     fn face(&self, j: usize) -> (R, R, R) {
@@ -303,7 +310,7 @@ impl<R: Real, const C: usize> Column<R, C> {
         (R::ONE - phi, self.viscosity + l * l * R::abs(grad), grad)
     }
 
-    /// The mixing lengths (C3) from the solid fractions.
+    /// The mixing lengths (docs/model.md (C3)) from the solid fractions.
     fn refresh_mixing(&mut self) {
         let n = self.grid.cells;
         mixing_lengths(

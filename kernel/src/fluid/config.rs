@@ -32,10 +32,10 @@ pub struct FluidConfig {
     pub density: f64,
     /// Kinematic viscosity of the fluid ν (m²/s).
     pub viscosity: f64,
-    /// Kármán constant κ of the mixing length (C3).
+    /// Kármán constant κ of the mixing length, docs/model.md (C3).
     pub kappa: f64,
     /// Solid fraction of the packed bed φ_max, where the mixing length stops
-    /// growing (C3).
+    /// growing, docs/model.md (C3).
     pub phi_max: f64,
     /// The driving acceleration g S (m/s²), gravity along the slope S: the
     /// driving stress over a depth h is ρ g S h = ρ u*² ([`Self::driving_for`]).

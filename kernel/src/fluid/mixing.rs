@@ -5,7 +5,7 @@
 use crate::real::Real;
 
 /// Fills `out[j]` with the mixing length l_m at face j (the bottom of cell
-/// j, m) for the solid fractions `phi` of the cells (C3):
+/// j, m) for the solid fractions `phi` of the cells, docs/model.md (C3):
 /// λ(y) = κ ∫₀^y (φ_max − φ̃)/φ_max dy' and l_m = λ √(1 − λ/λ_s), λ_s the
 /// value at the free surface. φ̃ is φ_max in and below the highest cell
 /// whose φ reaches φ_max (the packed bed, where turbulence is damped out),

@@ -10,11 +10,11 @@
 //! |---|---|---|
 //! | `config` | [`FluidConfig`], the user-facing parameters, validated | §13 |
 //! | `grid` | [`Grid`]: the uniform cells (slabs) of the column | §13 |
-//! | `slice` | [`slice_volume`]: a sphere's volume between two planes | (C1) |
-//! | `slabs` | [`Slabs`]: solid fraction, grain velocity and drag per slab | (C2) |
-//! | `mixing` | the mixing length (Li & Sawamoto 1995, free-surface factor) | (C3) |
-//! | `tridiagonal` | [`Tridiagonal`]: the Thomas solve in fixed-size arrays | (C6) |
-//! | `column` | [`Column`]: the state u_f, one implicit step, the queries | (C4)–(C6) |
+//! | `slice` | [`slice_volume`]: a sphere's volume between two planes | docs/model.md (C1) |
+//! | `slabs` | [`Slabs`]: solid fraction, grain velocity and drag per slab | docs/model.md (C2) |
+//! | `mixing` | the mixing length (Li & Sawamoto 1995, free-surface factor) | docs/model.md (C3) |
+//! | `tridiagonal` | [`Tridiagonal`]: the Thomas solve in fixed-size arrays | docs/model.md (C6) |
+//! | `column` | [`Column`]: the state u_f, one implicit step, the queries | docs/model.md (C4)–(C6) |
 //!
 //! Like the rest of the kernel: no allocation (arrays of the capacity `C`,
 //! a const generic), never panics (every failure is an [`crate::Error`]),

@@ -1,5 +1,6 @@
 //! Slab averages of the grains (docs/model.md (C2)): each grain is shared
-//! among the slabs it cuts in proportion to its exact slice volumes (C1).
+//! among the slabs it cuts in proportion to its exact slice volumes
+//! (docs/model.md (C1)).
 
 use super::grid::Grid;
 use super::slice::slice_volume;
@@ -84,8 +85,8 @@ impl<R: Real, const C: usize> Slabs<R, C> {
 
     /// Adds a sphere of radius `r` centred at height `y`, moving downstream
     /// at `u_p`, with drag factor `xi` (kg/s: its drag is Ξ (u_f − u_p)),
-    /// to the slabs it cuts (C1)–(C2). The parts outside the column are left
-    /// out. Fixed grains are added with u_p = 0.
+    /// to the slabs it cuts, docs/model.md (C1)–(C2). The parts outside the
+    /// column are left out. Fixed grains are added with u_p = 0.
     pub fn add_grain(&mut self, y: R, r: R, u_p: R, xi: R) -> Result<(), Error> {
         finite("fluid.grain_height", y.to_f64())?;
         positive("fluid.grain_radius", r.to_f64())?;
@@ -106,12 +107,12 @@ impl<R: Real, const C: usize> Slabs<R, C> {
         Ok(())
     }
 
-    /// Solid fraction φ_j of slab `j` (C2); 0 outside the column.
+    /// Solid fraction φ_j of slab `j` (docs/model.md (C2)); 0 outside the column.
     pub fn solid_fraction(&self, j: usize) -> R {
         self.per_volume(&self.solid, j)
     }
 
-    /// Volume-weighted mean grain velocity of slab `j` (m/s) (C2); 0 where
+    /// Volume-weighted mean grain velocity of slab `j` (m/s, docs/model.md (C2)); 0 where
     /// there is no grain.
     pub fn grain_velocity(&self, j: usize) -> R {
         match (self.solid.get(j), self.momentum.get(j)) {
@@ -130,7 +131,7 @@ impl<R: Real, const C: usize> Slabs<R, C> {
     }
 
     /// Σ w Ξ / V_slab of slab `j` (kg/(m³ s)), the coefficient k_j of the
-    /// drag sink k_j u_f − m_j (C2), and m_j (N/m³).
+    /// drag sink k_j u_f − m_j (docs/model.md (C2)), and m_j (N/m³).
     pub fn drag_coefficients(&self, j: usize) -> (R, R) {
         (
             self.per_volume(&self.drag, j),
