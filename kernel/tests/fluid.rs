@@ -113,6 +113,25 @@ fn log_law_over_a_fixed_rough_bed<R: Real>(steady: f64) {
     assert!(change < steady * top, "not steady: {change:e}");
     assert!(fitted < 0.02, "log law, fitted k_s: {fitted}");
     assert!(paper < 0.02, "log law, k_s = d: {paper}");
+    // The local shear velocity of the Reynolds stress (C4): the driving of
+    // the water above, ρ u*² (y_s − y)/h, less the small viscous stress.
+    let grid = column.grid();
+    for frac in [0.1, 0.5, 0.9] {
+        let y = 0.5 * D + frac * h;
+        let expect = u_star * (1.0 - frac).sqrt();
+        let got = column.shear_velocity_at(R::from_f64(y)).to_f64();
+        assert!(
+            (got - expect).abs() < 0.01 * u_star,
+            "u*_loc at {frac} h: {got} vs {expect}"
+        );
+    }
+    // u_f at a centre is the cell's, half way between two centres their mean.
+    let u = column.velocities();
+    let (j, dy) = (100, grid.dy());
+    assert_eq!(column.velocity_at(grid.centre(j)), u[j]);
+    let mid = column.velocity_at(grid.centre(j) + R::HALF * dy).to_f64();
+    let mean = 0.5 * (u[j].to_f64() + u[j + 1].to_f64());
+    assert!((mid - mean).abs() < 1e-6 * mean, "{mid} vs {mean}");
 }
 
 #[test]
