@@ -90,20 +90,22 @@ fn fitted_roughness<R: Real>(column: &Col<R>, h: f64, u_star: f64) -> f64 {
     (sum / count).exp()
 }
 
-/// With no mobile grains the steady profile is the log law (14) over the
-/// outer 80 % of the depth: within 2 % with the paper's roughness k_s = d,
-/// and with the roughness that fits it best.
+/// With no mobile grains the steady profile at shear velocity `u_star` is
+/// the log law (14) over the outer 80 % of the depth: within 2 % with the
+/// roughness that fits it best, a roughness of the order of d (the wall is
+/// hydraulically transitional, k_s u*/ν = 6–40, so it varies with u*), and
+/// at u* = 3 cm/s within 2 % of (14) with the paper's k_s = d too.
 /// `steady` bounds the last step's relative change (the f32 solve of a
 /// nearly steady diffusion has round-off noise of about 1e-4).
-fn log_law_over_a_fixed_rough_bed<R: Real>(steady: f64) {
-    let (h, u_star) = (0.1, 0.03);
+fn log_law_over_a_fixed_rough_bed<R: Real>(u_star: f64, steady: f64) {
+    let h = 0.1;
     let config = rough_config(h, u_star);
-    let (column, change) = run_rough::<R>(&config, 3000, 0.5);
+    let (column, change) = run_rough::<R>(&config, 6000, 0.5);
     let k_s = fitted_roughness(&column, h, u_star);
     let fitted = log_law_error(&column, h, u_star, k_s);
     let paper = log_law_error(&column, h, u_star, D);
     std::println!(
-        "{}: log law over the outer 80 %: max error {:.3} % with the fitted k_s = {:.3} d, {:.3} % with k_s = d; last change {change:.1e} m/s",
+        "{}, u* = {u_star} m/s: log law over the outer 80 %: max error {:.3} % with the fitted k_s = {:.3} d, {:.3} % with k_s = d; last change {change:.1e} m/s",
         R::NAME,
         fitted * 100.0,
         k_s / D,
@@ -112,16 +114,21 @@ fn log_law_over_a_fixed_rough_bed<R: Real>(steady: f64) {
     let top = column.velocities().last().unwrap().to_f64();
     assert!(change < steady * top, "not steady: {change:e}");
     assert!(fitted < 0.02, "log law, fitted k_s: {fitted}");
-    assert!(paper < 0.02, "log law, k_s = d: {paper}");
+    assert!((0.5 * D..2.5 * D).contains(&k_s), "k_s = {k_s}");
+    if u_star == 0.03 {
+        assert!(paper < 0.02, "log law, k_s = d: {paper}");
+    }
     // The local shear velocity of the Reynolds stress (C4): the driving of
-    // the water above, ρ u*² (y_s − y)/h, less the small viscous stress.
+    // the water above, ρ u*² (y_s − y)/h, less the viscous stress of the log
+    // law, ρ ν u*/(κ y).
     let grid = column.grid();
     for frac in [0.1, 0.5, 0.9] {
         let y = 0.5 * D + frac * h;
-        let expect = u_star * (1.0 - frac).sqrt();
+        let viscous = config.viscosity * u_star / (0.4 * frac * h);
+        let expect = (u_star * u_star * (1.0 - frac) - viscous).sqrt();
         let got = column.shear_velocity_at(R::from_f64(y)).to_f64();
         assert!(
-            (got - expect).abs() < 0.01 * u_star,
+            (got - expect).abs() < 0.002 * u_star,
             "u*_loc at {frac} h: {got} vs {expect}"
         );
     }
@@ -136,8 +143,11 @@ fn log_law_over_a_fixed_rough_bed<R: Real>(steady: f64) {
 
 #[test]
 fn log_law() {
-    log_law_over_a_fixed_rough_bed::<f64>(1e-9);
-    log_law_over_a_fixed_rough_bed::<f32>(2e-4);
+    // τ* = 0.02, 0.11 and 0.79 on 0.5 mm sand.
+    for u_star in [0.0127, 0.03, 0.08] {
+        log_law_over_a_fixed_rough_bed::<f64>(u_star, 1e-9);
+    }
+    log_law_over_a_fixed_rough_bed::<f32>(0.03, 2e-4);
 }
 
 /// Grains at prescribed velocities with a constant drag factor in the
