@@ -13,6 +13,8 @@ pub enum Capacity {
     NeighboursPerGrain,
     /// Size classes ([`crate::MAX_CLASSES`]).
     SizeClasses,
+    /// Cells of the coupled flow's column (`C` of [`crate::fluid::Column`]).
+    FluidCells,
 }
 
 impl Capacity {
@@ -22,6 +24,7 @@ impl Capacity {
             Capacity::Grains => "grains (N)",
             Capacity::NeighboursPerGrain => "neighbours per grain (K)",
             Capacity::SizeClasses => "size classes (MAX_CLASSES)",
+            Capacity::FluidCells => "fluid cells (C)",
         }
     }
 }

@@ -56,6 +56,7 @@
 //! | §6 | mean bed level | [`Sim::bed_level`] |
 //! | §7 | initial bed | [`Sim::build_bed`], [`Sim::settle`] |
 //! | §8 | observables | [`Sim::observe`] |
+//! | (C1)–(C6) | the coupled flow's column (not yet in the step) | [`fluid::Column`] |
 //!
 //! ## Layers
 //!
@@ -69,7 +70,8 @@
 //! 2. **Model laws**: `constants` (material, and the contact constants from
 //!    Δt: [`contact_constants`]), [`contact`] (the contact law (6)–(9) and
 //!    its spring history), [`flow`] (the flow profile (14)–(16) and the
-//!    drag (4)–(5)).
+//!    drag (4)–(5)), [`fluid`] (the coupled flow's 1-D column, §13: not
+//!    yet used by the step).
 //! 3. **Storage**: `grains` (the grains, a structure of arrays),
 //!    `neighbours` (each grain's neighbour slots with their spring history,
 //!    and the cell-list search that fills them).
@@ -110,6 +112,7 @@ mod error;
 mod events;
 mod fields;
 pub mod flow;
+pub mod fluid;
 mod grains;
 mod neighbours;
 mod observe;

@@ -1,0 +1,37 @@
+//! The coupled flow (docs/model.md §13, option of issue 31): a volume-averaged,
+//! one-dimensional vertical column for the streamwise fluid velocity u_f(y),
+//! from the bottom of the fixed layer to the free surface, that feels the
+//! grains through their solid fraction and their drag.
+//!
+//! Not yet wired into [`crate::Sim`]: a caller fills [`Slabs`] from its grains
+//! and calls [`Column::advance`] every few grain steps. One concept per file:
+//!
+//! | file | what | docs/model.md |
+//! |---|---|---|
+//! | `config` | [`FluidConfig`], the user-facing parameters, validated | §13 |
+//! | `grid` | [`Grid`]: the uniform cells (slabs) of the column | §13 |
+//! | `slice` | [`slice_volume`]: a sphere's volume between two planes | docs/model.md (C1) |
+//! | `slabs` | [`Slabs`]: solid fraction, grain velocity and drag per slab | docs/model.md (C2) |
+//! | `mixing` | the mixing length (Li & Sawamoto 1995, free-surface factor) | docs/model.md (C3) |
+//! | `tridiagonal` | [`Tridiagonal`]: the Thomas solve in fixed-size arrays | docs/model.md (C6) |
+//! | `column` | [`Column`]: the state u_f, one implicit step, the queries | docs/model.md (C4)–(C6) |
+//!
+//! Like the rest of the kernel: no allocation (arrays of the capacity `C`,
+//! a const generic), never panics (every failure is an [`crate::Error`]),
+//! bit-reproducible (fixed loop orders, `sqrt` the only function called, no
+//! fused multiply-add), generic over `f32` and `f64`.
+
+mod column;
+mod config;
+mod grid;
+mod mixing;
+mod slabs;
+mod slice;
+mod tridiagonal;
+
+pub use column::Column;
+pub use config::FluidConfig;
+pub use grid::Grid;
+pub use slabs::Slabs;
+pub use slice::slice_volume;
+pub use tridiagonal::Tridiagonal;
