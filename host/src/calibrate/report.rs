@@ -217,7 +217,7 @@ pub fn write_report(
     }
     let _ = writeln!(
         o,
-        "\n**Acceptance (stage 3):** worst factor between q* and {} over τ* in [{}, {}]: **{:.2}** (target 1.5); misfit (mean squared ln ratio) {:.4}.\n",
+        "\n**Acceptance (stage 3):** worst factor between q* and {} over τ* in [{}, {}]: **{:.2}** (target 1.5); misfit (error-weighted mean squared ln ratio) {:.4}.\n",
         reference.label(),
         s.beta.after.tau_stars.first().copied().unwrap_or(0.0),
         s.beta.after.tau_stars.last().copied().unwrap_or(0.0),
