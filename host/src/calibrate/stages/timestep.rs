@@ -229,7 +229,7 @@ fn write_outputs(ctx: &Context<'_>, r: &TimestepStage) -> Result<(), HostError> 
         log_axes: true,
         markers: true,
         dots: Vec::new(),
-        x_ticks: Vec::new(),
+        x_ticks: rows.iter().map(|row| x(row)).collect(),
         marks: Vec::new(),
     };
     save(
