@@ -462,7 +462,25 @@ impl Context<'_> {
                 curves.push(curve);
             }
             if !more {
+                if fidelity.threshold_seeds_max.max(fidelity.seeds_max) > fidelity.seeds {
+                    self.log_capped(&configs, &curves);
+                }
                 return Ok(Some(curves));
+            }
+        }
+    }
+
+    /// Logs each point of `curves` that ended at its seed cap short of the
+    /// target.
+    fn log_capped(&self, configs: &[ConfigFile], curves: &[Curve]) {
+        for (config, curve) in configs.iter().zip(curves) {
+            for (p, &t) in curve.tau_stars.iter().enumerate() {
+                if !curve.reached[p] {
+                    self.cells.log.event(&format!(
+                        "capped  tau* {t} beta {}: q* {} ± {} with {} seeds (target not reached)",
+                        config.contact.beta, curve.q_star[p], curve.stderr[p], curve.seeds[p]
+                    ));
+                }
             }
         }
     }

@@ -130,10 +130,14 @@ fn quick_calibration_writes_every_stage_and_the_report() {
             seeds >= fine["seeds"].as_u64().unwrap() && seeds <= cap,
             "{t}: {seeds}"
         );
-        assert!(
-            s3["after"]["reached"][k].as_bool().unwrap() || seeds == cap,
-            "{t}"
-        );
+        let reached = s3["after"]["reached"][k].as_bool().unwrap();
+        assert!(reached || seeds == cap, "{t}");
+        // A capped point is named in the log and the report.
+        let named = log.contains(&format!("capped  tau* {t} beta {beta}:"));
+        assert_eq!(named, !reached, "{t}: {log}");
+        if !reached {
+            assert!(report.contains("**Capped:**"), "{report}");
+        }
     }
     // Two fidelities in the search, the precise ones around the result.
     let csv = read(dir.path(), "stage3.csv");
