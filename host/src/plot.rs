@@ -1159,7 +1159,7 @@ mod tests {
             x_ticks: grid.iter().map(|p| p.0).collect(),
             series: vec![("grid".into(), grid)],
             dots: vec![(
-                "golden-section search".into(),
+                "precise curves".into(),
                 vec![(3.5, 0.06), (3.8, 0.055), (4.1, 0.07)],
             )],
             title: "misfit".into(),
@@ -1301,7 +1301,7 @@ mod tests {
                 "15.8",
                 "25.1",
                 "chosen β = 3.800",
-                "golden-section search",
+                "precise curves",
             ],
         );
         // A narrow logarithmic y axis still has labelled ticks.
