@@ -294,7 +294,7 @@ impl Dumps {
             .frames
             .iter()
             .enumerate()
-            .map(|(k, &s)| (dumps.writer.name(k), s as f64 * dumps.step_dt))
+            .map(|(k, &s)| (dumps.writer.name(k), frame_time(s, dumps.step_dt)))
             .collect();
         dumps.steps = record.frames;
         write_text(&dumps.writer.pvd_path(), &pvd(&dumps.writer.entries))?;
@@ -332,7 +332,7 @@ impl Dumps {
         sim: &Sim<R, N, K>,
     ) -> Result<(), HostError> {
         let step = self.since(sim);
-        self.writer.write(sim, step as f64 * self.step_dt)?;
+        self.writer.write(sim, frame_time(step, self.step_dt))?;
         self.steps.push(step);
         Ok(())
     }
@@ -475,6 +475,21 @@ pub fn vtu(grains: &[GrainSpec], x_unwrapped: &[f64], width: f64, time: f64) -> 
     named(&mut s, "Float64", "x_unwrapped", 1, &unwrapped);
     s.push_str("</PointData>\n</Piece>\n</UnstructuredGrid>\n</VTKFile>\n");
     s
+}
+
+/// The time (s) of a frame `steps` integration steps of `step_dt` after the
+/// flow started, to 12 significant digits: 0.03, not the product's
+/// 0.030000000000000002.
+///
+/// ```
+/// use mbs::frames::frame_time;
+///
+/// assert_eq!(frame_time(12_000, 2.5e-6), 0.03);
+/// assert_eq!(frame_time(0, 2.5e-6), 0.0);
+/// ```
+pub fn frame_time(steps: u64, step_dt: f64) -> f64 {
+    let t = steps as f64 * step_dt;
+    format!("{t:.11e}").parse().unwrap_or(t)
 }
 
 /// The ParaView collection of `entries` (file name, time in s).
