@@ -95,16 +95,7 @@ enum Command {
     #[command(mut_arg("quiet", |a| a.hide(true)))]
     #[command(mut_arg("threads", |a| a.hide(true)))]
     #[command(mut_arg("sets", |a| a.hide(true)))]
-    Merge {
-        #[command(flatten)]
-        shared: Shared,
-        /// Shard output directories.
-        #[arg(required = true)]
-        shards: Vec<PathBuf>,
-        /// The directory to merge into.
-        #[arg(long)]
-        out: PathBuf,
-    },
+    Merge(MergeArgs),
     /// Prints the embedded default configuration (the paper's case), commented.
     #[command(mut_arg("quiet", |a| a.hide(true)))]
     #[command(mut_arg("threads", |a| a.hide(true)))]
@@ -249,22 +240,27 @@ enum Command {
     },
 }
 
+/// The arguments of `mbs merge` and `mbs calibrate merge`.
+#[derive(clap::Args)]
+struct MergeArgs {
+    #[command(flatten)]
+    shared: Shared,
+    /// Shard output directories.
+    #[arg(required = true)]
+    shards: Vec<PathBuf>,
+    /// The directory to merge into (then rerun the command without --shard
+    /// and with --out DIR to finish).
+    #[arg(long)]
+    out: PathBuf,
+}
+
 #[derive(Subcommand)]
 enum CalibrateAction {
     /// Merges the cell stores of shard output directories into one directory.
     #[command(mut_arg("quiet", |a| a.hide(true)))]
     #[command(mut_arg("threads", |a| a.hide(true)))]
     #[command(mut_arg("sets", |a| a.hide(true)))]
-    Merge {
-        #[command(flatten)]
-        shared: Shared,
-        /// Shard output directories.
-        #[arg(required = true)]
-        shards: Vec<PathBuf>,
-        /// The merged directory (then run `mbs calibrate --out DIR` to finish).
-        #[arg(long)]
-        out: PathBuf,
-    },
+    Merge(MergeArgs),
 }
 
 /// Checks a Shields number given on the command line.
@@ -303,11 +299,11 @@ impl Command {
         match self {
             Command::Calibrate {
                 shared,
-                action: Some(CalibrateAction::Merge { shared: inner, .. }),
+                action: Some(CalibrateAction::Merge(MergeArgs { shared: inner, .. })),
                 ..
             } => std::mem::take(shared).and(std::mem::take(inner)),
             Command::Run { shared, .. }
-            | Command::Merge { shared, .. }
+            | Command::Merge(MergeArgs { shared, .. })
             | Command::Config { shared }
             | Command::Pack { shared, .. }
             | Command::Snapshot { shared, .. }
@@ -381,7 +377,7 @@ fn execute(cli: Cli) -> Result<(), HostError> {
             commands::run(&config, out.as_deref(), options, common)
         }
         Command::Config { .. } => commands::config(),
-        Command::Merge { shards, out, .. } => {
+        Command::Merge(MergeArgs { shards, out, .. }) => {
             let added = merge(&shards, &out)?;
             commands::print(&format!(
                 "merged {added} new cells into {}; finish with the same command without --shard and with --out {}\n",
@@ -465,7 +461,7 @@ fn execute(cli: Cli) -> Result<(), HostError> {
             commands::digest(&config, steps, precision, tau_arg(tau)?, trace)
         }
         Command::Calibrate {
-            action: Some(CalibrateAction::Merge { shards, out, .. }),
+            action: Some(CalibrateAction::Merge(MergeArgs { shards, out, .. })),
             ..
         } => {
             let added = merge(&shards, &out)?;
