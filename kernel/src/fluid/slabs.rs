@@ -38,7 +38,8 @@ pub struct Slabs<R: Real, const C: usize> {
     pub(crate) momentum: [R; C],
     /// Σ_i w_ij Ξ_i (kg/s), w_ij = V_ij / V_i the grain's share of the slab.
     pub(crate) drag: [R; C],
-    /// Σ_i w_ij Ξ_i u_p,i (N).
+    /// Σ_i w_ij Ξ_i u_p,i (N), less Σ_i w_ij F_i of the exchanged forces
+    /// ([`Slabs::add_exchange`]).
     pub(crate) drag_velocity: [R; C],
 }
 
@@ -103,6 +104,30 @@ impl<R: Real, const C: usize> Slabs<R, C> {
             self.momentum[j] += part * u_p;
             self.drag[j] += share;
             self.drag_velocity[j] += share * u_p;
+        }
+        Ok(())
+    }
+
+    /// Adds a sphere of radius `r` centred at height `y`, moving downstream
+    /// at `u_p`, that received the streamwise drag `force` (N) from the
+    /// fluid: its volume as [`Slabs::add_grain`], and the opposite of the
+    /// force shared among the slabs by the grain's volume shares w_ij, an
+    /// explicit sink m_j −= Σ w_ij F_i / V_slab (docs/model.md §13), so the
+    /// fluid loses exactly what the grain gained.
+    pub fn add_exchange(&mut self, y: R, r: R, u_p: R, force: R) -> Result<(), Error> {
+        finite("fluid.grain_height", y.to_f64())?;
+        positive("fluid.grain_radius", r.to_f64())?;
+        finite("fluid.grain_velocity", u_p.to_f64())?;
+        finite("fluid.grain_force", force.to_f64())?;
+        let Some((first, last)) = self.grid.span(y - r, y + r) else {
+            return Ok(());
+        };
+        let inv_volume = R::ONE / slice_volume(r, -r, r);
+        for j in first..=last {
+            let part = slice_volume(r, self.grid.face(j) - y, self.grid.face(j + 1) - y);
+            self.solid[j] += part;
+            self.momentum[j] += part * u_p;
+            self.drag_velocity[j] -= part * inv_volume * force;
         }
         Ok(())
     }

@@ -10,6 +10,11 @@
 //!   do not fit the index): one grain at a time.
 //!
 //! Both move grains with the same integrator ([`mover`]).
+//!
+//! With the coupled flow (docs/model.md §13) the column is first updated
+//! every M steps (`Sim::exchange`), and the drag of every mobile grain is
+//! found one grain at a time ([`scalar::add_coupled_drag`]) before either
+//! path, which then starts each grain's sums from it.
 
 #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
 mod batch;
@@ -35,7 +40,7 @@ use mover::Mover;
 /// would take stack the largest bed does not have.
 const GEOMETRY_AHEAD: bool = !cfg!(target_os = "none");
 
-impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
+impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
     /// Advances `steps` steps.
     pub fn run(&mut self, steps: u64) -> Result<(), Error> {
         for _ in 0..steps {
@@ -68,6 +73,10 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
         let mut events = Events::ZERO;
         if self.flow_on {
             let since = self.step.saturating_sub(self.flow_epoch);
+            let update = u64::from(self.flow.fluid.update_steps.max(1));
+            if self.fluid.on && since > 0 && since.is_multiple_of(update) {
+                self.exchange()?;
+            }
             if since.is_multiple_of(u64::from(self.flow.bed_level_interval.max(1))) {
                 self.update_bed_level();
                 events.bed_level_updates = 1;
@@ -78,6 +87,10 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
                 events.turbulence_redraws = 1;
             }
         }
+        let coupled = self.flow_on && self.fluid.on;
+        if coupled {
+            scalar::add_coupled_drag(&mut self.grains, &self.fluid, &self.profile, self.bed_level);
+        }
         let mover = self.mover();
         #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
         let batched = if BATCHED {
@@ -85,7 +98,8 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
                 width: self.width,
                 law: self.law,
                 mover,
-                drag: self.flow_on.then_some((self.profile, self.bed_level)),
+                drag: (self.flow_on && !coupled).then_some((self.profile, self.bed_level)),
+                forces_added: coupled,
                 count_events: self.count_events,
             };
             batch::batched_step(&mut self.grains, &mut self.index, &params, &mut events)
@@ -97,7 +111,7 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
         let moved = match batched {
             Some(moved) => moved,
             None => {
-                if self.flow_on {
+                if self.flow_on && !coupled {
                     scalar::add_drag(&mut self.grains, &self.profile, self.bed_level);
                 }
                 self.index.history_to_slots(&mut self.nbrs.spring);
@@ -130,7 +144,7 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
 
     /// Rebuilds the neighbour slots, then the batched step's pair index
     /// from them (the slots first get the history back from the index).
-    fn rebuild(&mut self) -> Result<(), Error> {
+    pub(crate) fn rebuild(&mut self) -> Result<(), Error> {
         self.index.history_to_slots(&mut self.nbrs.spring);
         self.nbrs.rebuild(&self.grains, self.width, self.y_min)?;
         // A pair across the seam has both grains within the cut-off of it,

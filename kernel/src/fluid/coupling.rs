@@ -1,0 +1,65 @@
+//! The coupled flow's state inside a [`crate::Sim`] (docs/model.md §13): the
+//! column, the slabs it is fed from, and what the grains read between two
+//! updates.
+
+use super::column::Column;
+use super::config::FluidConfig;
+use super::slabs::Slabs;
+use crate::real::Real;
+
+/// The column of a coupled `Sim`, its scratch slabs and the hindrance
+/// factor of each cell. All-zero bits are the value [`Coupling::new`]
+/// (off), so it can live in a zeroed `Sim`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Coupling<R: Real, const C: usize> {
+    /// The coupled flow is on.
+    pub(crate) on: bool,
+    /// The fluid: u_f and φ of each cell (state).
+    pub(crate) column: Column<R, C>,
+    /// Scratch of an update: the grains' slab sums.
+    pub(crate) slabs: Slabs<R, C>,
+    /// (1 − φ_j)^(−n) of each cell at the last update, docs/model.md (C7); 1
+    /// without hindrance. Derived from the state.
+    pub(crate) hindrance: [R; C],
+    /// The column's time step M step_dt (s).
+    pub(crate) exchange_dt: R,
+    /// 1/M, the average of the drag summed over M grain steps.
+    pub(crate) inv_steps: R,
+}
+
+impl<R: Real, const C: usize> Coupling<R, C> {
+    /// Off, no cells.
+    pub(crate) const fn new() -> Self {
+        Coupling {
+            on: false,
+            column: Column::new(),
+            slabs: Slabs::new(),
+            hindrance: [R::ZERO; C],
+            exchange_dt: R::ZERO,
+            inv_steps: R::ZERO,
+        }
+    }
+
+    /// The hindrance (1 − φ)^(−n) at height `y`: the factor of the cell
+    /// that holds it (the nearest cell outside the column).
+    #[inline]
+    pub(crate) fn hindrance_at(&self, y: R) -> R {
+        match self.column.grid().cell(y) {
+            Some(j) => self.hindrance.get(j).copied().unwrap_or(R::ONE),
+            None => R::ONE,
+        }
+    }
+
+    /// Recomputes the hindrance of each cell from the column's φ with
+    /// exponent `config.hindrance` (f64 `libm::pow`, once per cell and update).
+    pub(crate) fn refresh_hindrance(&mut self, config: &FluidConfig) {
+        let n = config.hindrance;
+        for (h, &phi) in self.hindrance.iter_mut().zip(self.column.solid_fractions()) {
+            *h = if n == 0.0 {
+                R::ONE
+            } else {
+                R::from_f64(libm::pow(1.0 - phi.to_f64(), -n))
+            };
+        }
+    }
+}
