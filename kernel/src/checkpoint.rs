@@ -274,8 +274,11 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
     /// The length of the largest checkpoint this simulation can write or
     /// restore: every grain slot used, every neighbour slot a contact. A
     /// longer file is no checkpoint of it, and can be refused unread.
-    pub const MAX_CHECKPOINT_LEN: usize =
-        Self::checkpoint_len(N, N * K).saturating_add(Self::fluid_len(C, N));
+    pub const MAX_CHECKPOINT_LEN: usize = Self::checkpoint_len(N, N * K).saturating_add(if C > 0 {
+        Self::fluid_len(C, N)
+    } else {
+        0
+    });
 
     /// The length of a checkpoint of `grains` grains and `contacts`
     /// contacts in this precision (saturating: never a panic).
