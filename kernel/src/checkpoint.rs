@@ -14,7 +14,7 @@
 //! | flow epoch, step (u64), bed level (R) | 16 + R |
 //! | grains n (u32); per grain x, y, u, v, ω, d/2, z_u, z_v, 1/m, 1/I, drag factor (R), fixed, class (u8) | 4 + n (11R + 2) |
 //! | contacts m (u32); per contact i, j (u32), e_n, e_s (R), in (i, j) order | 4 + m (8 + 2R) |
-//! | coupled flow only: per cell u_f, φ (R); per grain its summed drag (R) | cells 2R + n R |
+//! | coupled flow only: per cell u_f, φ, the stabiliser's force carried (R); per grain its summed drag (R) | cells 3R + n R |
 //!
 //! The fluid section is checked as the rest: its configuration by
 //! [`FlowConfig::validate`] and the capacity, every value finite, each φ
@@ -295,7 +295,7 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
     /// has none.
     pub const fn fluid_len(cells: usize, grains: usize) -> usize {
         cells
-            .saturating_mul(2 * R::BYTES)
+            .saturating_mul(3 * R::BYTES)
             .saturating_add(grains.saturating_mul(R::BYTES))
     }
 
@@ -398,9 +398,11 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
             w.real(s.e_s);
         }
         if let Some(column) = self.fluid_column() {
-            for (&u, &phi) in column.velocities().iter().zip(column.solid_fractions()) {
+            let cells = column.velocities().iter().zip(column.solid_fractions());
+            for ((&u, &phi), &carried) in cells.zip(&self.fluid.carried) {
                 w.real(u);
                 w.real(phi);
+                w.real(carried);
             }
             for &sum in &g.drag_sum[..g.len] {
                 w.real(sum);
@@ -509,7 +511,7 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
     }
 
     /// Reads the fluid section of a coupled checkpoint (`flow`, validated,
-    /// fits `C`) of `n` grains: each cell's u_f and φ, then each grain's
+    /// fits `C`) of `n` grains: each cell's u_f, φ and carried force, then each grain's
     /// summed drag; applies it (after the flow was started by `set_flow`
     /// and the grains were added) only if `apply`.
     fn read_fluid(
@@ -522,9 +524,11 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
         let cells = flow.fluid.cells.min(C);
         let mut u = [R::ZERO; C];
         let mut phi = [R::ZERO; C];
+        let mut carried = [R::ZERO; C];
         for j in 0..cells {
             u[j] = r.real::<R>()?;
             phi[j] = r.real::<R>()?;
+            carried[j] = r.real::<R>()?;
             if !(phi[j] >= R::ZERO && phi[j] < R::ONE) {
                 return Err(r.fail(CheckpointFault::Value));
             }
@@ -538,6 +542,7 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
         if apply {
             let fluid = &mut self.fluid;
             fluid.column.set_state(&u[..cells], &phi[..cells])?;
+            fluid.carried = carried;
             fluid.refresh_hindrance(&flow.fluid);
         }
         Ok(())

@@ -15,9 +15,6 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
     /// every grain starts at 0.
     pub(crate) fn start_coupling(&mut self) -> Result<(), Error> {
         self.fluid.on = false;
-        if self.nbrs.stale {
-            self.rebuild()?;
-        }
         self.update_bed_level();
         let mut config = self.flow.fluid;
         config.driving += self.config.slope_driving();
@@ -30,6 +27,7 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
             fluid.slabs.add_grain(g.y[i], g.r[i], g.u[i], R::ZERO)?;
         }
         g.drag_sum[..n].fill(R::ZERO);
+        fluid.carried.fill(R::ZERO);
         let (profile, bed_level) = (&self.profile, self.bed_level);
         fluid
             .column
@@ -43,32 +41,76 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
     }
 
     /// The update of the column after M grain steps (docs/model.md §13):
-    /// the slabs from the grains of now (docs/model.md (C1)–(C2)), each
-    /// mobile grain with the drag it received averaged over the M steps as
-    /// an explicit sink (the fluid loses exactly what the grains gained),
-    /// each fixed grain with its drag factor Ξ = ½ρC_D A2 d² |u_f| (its
-    /// hindrance too) as an implicit sink; one implicit step of M step_dt
-    /// (docs/model.md (C6)); the hindrance of the new φ; the sums emptied.
+    ///
+    /// 1. the slabs from the grains of now (docs/model.md (C1)–(C2)): each
+    ///    mobile grain gives the drag it received averaged over the M
+    ///    steps, F̄, as an explicit sink (the fluid loses exactly what the
+    ///    grains gained) and, to keep the step stable where the grains
+    ///    hold the fluid tightly, its drag factor of now
+    ///    Ξ = ½ρC_D A2 d² (1 − φ)^(−n) |u_f − u_p| as an implicit
+    ///    stabiliser: the sink k (u_f − u_f⁰), balanced so that it takes
+    ///    no momentum at u_f = u_f⁰ (u_f⁰ the velocity before the step);
+    /// 2. the stabiliser's force of the previous update, k (u_f − u_f⁰),
+    ///    returned as a source, so that over a run the fluid's sink is
+    ///    the grains' drag exactly, but for the last update's, in transit;
+    /// 3. each fixed grain with its drag factor Ξ = ½ρC_D A2 d² (1 − φ)^(−n)
+    ///    |u_f| as an implicit sink (the bed's resistance, as in
+    ///    kernel/tests/fluid.rs);
+    /// 4. one implicit step of M step_dt (docs/model.md (C6)), the
+    ///    hindrance of the new φ, the stabiliser's force kept, the sums
+    ///    emptied.
+    ///
     /// On an error the column's velocities and the sums are unchanged.
     pub(crate) fn exchange(&mut self) -> Result<(), Error> {
         let fluid = &mut self.fluid;
         let g = &mut self.grains;
         let n = g.len.min(N);
+        let cells = fluid.column.grid().cells().min(C);
         fluid.slabs.clear(fluid.column.grid())?;
+        for i in 0..n {
+            let (y, r, u) = (g.y[i], g.r[i], g.u[i]);
+            if !g.fixed[i] {
+                let speed = R::abs(fluid.column.velocity_at(y) - u);
+                let xi = g.drag_coef[i] * fluid.hindrance_at(y) * speed;
+                let force = g.drag_sum[i] * fluid.inv_steps;
+                fluid.slabs.add_exchange(y, r, u, xi, force)?;
+            }
+        }
+        let velocities = fluid.column.velocities();
+        for j in 0..cells {
+            let k = fluid.slabs.drag_factor(j);
+            let u = velocities.get(j).copied().unwrap_or(R::ZERO);
+            (fluid.stabiliser[j], fluid.previous[j]) = (k, u);
+            fluid.slabs.add_source(j, k * u + fluid.carried[j]);
+        }
         for i in 0..n {
             let (y, r) = (g.y[i], g.r[i]);
             if g.fixed[i] {
                 let speed = R::abs(fluid.column.velocity_at(y));
                 let xi = g.drag_coef[i] * fluid.hindrance_at(y) * speed;
                 fluid.slabs.add_grain(y, r, R::ZERO, xi)?;
-            } else {
-                let force = g.drag_sum[i] * fluid.inv_steps;
-                fluid.slabs.add_exchange(y, r, g.u[i], force)?;
             }
         }
         fluid.column.advance(&fluid.slabs, fluid.exchange_dt)?;
+        for (j, &u) in fluid.column.velocities().iter().enumerate().take(cells) {
+            fluid.carried[j] = fluid.stabiliser[j] * (u - fluid.previous[j]);
+        }
         fluid.refresh_hindrance(&self.flow.fluid);
         g.drag_sum[..n].fill(R::ZERO);
         Ok(())
+    }
+
+    /// The momentum of the coupled flow's stabiliser in transit (N s per
+    /// slice; 0 without the coupled flow): taken from the fluid at the
+    /// last update and returned at the next (docs/model.md §13). Over a
+    /// run, the fluid's momentum change plus the grains' momentum change
+    /// from the drag equals the driving impulse less the bed's (the
+    /// no-slip bottom's stress and the fixed grains' drag), less this.
+    pub fn fluid_in_transit(&self) -> f64 {
+        if self.fluid.on {
+            self.fluid.in_transit().to_f64()
+        } else {
+            0.0
+        }
     }
 }

@@ -65,8 +65,8 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
     /// diameter, fixed, class, held fluctuation draws), the contacts in
     /// (i, j) order with their spring history, the generator state (seed and
     /// flow epoch; draws are keyed by these), the bed level and, with the
-    /// coupled flow, its state (the column's u_f and φ, the grains' drag
-    /// summed since the last update).
+    /// coupled flow, its state (the column's u_f, φ and carried force, the
+    /// grains' drag summed since the last update).
     ///
     /// ```
     /// use mbs_kernel::{Scenario, Sim};
@@ -106,14 +106,17 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
         h.finish()
     }
 
-    /// Adds the coupled flow's state to `h`: each cell's u_f and φ, each
+    /// Adds the coupled flow's state to `h`: each cell's u_f, φ and the
+    /// stabiliser's force carried to the next update, each
     /// grain's summed drag; nothing with clear water (its digests are
     /// those of before the coupled flow).
     fn fluid_digest(&self, h: &mut Fnv1a) {
         if let Some(column) = self.fluid_column() {
-            for (&u, &phi) in column.velocities().iter().zip(column.solid_fractions()) {
+            let cells = column.velocities().iter().zip(column.solid_fractions());
+            for ((&u, &phi), &carried) in cells.zip(&self.fluid.carried) {
                 h.real(u);
                 h.real(phi);
+                h.real(carried);
             }
             let g = &self.grains;
             for &sum in &g.drag_sum[..g.len] {

@@ -21,6 +21,13 @@ pub(crate) struct Coupling<R: Real, const C: usize> {
     /// (1 − φ_j)^(−n) of each cell at the last update, docs/model.md (C7); 1
     /// without hindrance. Derived from the state.
     pub(crate) hindrance: [R; C],
+    /// The stabiliser's force of each cell at the last update (N),
+    /// returned to the fluid at the next (docs/model.md §13): state.
+    pub(crate) carried: [R; C],
+    /// Scratch of an update: the mobile grains' Σ w Ξ of each cell (kg/s).
+    pub(crate) stabiliser: [R; C],
+    /// Scratch of an update: u_f of each cell before it.
+    pub(crate) previous: [R; C],
     /// The column's time step M step_dt (s).
     pub(crate) exchange_dt: R,
     /// 1/M, the average of the drag summed over M grain steps.
@@ -35,9 +42,22 @@ impl<R: Real, const C: usize> Coupling<R, C> {
             column: Column::new(),
             slabs: Slabs::new(),
             hindrance: [R::ZERO; C],
+            carried: [R::ZERO; C],
+            stabiliser: [R::ZERO; C],
+            previous: [R::ZERO; C],
             exchange_dt: R::ZERO,
             inv_steps: R::ZERO,
         }
+    }
+
+    /// The stabiliser's momentum in transit (N s): taken from the fluid at
+    /// the last update, returned at the next.
+    pub(crate) fn in_transit(&self) -> R {
+        let mut sum = R::ZERO;
+        for &f in &self.carried[..self.column.grid().cells().min(C)] {
+            sum += f;
+        }
+        sum * self.exchange_dt
     }
 
     /// The hindrance (1 − φ)^(−n) at height `y`: the factor of the cell

@@ -110,14 +110,17 @@ impl<R: Real, const C: usize> Slabs<R, C> {
 
     /// Adds a sphere of radius `r` centred at height `y`, moving downstream
     /// at `u_p`, that received the streamwise drag `force` (N) from the
-    /// fluid: its volume as [`Slabs::add_grain`], and the opposite of the
-    /// force shared among the slabs by the grain's volume shares w_ij, an
-    /// explicit sink m_j −= Σ w_ij F_i / V_slab (docs/model.md §13), so the
-    /// fluid loses exactly what the grain gained.
-    pub fn add_exchange(&mut self, y: R, r: R, u_p: R, force: R) -> Result<(), Error> {
+    /// fluid: its volume as [`Slabs::add_grain`], the opposite of the force
+    /// shared among the slabs by the grain's volume shares w_ij, an explicit
+    /// sink m_j −= Σ w_ij F_i / V_slab, so the fluid loses exactly what the
+    /// grain gained, and its drag factor `xi` (kg/s) to k_j, the implicit
+    /// part that the caller balances with [`Slabs::add_source`]
+    /// (docs/model.md §13).
+    pub fn add_exchange(&mut self, y: R, r: R, u_p: R, xi: R, force: R) -> Result<(), Error> {
         finite("fluid.grain_height", y.to_f64())?;
         positive("fluid.grain_radius", r.to_f64())?;
         finite("fluid.grain_velocity", u_p.to_f64())?;
+        non_negative("fluid.grain_drag", xi.to_f64())?;
         finite("fluid.grain_force", force.to_f64())?;
         let Some((first, last)) = self.grid.span(y - r, y + r) else {
             return Ok(());
@@ -127,9 +130,30 @@ impl<R: Real, const C: usize> Slabs<R, C> {
             let part = slice_volume(r, self.grid.face(j) - y, self.grid.face(j + 1) - y);
             self.solid[j] += part;
             self.momentum[j] += part * u_p;
-            self.drag_velocity[j] -= part * inv_volume * force;
+            let share = part * inv_volume;
+            self.drag[j] += share * xi;
+            self.drag_velocity[j] -= share * force;
         }
         Ok(())
+    }
+
+    /// Σ_i w_ij Ξ_i of slab `j` (kg/s): k_j times the slab's volume; 0
+    /// outside the column.
+    pub fn drag_factor(&self, j: usize) -> R {
+        match self.drag.get(j) {
+            Some(&k) if j < self.grid.cells => k,
+            _ => R::ZERO,
+        }
+    }
+
+    /// Adds `force` (N) to slab `j`'s explicit source m_j V_slab (nothing
+    /// outside the column).
+    pub fn add_source(&mut self, j: usize, force: R) {
+        if j < self.grid.cells {
+            if let Some(m) = self.drag_velocity.get_mut(j) {
+                *m += force;
+            }
+        }
     }
 
     /// Solid fraction φ_j of slab `j` (docs/model.md (C2)); 0 outside the column.

@@ -144,7 +144,7 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
 
     /// Rebuilds the neighbour slots, then the batched step's pair index
     /// from them (the slots first get the history back from the index).
-    pub(crate) fn rebuild(&mut self) -> Result<(), Error> {
+    fn rebuild(&mut self) -> Result<(), Error> {
         self.index.history_to_slots(&mut self.nbrs.spring);
         self.nbrs.rebuild(&self.grains, self.width, self.y_min)?;
         // A pair across the seam has both grains within the cut-off of it,
@@ -267,6 +267,46 @@ mod tests {
                 Some((a, b)) => assert!(a.1 != scalar.1 && b.1 != scalar32.1),
             }
         }
+    }
+
+    /// The paper's bed settled, then under the coupled flow at the paper's
+    /// τ* (hindrance on, an update every 100 steps), stepped as
+    /// [`digests`] does: the digest.
+    fn coupled_digest<R: Real, const BUFFER: usize, const BATCHED: bool>() -> u64 {
+        let mut sim = std::boxed::Box::new(Sim::<R, 64, 8, 1024>::new());
+        let sc = Scenario::paper();
+        let info = sc.build(&mut *sim).unwrap();
+        for _ in 0..1500 {
+            sim.step_with::<BUFFER, BATCHED>().unwrap();
+        }
+        let mut flow = sc.flow(Scenario::PAPER_TAU_STAR);
+        let d = sc.bed.max_diameter();
+        let bottom = info.y_min + 1.5 * d;
+        let cells = ((flow.depth - bottom) / (0.5 * d)) as usize;
+        let mut fluid = crate::fluid::FluidConfig::new(cells, bottom, flow.depth, info.width * d);
+        fluid.driving = crate::fluid::FluidConfig::driving_for(flow.u_star, flow.depth);
+        fluid.hindrance = 3.1;
+        (flow.model, flow.fluid) = (crate::FlowModel::Coupled, fluid);
+        sim.set_flow(Some(&flow)).unwrap();
+        for _ in 0..2000 {
+            sim.step_with::<BUFFER, BATCHED>().unwrap();
+        }
+        #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+        assert_eq!(sim.index.ready, BATCHED);
+        assert!(sim.fluid_in_transit() != 0.0, "the column was updated");
+        sim.digest()
+    }
+
+    /// The coupled flow: the batched step and the scalar step (geometry
+    /// ahead or not) give the same bits, in both precisions.
+    #[test]
+    fn coupled_flow_is_batched_with_the_scalar_bits() {
+        let scalar = coupled_digest::<f64, 0, false>();
+        assert_eq!(coupled_digest::<f64, 8, false>(), scalar);
+        assert_eq!(coupled_digest::<f64, 8, true>(), scalar);
+        let scalar = coupled_digest::<f32, 0, false>();
+        assert_eq!(coupled_digest::<f32, 8, false>(), scalar);
+        assert_eq!(coupled_digest::<f32, 8, true>(), scalar);
     }
 
     /// A grain in many pairs (a large grain ringed by 14 small ones, as
