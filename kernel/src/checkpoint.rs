@@ -14,7 +14,7 @@
 //! | flow epoch, step (u64), bed level (R) | 16 + R |
 //! | grains n (u32); per grain x, y, u, v, ω, d/2, z_u, z_v, 1/m, 1/I, drag factor (R), fixed, class (u8) | 4 + n (11R + 2) |
 //! | contacts m (u32); per contact i, j (u32), e_n, e_s (R), in (i, j) order | 4 + m (8 + 2R) |
-//! | coupled flow only: per cell u_f, φ, the stabiliser's force carried (R); per grain its summed drag (R) | cells 3R + n R |
+//! | coupled flow only: per cell u_f, φ, the stabiliser's force carried, the grains' drag summed since the last update (R) | cells 4R |
 //!
 //! The fluid section is checked as the rest: its configuration by
 //! [`FlowConfig::validate`] and the capacity, every value finite, each φ
@@ -274,11 +274,8 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
     /// The length of the largest checkpoint this simulation can write or
     /// restore: every grain slot used, every neighbour slot a contact. A
     /// longer file is no checkpoint of it, and can be refused unread.
-    pub const MAX_CHECKPOINT_LEN: usize = Self::checkpoint_len(N, N * K).saturating_add(if C > 0 {
-        Self::fluid_len(C, N)
-    } else {
-        0
-    });
+    pub const MAX_CHECKPOINT_LEN: usize =
+        Self::checkpoint_len(N, N * K).saturating_add(Self::fluid_len(C));
 
     /// The length of a checkpoint of `grains` grains and `contacts`
     /// contacts in this precision (saturating: never a panic).
@@ -291,12 +288,9 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
     }
 
     /// The length of the fluid section of a coupled checkpoint of `cells`
-    /// cells and `grains` grains (saturating); a clear-water checkpoint
-    /// has none.
-    pub const fn fluid_len(cells: usize, grains: usize) -> usize {
-        cells
-            .saturating_mul(3 * R::BYTES)
-            .saturating_add(grains.saturating_mul(R::BYTES))
+    /// cells (saturating); a clear-water checkpoint has none.
+    pub const fn fluid_len(cells: usize) -> usize {
+        cells.saturating_mul(4 * R::BYTES)
     }
 
     /// Writes the complete state to `sink` in the format of this module.
@@ -398,14 +392,13 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
             w.real(s.e_s);
         }
         if let Some(column) = self.fluid_column() {
+            let f = &self.fluid;
             let cells = column.velocities().iter().zip(column.solid_fractions());
-            for ((&u, &phi), &carried) in cells.zip(&self.fluid.carried) {
+            for ((&u, &phi), (&carried, &drag)) in cells.zip(f.carried.iter().zip(&f.drag_sum)) {
                 w.real(u);
                 w.real(phi);
                 w.real(carried);
-            }
-            for &sum in &g.drag_sum[..g.len] {
-                w.real(sum);
+                w.real(drag);
             }
         }
     }
@@ -496,7 +489,7 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
             }
         }
         if let Some(flow) = head.flow.filter(|f| f.model == FlowModel::Coupled) {
-            self.read_fluid(&mut r, &flow, n, apply)?;
+            self.read_fluid(&mut r, &flow, apply)?;
         }
         if r.at != bytes.len() {
             return Err(r.fail(CheckpointFault::Trailing));
@@ -511,38 +504,32 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
     }
 
     /// Reads the fluid section of a coupled checkpoint (`flow`, validated,
-    /// fits `C`) of `n` grains: each cell's u_f, φ and carried force, then each grain's
-    /// summed drag; applies it (after the flow was started by `set_flow`
-    /// and the grains were added) only if `apply`.
+    /// fits `C`): each cell's u_f, φ, carried force and summed drag;
+    /// applies it (after the flow was started by `set_flow`) only if `apply`.
     fn read_fluid(
         &mut self,
         r: &mut Reader<'_>,
         flow: &FlowConfig,
-        n: usize,
         apply: bool,
     ) -> Result<(), Error> {
         let cells = flow.fluid.cells.min(C);
         let mut u = [R::ZERO; C];
         let mut phi = [R::ZERO; C];
         let mut carried = [R::ZERO; C];
+        let mut drag = [R::ZERO; C];
         for j in 0..cells {
             u[j] = r.real::<R>()?;
             phi[j] = r.real::<R>()?;
             carried[j] = r.real::<R>()?;
+            drag[j] = r.real::<R>()?;
             if !(phi[j] >= R::ZERO && phi[j] < R::ONE) {
                 return Err(r.fail(CheckpointFault::Value));
-            }
-        }
-        for i in 0..n.min(N) {
-            let sum = r.real::<R>()?;
-            if apply {
-                self.grains.drag_sum[i] = sum;
             }
         }
         if apply {
             let fluid = &mut self.fluid;
             fluid.column.set_state(&u[..cells], &phi[..cells])?;
-            fluid.carried = carried;
+            (fluid.carried, fluid.drag_sum) = (carried, drag);
             fluid.refresh_hindrance(&flow.fluid);
         }
         Ok(())

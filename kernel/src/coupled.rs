@@ -11,8 +11,8 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
     /// Starts the coupled flow of `self.flow` (validated, its cells fit `C`):
     /// the column at the solid fractions of the grains of now, its velocity
     /// the log law (14) of u* above the mean bed level of now; driven by
-    /// `fluid.driving` plus g sin θ of the bed slope. The summed drag of
-    /// every grain starts at 0.
+    /// `fluid.driving` plus g sin θ of the bed slope. The summed drag and
+    /// the carried force start at 0.
     pub(crate) fn start_coupling(&mut self) -> Result<(), Error> {
         self.fluid.on = false;
         self.update_bed_level();
@@ -26,7 +26,7 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
         for i in 0..n {
             fluid.slabs.add_grain(g.y[i], g.r[i], g.u[i], R::ZERO)?;
         }
-        g.drag_sum[..n].fill(R::ZERO);
+        fluid.drag_sum.fill(R::ZERO);
         fluid.carried.fill(R::ZERO);
         let (profile, bed_level) = (&self.profile, self.bed_level);
         fluid
@@ -42,11 +42,12 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
 
     /// The update of the column after M grain steps (docs/model.md §13):
     ///
-    /// 1. the slabs from the grains of now (docs/model.md (C1)–(C2)): each
-    ///    mobile grain gives the drag it received averaged over the M
-    ///    steps, F̄, as an explicit sink (the fluid loses exactly what the
-    ///    grains gained) and, to keep the step stable where the grains
-    ///    hold the fluid tightly, its drag factor of now
+    /// 1. the drag the grains received over the M steps, summed per cell
+    ///    (`Coupling::deposit`) and averaged, as an explicit sink: the
+    ///    fluid loses exactly what the grains gained; the slabs from the
+    ///    grains of now (docs/model.md (C1)–(C2)) and, to keep the step
+    ///    stable where the grains hold the fluid tightly, each mobile
+    ///    grain's drag factor of now
     ///    Ξ = ½ρC_D A2 d² (1 − φ)^(−n) |u_f − u_p| as an implicit
     ///    stabiliser: the sink k (u_f − u_f⁰), balanced so that it takes
     ///    no momentum at u_f = u_f⁰ (u_f⁰ the velocity before the step);
@@ -72,8 +73,7 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
             if !g.fixed[i] {
                 let speed = R::abs(fluid.column.velocity_at(y) - u);
                 let xi = g.drag_coef[i] * fluid.hindrance_at(y) * speed;
-                let force = g.drag_sum[i] * fluid.inv_steps;
-                fluid.slabs.add_exchange(y, r, u, xi, force)?;
+                fluid.slabs.add_exchange(y, r, u, xi)?;
             }
         }
         let velocities = fluid.column.velocities();
@@ -81,7 +81,8 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
             let k = fluid.slabs.drag_factor(j);
             let u = velocities.get(j).copied().unwrap_or(R::ZERO);
             (fluid.stabiliser[j], fluid.previous[j]) = (k, u);
-            fluid.slabs.add_source(j, k * u + fluid.carried[j]);
+            let drag = fluid.drag_sum[j] * fluid.inv_steps;
+            fluid.slabs.add_source(j, k * u + fluid.carried[j] - drag);
         }
         for i in 0..n {
             let (y, r) = (g.y[i], g.r[i]);
@@ -96,7 +97,7 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
             fluid.carried[j] = fluid.stabiliser[j] * (u - fluid.previous[j]);
         }
         fluid.refresh_hindrance(&self.flow.fluid);
-        g.drag_sum[..n].fill(R::ZERO);
+        fluid.drag_sum.fill(R::ZERO);
         Ok(())
     }
 

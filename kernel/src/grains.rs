@@ -88,10 +88,6 @@ pub struct Grains<R: Real, const N: usize> {
     _pad13: Pad,
     pub(crate) z_v: [R; N],
     _pad14: Pad,
-    /// The coupled flow's streamwise drag summed since its last update
-    /// (docs/model.md §13), N.
-    pub(crate) drag_sum: [R; N],
-    _pad18: Pad,
     pub(crate) fixed: [bool; N],
     _pad15: Pad,
     pub(crate) class: [u8; N],
@@ -136,8 +132,6 @@ impl<R: Real, const N: usize> Grains<R, N> {
             _pad13: PAD,
             z_v: [R::ZERO; N],
             _pad14: PAD,
-            drag_sum: [R::ZERO; N],
-            _pad18: PAD,
             fixed: [false; N],
             _pad15: PAD,
             class: [0; N],

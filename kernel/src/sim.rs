@@ -398,7 +398,6 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
         g.drag_coef[i] = R::from_f64(0.5 * c.material.rho * c.material.c_d * A2 * d * d);
         g.z_u[i] = R::ZERO;
         g.z_v[i] = R::ZERO;
-        g.drag_sum[i] = R::ZERO;
         (g.fx[i], g.fy[i], g.torque[i]) = (R::ZERO, R::ZERO, R::ZERO);
         g.fixed[i] = spec.fixed;
         g.class[i] = spec.class;
@@ -430,11 +429,13 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
                 self.flow_on = true;
                 self.flow_epoch = self.step;
                 self.fluid.on = false;
-                if coupled {
-                    if let Err(e) = self.start_coupling() {
-                        self.set_flow(None)?;
-                        return Err(e);
-                    }
+                if let Err(e) = if coupled {
+                    self.start_coupling()
+                } else {
+                    Ok(())
+                } {
+                    self.set_flow(None)?;
+                    return Err(e);
                 }
             }
             None => {

@@ -24,6 +24,10 @@ pub(crate) struct Coupling<R: Real, const C: usize> {
     /// The stabiliser's force of each cell at the last update (N),
     /// returned to the fluid at the next (docs/model.md §13): state.
     pub(crate) carried: [R; C],
+    /// The streamwise drag the grains received since the last update,
+    /// summed per cell with the weights of the interpolation of u_f
+    /// ([`Coupling::deposit`]), N: state.
+    pub(crate) drag_sum: [R; C],
     /// Scratch of an update: the mobile grains' Σ w Ξ of each cell (kg/s).
     pub(crate) stabiliser: [R; C],
     /// Scratch of an update: u_f of each cell before it.
@@ -43,6 +47,7 @@ impl<R: Real, const C: usize> Coupling<R, C> {
             slabs: Slabs::new(),
             hindrance: [R::ZERO; C],
             carried: [R::ZERO; C],
+            drag_sum: [R::ZERO; C],
             stabiliser: [R::ZERO; C],
             previous: [R::ZERO; C],
             exchange_dt: R::ZERO,
@@ -58,6 +63,32 @@ impl<R: Real, const C: usize> Coupling<R, C> {
             sum += f;
         }
         sum * self.exchange_dt
+    }
+
+    /// Adds the streamwise drag `force` (N) a grain at height `y` received
+    /// to the cells' sums with the weights by which its u_f was
+    /// interpolated ([`Column::velocity_at`]): the two centres around y by
+    /// their distances, all of it to the bottom cell below its centre and
+    /// to the top cell above its centre (the wall takes nothing), so the
+    /// sums take the whole force, to round-off.
+    #[inline]
+    pub(crate) fn deposit(&mut self, y: R, force: R) {
+        let grid = self.column.grid();
+        let n = grid.cells().min(C);
+        if n == 0 {
+            return;
+        }
+        let s = (y - grid.bottom) * grid.inv_dy - R::HALF;
+        // `as usize` saturates; a NaN gives 0.
+        let i = if s > R::ZERO { s.to_f64() as usize } else { 0 };
+        if s > R::ZERO && i + 1 < n {
+            let upper = force * (s - R::from_f64(i as f64));
+            self.drag_sum[i] += force - upper;
+            self.drag_sum[i + 1] += upper;
+        } else {
+            let j = if s > R::ZERO { n - 1 } else { 0 };
+            self.drag_sum[j] += force;
+        }
     }
 
     /// The hindrance (1 − φ)^(−n) at height `y`: the factor of the cell

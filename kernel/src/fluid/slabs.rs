@@ -38,8 +38,8 @@ pub struct Slabs<R: Real, const C: usize> {
     pub(crate) momentum: [R; C],
     /// Σ_i w_ij Ξ_i (kg/s), w_ij = V_ij / V_i the grain's share of the slab.
     pub(crate) drag: [R; C],
-    /// Σ_i w_ij Ξ_i u_p,i (N), less Σ_i w_ij F_i of the exchanged forces
-    /// ([`Slabs::add_exchange`]).
+    /// Σ_i w_ij Ξ_i u_p,i (N) of [`Slabs::add_grain`], plus the sources of
+    /// [`Slabs::add_source`].
     pub(crate) drag_velocity: [R; C],
 }
 
@@ -109,19 +109,15 @@ impl<R: Real, const C: usize> Slabs<R, C> {
     }
 
     /// Adds a sphere of radius `r` centred at height `y`, moving downstream
-    /// at `u_p`, that received the streamwise drag `force` (N) from the
-    /// fluid: its volume as [`Slabs::add_grain`], the opposite of the force
-    /// shared among the slabs by the grain's volume shares w_ij, an explicit
-    /// sink m_j −= Σ w_ij F_i / V_slab, so the fluid loses exactly what the
-    /// grain gained, and its drag factor `xi` (kg/s) to k_j, the implicit
-    /// part that the caller balances with [`Slabs::add_source`]
-    /// (docs/model.md §13).
-    pub fn add_exchange(&mut self, y: R, r: R, u_p: R, xi: R, force: R) -> Result<(), Error> {
+    /// at `u_p`, with drag factor `xi` (kg/s): its volume and velocity as
+    /// [`Slabs::add_grain`] and Ξ to k_j, but nothing to m_j: the caller
+    /// sets the explicit part of the sink with [`Slabs::add_source`] (the
+    /// coupled `Sim`'s stabiliser, docs/model.md §13).
+    pub fn add_exchange(&mut self, y: R, r: R, u_p: R, xi: R) -> Result<(), Error> {
         finite("fluid.grain_height", y.to_f64())?;
         positive("fluid.grain_radius", r.to_f64())?;
         finite("fluid.grain_velocity", u_p.to_f64())?;
         non_negative("fluid.grain_drag", xi.to_f64())?;
-        finite("fluid.grain_force", force.to_f64())?;
         let Some((first, last)) = self.grid.span(y - r, y + r) else {
             return Ok(());
         };
@@ -130,9 +126,7 @@ impl<R: Real, const C: usize> Slabs<R, C> {
             let part = slice_volume(r, self.grid.face(j) - y, self.grid.face(j + 1) - y);
             self.solid[j] += part;
             self.momentum[j] += part * u_p;
-            let share = part * inv_volume;
-            self.drag[j] += share * xi;
-            self.drag_velocity[j] -= share * force;
+            self.drag[j] += part * inv_volume * xi;
         }
         Ok(())
     }
@@ -149,10 +143,8 @@ impl<R: Real, const C: usize> Slabs<R, C> {
     /// Adds `force` (N) to slab `j`'s explicit source m_j V_slab (nothing
     /// outside the column).
     pub fn add_source(&mut self, j: usize, force: R) {
-        if j < self.grid.cells {
-            if let Some(m) = self.drag_velocity.get_mut(j) {
-                *m += force;
-            }
+        if let (true, Some(m)) = (j < self.grid.cells, self.drag_velocity.get_mut(j)) {
+            *m += force;
         }
     }
 

@@ -89,7 +89,12 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
         }
         let coupled = self.flow_on && self.fluid.on;
         if coupled {
-            scalar::add_coupled_drag(&mut self.grains, &self.fluid, &self.profile, self.bed_level);
+            scalar::add_coupled_drag(
+                &mut self.grains,
+                &mut self.fluid,
+                &self.profile,
+                self.bed_level,
+            );
         }
         let mover = self.mover();
         #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]

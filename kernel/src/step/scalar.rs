@@ -148,15 +148,16 @@ pub(crate) fn add_drag<R: Real, const N: usize>(
 /// local shear velocity of the column's Reynolds stress (C4) for u*,
 /// decaying with the height above the mean bed level `bed_level` as (15),
 /// where u_f > 0 and the `profile`'s turbulence is on. The streamwise
-/// drag is also added to the grain's sum for the column's next update.
+/// drag is also summed per cell for the column's next update
+/// ([`Coupling::deposit`]).
 pub(crate) fn add_coupled_drag<R: Real, const N: usize, const C: usize>(
     g: &mut Grains<R, N>,
-    fluid: &Coupling<R, C>,
+    fluid: &mut Coupling<R, C>,
     profile: &Profile<R>,
     bed_level: R,
 ) {
-    let column = &fluid.column;
     for i in 0..g.len.min(N) {
+        let column = &fluid.column;
         if g.fixed[i] {
             continue;
         }
@@ -178,7 +179,7 @@ pub(crate) fn add_coupled_drag<R: Real, const N: usize, const C: usize>(
         let (fx, fy) = (xi * wx, xi * wy);
         g.fx[i] += fx;
         g.fy[i] += fy;
-        g.drag_sum[i] += fx;
+        fluid.deposit(y, fx);
     }
 }
 
