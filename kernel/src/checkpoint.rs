@@ -499,6 +499,9 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
             self.flow_epoch = head.flow_epoch;
             self.step = head.step;
             self.bed_level = bed_level;
+            if self.fluid.on {
+                self.refresh_coupling();
+            }
         }
         Ok(())
     }
@@ -530,7 +533,6 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
             let fluid = &mut self.fluid;
             fluid.column.set_state(&u[..cells], &phi[..cells])?;
             (fluid.carried, fluid.drag_sum) = (carried, drag);
-            fluid.refresh_hindrance(&flow.fluid);
         }
         Ok(())
     }

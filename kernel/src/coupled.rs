@@ -32,7 +32,8 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
         fluid
             .column
             .start(&fluid.slabs, |y| profile.mean_velocity(y - bed_level))?;
-        fluid.refresh_hindrance(&self.flow.fluid);
+        self.refresh_coupling();
+        let fluid = &mut self.fluid;
         let steps = self.flow.fluid.update_steps.max(1);
         fluid.exchange_dt = R::from_f64(f64::from(steps) * self.config.step_dt);
         fluid.inv_steps = R::from_f64(1.0 / f64::from(steps));
@@ -71,8 +72,8 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
         for i in 0..n {
             let (y, r, u) = (g.y[i], g.r[i], g.u[i]);
             if !g.fixed[i] {
-                let speed = R::abs(fluid.column.velocity_at(y) - u);
-                let xi = g.drag_coef[i] * fluid.hindrance_at(y) * speed;
+                let at = fluid.at(y);
+                let xi = g.drag_coef[i] * at.hindrance * R::abs(at.u - u);
                 fluid.slabs.add_exchange(y, r, u, xi)?;
             }
         }
@@ -87,8 +88,8 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
         for i in 0..n {
             let (y, r) = (g.y[i], g.r[i]);
             if g.fixed[i] {
-                let speed = R::abs(fluid.column.velocity_at(y));
-                let xi = g.drag_coef[i] * fluid.hindrance_at(y) * speed;
+                let at = fluid.at(y);
+                let xi = g.drag_coef[i] * at.hindrance * R::abs(at.u);
                 fluid.slabs.add_grain(y, r, R::ZERO, xi)?;
             }
         }
@@ -96,9 +97,17 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
         for (j, &u) in fluid.column.velocities().iter().enumerate().take(cells) {
             fluid.carried[j] = fluid.stabiliser[j] * (u - fluid.previous[j]);
         }
-        fluid.refresh_hindrance(&self.flow.fluid);
         fluid.drag_sum.fill(R::ZERO);
         Ok(())
+    }
+
+    /// Recomputes the coupled flow's tables from its state and the mean
+    /// bed level (`Coupling::refresh`): after an update of either, and
+    /// after a restore.
+    pub(crate) fn refresh_coupling(&mut self) {
+        let minus_inv_depth = self.profile.minus_inv_depth;
+        self.fluid
+            .refresh(&self.flow.fluid, minus_inv_depth, self.bed_level);
     }
 
     /// The momentum of the coupled flow's stabiliser in transit (N s per

@@ -74,12 +74,17 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
         if self.flow_on {
             let since = self.step.saturating_sub(self.flow_epoch);
             let update = u64::from(self.flow.fluid.update_steps.max(1));
-            if self.fluid.on && since > 0 && since.is_multiple_of(update) {
+            let exchange = self.fluid.on && since > 0 && since.is_multiple_of(update);
+            if exchange {
                 self.exchange()?;
             }
-            if since.is_multiple_of(u64::from(self.flow.bed_level_interval.max(1))) {
+            let bed_level = since.is_multiple_of(u64::from(self.flow.bed_level_interval.max(1)));
+            if bed_level {
                 self.update_bed_level();
                 events.bed_level_updates = 1;
+            }
+            if self.fluid.on && (exchange || bed_level) {
+                self.refresh_coupling();
             }
             let hold = u64::from(self.flow.hold_steps.max(1));
             if self.profile.turbulence && since.is_multiple_of(hold) {
@@ -89,12 +94,7 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
         }
         let coupled = self.flow_on && self.fluid.on;
         if coupled {
-            scalar::add_coupled_drag(
-                &mut self.grains,
-                &mut self.fluid,
-                &self.profile,
-                self.bed_level,
-            );
+            scalar::add_coupled_drag(&mut self.grains, &mut self.fluid, &self.profile);
         }
         let mover = self.mover();
         #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]

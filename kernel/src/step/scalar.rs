@@ -141,45 +141,36 @@ pub(crate) fn add_drag<R: Real, const N: usize>(
 }
 
 /// The coupled flow's drag on every mobile grain of `g` (docs/model.md §13):
-/// (4)–(5) with u_f of the column at the grain's centre
-/// ([`crate::fluid::Column::velocity_at`]) for U, times the hindrance of its
-/// cell (C7), without sheltering (16) (the column's velocity already
+/// (4)–(5) with u_f of the column at the grain's centre for U, times the
+/// hindrance (C7), without sheltering (16) (the column's velocity already
 /// falls inside the bed); the fluctuations (15) of the held draws with the
-/// local shear velocity of the column's Reynolds stress (C4) for u*,
-/// decaying with the height above the mean bed level `bed_level` as (15),
-/// where u_f > 0 and the `profile`'s turbulence is on. The streamwise
-/// drag is also summed per cell for the column's next update
-/// ([`Coupling::deposit`]).
+/// local shear velocity of the column's Reynolds stress (C4) for u*, where
+/// u_f > 0 and the `profile`'s turbulence is on; each read linear between
+/// the cell centres ([`Coupling::at`]). The streamwise drag is also summed
+/// per cell for the column's next update ([`Coupling::deposit`]).
 pub(crate) fn add_coupled_drag<R: Real, const N: usize, const C: usize>(
     g: &mut Grains<R, N>,
     fluid: &mut Coupling<R, C>,
     profile: &Profile<R>,
-    bed_level: R,
 ) {
+    let (rms_u, rms_v) = (R::from_f64(2.30), R::from_f64(1.27));
     for i in 0..g.len.min(N) {
-        let column = &fluid.column;
         if g.fixed[i] {
             continue;
         }
-        let y = g.y[i];
-        let mean = column.velocity_at(y);
-        let (fluct_u, fluct_v) = if profile.turbulence && mean > R::ZERO {
-            let decay = R::exp((y - bed_level) * profile.minus_inv_depth);
-            let scale = column.shear_velocity_at(y) * decay;
-            (
-                g.z_u[i] * (R::from_f64(2.30) * scale),
-                g.z_v[i] * (R::from_f64(1.27) * scale),
-            )
+        let at = fluid.at(g.y[i]);
+        let (fluct_u, fluct_v) = if profile.turbulence && at.u > R::ZERO {
+            (g.z_u[i] * (rms_u * at.scale), g.z_v[i] * (rms_v * at.scale))
         } else {
             (R::ZERO, R::ZERO)
         };
-        let wx = mean + fluct_u - g.u[i];
+        let wx = at.u + fluct_u - g.u[i];
         let wy = fluct_v - g.v[i];
-        let xi = g.drag_coef[i] * fluid.hindrance_at(y) * R::sqrt(wx * wx + wy * wy);
+        let xi = g.drag_coef[i] * at.hindrance * R::sqrt(wx * wx + wy * wy);
         let (fx, fy) = (xi * wx, xi * wy);
         g.fx[i] += fx;
         g.fy[i] += fy;
-        fluid.deposit(y, fx);
+        fluid.deposit(&at, fx);
     }
 }
 
