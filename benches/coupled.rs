@@ -12,7 +12,9 @@
 //!
 //! Both are timed within their first 400 steps, rewound between stretches,
 //! as `benches/step.rs`. Throughput is in grain-steps: criterion's elem/s
-//! inverted is ns per grain-step.
+//! inverted is ns per grain-step. `MBS_UPDATE_STEPS=M` sets the coupled
+//! flow's update interval (e.g. 100000: no update within the timed
+//! stretches, the cost of the grains' drag alone).
 //!
 //! Run from the repository's root: `cargo bench --manifest-path
 //! benches/Cargo.toml --bench coupled`.
@@ -114,6 +116,9 @@ fn bench<R: Real>(c: &mut Criterion) {
     let mut fluid = FluidConfig::new(cells, bottom, flow.depth, width * d);
     fluid.driving = FluidConfig::driving_for(flow.u_star, flow.depth);
     fluid.hindrance = 3.1;
+    if let Some(m) = std::env::var("MBS_UPDATE_STEPS").ok().and_then(|m| m.parse().ok()) {
+        fluid.update_steps = m;
+    }
     (flow.model, flow.fluid) = (FlowModel::Coupled, fluid);
     coupled.set_flow(Some(&flow)).expect("coupled flow");
     coupled.step().expect("first coupled step");
