@@ -565,7 +565,9 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
 
     /// The turbulent fluctuation (u, v) (m/s) grain `i` currently feels
     /// (docs/model.md (15)): its held draws times the rms at its height, zero where
-    /// U = 0, for fixed grains, or without flow or turbulence.
+    /// U = 0, for fixed grains, or without flow or turbulence; with the
+    /// coupled flow, the rms of the local shear velocity where u_f > 0
+    /// (docs/model.md §13).
     pub fn fluctuation(&self, i: usize) -> Option<(f64, f64)> {
         if i >= self.grains.len {
             return None;
@@ -573,6 +575,16 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
         let g = &self.grains;
         if !self.flow_on || g.fixed[i] {
             return Some((0.0, 0.0));
+        }
+        if self.fluid.on {
+            // The coupled flow's (15): u*_loc for u*, where u_f > 0.
+            let at = self.fluid.at(g.y[i]);
+            if !(self.profile.turbulence && at.u > R::ZERO) {
+                return Some((0.0, 0.0));
+            }
+            let u = g.z_u[i] * (R::from_f64(2.30) * at.scale);
+            let v = g.z_v[i] * (R::from_f64(1.27) * at.scale);
+            return Some((u.to_f64(), v.to_f64()));
         }
         let y = g.y[i] - self.bed_level;
         let p = &self.profile;

@@ -253,6 +253,10 @@ fn coupled_restart_is_bit_identical() {
 #[test]
 fn coupled_state_is_digested() {
     let a = coupled_run::<f64, 8, CELLS>(1500, 300);
+    // The coupled fluctuations (15) of u*_loc: finite, some non-zero.
+    let fluct: Vec<(f64, f64)> = (0..a.len()).map(|i| a.fluctuation(i).unwrap()).collect();
+    assert!(fluct.iter().all(|f| f.0.is_finite() && f.1.is_finite()));
+    assert!(fluct.iter().any(|f| f.0 != 0.0));
     let mut clear = Box::new(Sim::<f64, 64, 8, CELLS>::new());
     let sc = Scenario::paper();
     sc.build(&mut *clear).unwrap();
