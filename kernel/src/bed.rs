@@ -158,7 +158,9 @@ pub struct RestWatch {
 
 impl RestWatch {
     /// The watch before the first check of `sim`'s bed.
-    pub fn start<R: Real, const N: usize, const K: usize>(sim: &Sim<R, N, K>) -> RestWatch {
+    pub fn start<R: Real, const N: usize, const K: usize, const C: usize>(
+        sim: &Sim<R, N, K, C>,
+    ) -> RestWatch {
         RestWatch {
             y_gc: sim.observe().y_gc,
             passed: 0,
@@ -169,9 +171,9 @@ impl RestWatch {
     /// speed, the drift of y_gc since the last check, and whether `rest`
     /// has now held for `rest.checks` checks in a row (`steps` left 0 for
     /// the caller to fill).
-    pub fn check<R: Real, const N: usize, const K: usize>(
+    pub fn check<R: Real, const N: usize, const K: usize, const C: usize>(
         &mut self,
-        sim: &Sim<R, N, K>,
+        sim: &Sim<R, N, K, C>,
         rest: &Rest,
     ) -> Settled {
         let now = sim.observe().y_gc;
@@ -306,7 +308,7 @@ fn fixed_height(rng: &mut Stream) -> f64 {
     0.0
 }
 
-impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
+impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
     /// Resets the simulation with `config` and builds the initial bed of docs/model.md §7
     /// from `config.seed`:
     /// 1. fixed grains of the largest diameter evenly spaced across L,

@@ -2,17 +2,24 @@
 //!
 //! Little-endian whatever the machine, floats as their raw IEEE bits in the
 //! working precision, so a checkpoint written on x86_64 restores on a
-//! Cortex-M and continues bit for bit. Layout (version 3; version 2, read
-//! too, has no tension byte: the paper's rule):
+//! Cortex-M and continues bit for bit. Layout (version 4; version 3, read
+//! too, has no slope, no flow model and no fluid: a horizontal bed and
+//! clear water; version 2 not even the tension byte: the paper's rule):
 //!
 //! | field | bytes |
 //! |---|---|
 //! | magic `MBSK`, version u16, precision bytes u8 (4/8), 0 u8 | 8 |
-//! | `SimConfig`: step_dt, ρ, s, C_M, C_D, μ, ν, k_n, k_s, η_n, η_s, g_x, g_y, L, y_min, y_max, skin (f64), seed (u64), tension (u8: 0 the paper's rule (8), 1 none (8')) | 145 |
-//! | flow on (u8); `FlowConfig`: u*, κ, h, ε0, k_s, d (f64), turbulence (u8), hold, bed-level interval (u32), bed-level window (f64) | 66 |
+//! | `SimConfig`: step_dt, ρ, s, C_M, C_D, μ, ν, k_n, k_s, η_n, η_s, g_x, g_y, L, y_min, y_max, skin (f64), seed (u64), tension (u8: 0 the paper's rule (8), 1 none (8')), slope (f64) | 153 |
+//! | flow on (u8); `FlowConfig`: u*, κ, h, ε0, k_s, d (f64), turbulence (u8), hold, bed-level interval (u32), bed-level window (f64), model (u8: 0 clear water, 1 coupled); `FluidConfig`: cells (u32), bottom, surface, cross-section, ρ, ν, κ, φ_max, driving (f64), update steps (u32), hindrance (f64) | 147 |
 //! | flow epoch, step (u64), bed level (R) | 16 + R |
 //! | grains n (u32); per grain x, y, u, v, ω, d/2, z_u, z_v, 1/m, 1/I, drag factor (R), fixed, class (u8) | 4 + n (11R + 2) |
 //! | contacts m (u32); per contact i, j (u32), e_n, e_s (R), in (i, j) order | 4 + m (8 + 2R) |
+//! | coupled flow only: per cell u_f, φ, the stabiliser's force carried, the grains' drag summed since the last update (R) | cells 4R |
+//!
+//! The fluid section is checked as the rest: its configuration by
+//! [`FlowConfig::validate`] and the capacity, every value finite, each φ
+//! in [0, 1); a refused section leaves the
+//! simulation unchanged.
 //!
 //! The inertias and drag factor are stored, not recomputed: they were derived
 //! from the f64 diameter, which an f32 radius does not give back exactly.
@@ -25,13 +32,14 @@
 use crate::constants::{ContactConstants, Material};
 use crate::contact::{Spring, Tension};
 use crate::error::{Capacity, CheckpointFault, Error};
-use crate::flow::FlowConfig;
+use crate::flow::{FlowConfig, FlowModel};
+use crate::fluid::FluidConfig;
 use crate::grains::{GrainSpec, MAX_CLASSES};
 use crate::real::Real;
 use crate::sim::{check_grain, Sim, SimConfig};
 
 /// Format version written by [`Sim::checkpoint`].
-pub const CHECKPOINT_VERSION: u16 = 3;
+pub const CHECKPOINT_VERSION: u16 = 4;
 
 const MAGIC: [u8; 4] = *b"MBSK";
 
@@ -138,7 +146,7 @@ fn read_head<R: Real>(r: &mut Reader<'_>) -> Result<Head, Error> {
         return Err(r.fail(CheckpointFault::Magic));
     }
     let version = r.uint(2)?;
-    if version != u64::from(CHECKPOINT_VERSION) && version != 2 {
+    if !(2..=u64::from(CHECKPOINT_VERSION)).contains(&version) {
         return Err(r.fail(CheckpointFault::Version));
     }
     if usize::from(r.u8()?) != R::BYTES {
@@ -179,6 +187,7 @@ fn read_head<R: Real>(r: &mut Reader<'_>) -> Result<Head, Error> {
         y_max: f[15],
         skin: f[16],
         seed,
+        slope: if version >= 4 { r.f64()? } else { 0.0 },
     };
     let at = r.at;
     config.validate().map_err(|_| Error::BadCheckpoint {
@@ -201,6 +210,40 @@ fn read_head<R: Real>(r: &mut Reader<'_>) -> Result<Head, Error> {
         hold_steps: r.u32()?,
         bed_level_interval: r.u32()?,
         bed_level_window: r.f64()?,
+        model: FlowModel::ClearWater,
+        fluid: FluidConfig::new(0, 0.0, 0.0, 0.0),
+    };
+    let flow = if version >= 4 {
+        let at = r.at;
+        let model = FlowModel::from_code(r.u8()?).ok_or(Error::BadCheckpoint {
+            fault: CheckpointFault::Value,
+            offset: at,
+        })?;
+        let cells = r.u32()? as usize;
+        let mut c = [0.0; 8];
+        for x in c.iter_mut() {
+            *x = r.f64()?;
+        }
+        let fluid = FluidConfig {
+            cells,
+            bottom: c[0],
+            surface: c[1],
+            cross_section: c[2],
+            density: c[3],
+            viscosity: c[4],
+            kappa: c[5],
+            phi_max: c[6],
+            driving: c[7],
+            update_steps: r.u32()?,
+            hindrance: r.f64()?,
+        };
+        FlowConfig {
+            model,
+            fluid,
+            ..flow
+        }
+    } else {
+        flow
     };
     let at = r.at;
     if flow_on {
@@ -208,6 +251,11 @@ fn read_head<R: Real>(r: &mut Reader<'_>) -> Result<Head, Error> {
             fault: CheckpointFault::Value,
             offset: at,
         })?;
+    } else if flow.model != FlowModel::ClearWater {
+        return Err(Error::BadCheckpoint {
+            fault: CheckpointFault::Value,
+            offset: at,
+        });
     }
     Ok(Head {
         config,
@@ -217,16 +265,17 @@ fn read_head<R: Real>(r: &mut Reader<'_>) -> Result<Head, Error> {
     })
 }
 
-/// Bytes of a checkpoint before its grains: header 8, `SimConfig` 145 (with
-/// the tension rule), flow 66, flow epoch and step 16 (the bed level, `R`,
-/// follows).
-const HEAD_LEN: usize = 8 + 145 + 66 + 16;
+/// Bytes of a checkpoint before its grains: header 8, `SimConfig` 153 (with
+/// the tension rule and the slope), flow 147 (with the fluid's
+/// configuration), flow epoch and step 16 (the bed level, `R`, follows).
+const HEAD_LEN: usize = 8 + 153 + 147 + 16;
 
-impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
+impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
     /// The length of the largest checkpoint this simulation can write or
     /// restore: every grain slot used, every neighbour slot a contact. A
     /// longer file is no checkpoint of it, and can be refused unread.
-    pub const MAX_CHECKPOINT_LEN: usize = Self::checkpoint_len(N, N * K);
+    pub const MAX_CHECKPOINT_LEN: usize =
+        Self::checkpoint_len(N, N * K).saturating_add(Self::fluid_len(C));
 
     /// The length of a checkpoint of `grains` grains and `contacts`
     /// contacts in this precision (saturating: never a panic).
@@ -236,6 +285,12 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
         (HEAD_LEN + R::BYTES + 8)
             .saturating_add(grain_bytes)
             .saturating_add(contact_bytes)
+    }
+
+    /// The length of the fluid section of a coupled checkpoint of `cells`
+    /// cells (saturating); a clear-water checkpoint has none.
+    pub const fn fluid_len(cells: usize) -> usize {
+        cells.saturating_mul(4 * R::BYTES)
     }
 
     /// Writes the complete state to `sink` in the format of this module.
@@ -271,6 +326,7 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
         }
         w.uint(c.seed, 8);
         w.uint(u64::from(c.tension.code()), 1);
+        w.f64(c.slope);
         let f = &self.flow;
         w.uint(u64::from(self.flow_on), 1);
         for x in [
@@ -287,6 +343,23 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
         w.uint(u64::from(f.hold_steps), 4);
         w.uint(u64::from(f.bed_level_interval), 4);
         w.f64(f.bed_level_window);
+        w.uint(f.model as u64, 1);
+        let fl = &f.fluid;
+        w.uint(fl.cells as u64, 4);
+        for x in [
+            fl.bottom,
+            fl.surface,
+            fl.cross_section,
+            fl.density,
+            fl.viscosity,
+            fl.kappa,
+            fl.phi_max,
+            fl.driving,
+        ] {
+            w.f64(x);
+        }
+        w.uint(u64::from(fl.update_steps), 4);
+        w.f64(fl.hindrance);
         w.uint(self.flow_epoch, 8);
         w.uint(self.step, 8);
         w.real(self.bed_level);
@@ -318,6 +391,16 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
             w.real(s.e_n);
             w.real(s.e_s);
         }
+        if let Some(column) = self.fluid_column() {
+            let f = &self.fluid;
+            let cells = column.velocities().iter().zip(column.solid_fractions());
+            for ((&u, &phi), (&carried, &drag)) in cells.zip(f.carried.iter().zip(&f.drag_sum)) {
+                w.real(u);
+                w.real(phi);
+                w.real(carried);
+                w.real(drag);
+            }
+        }
     }
 
     /// Replaces the state with a checkpoint written by [`Sim::checkpoint`]
@@ -343,6 +426,9 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
                 what: Capacity::Grains,
                 capacity: N,
             });
+        }
+        if let Some(f) = head.flow.filter(|f| f.model == FlowModel::Coupled) {
+            f.fluid.validate(C)?;
         }
         for i in 0..n {
             let mut v = [R::ZERO; 11];
@@ -402,6 +488,9 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
                 self.nbrs.push_history(i, j, spring);
             }
         }
+        if let Some(flow) = head.flow.filter(|f| f.model == FlowModel::Coupled) {
+            self.read_fluid(&mut r, &flow, apply)?;
+        }
         if r.at != bytes.len() {
             return Err(r.fail(CheckpointFault::Trailing));
         }
@@ -410,6 +499,40 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
             self.flow_epoch = head.flow_epoch;
             self.step = head.step;
             self.bed_level = bed_level;
+            if self.fluid.on {
+                self.refresh_coupling();
+            }
+        }
+        Ok(())
+    }
+
+    /// Reads the fluid section of a coupled checkpoint (`flow`, validated,
+    /// fits `C`): each cell's u_f, φ, carried force and summed drag;
+    /// applies it (after the flow was started by `set_flow`) only if `apply`.
+    fn read_fluid(
+        &mut self,
+        r: &mut Reader<'_>,
+        flow: &FlowConfig,
+        apply: bool,
+    ) -> Result<(), Error> {
+        let cells = flow.fluid.cells.min(C);
+        let mut u = [R::ZERO; C];
+        let mut phi = [R::ZERO; C];
+        let mut carried = [R::ZERO; C];
+        let mut drag = [R::ZERO; C];
+        for j in 0..cells {
+            u[j] = r.real::<R>()?;
+            phi[j] = r.real::<R>()?;
+            carried[j] = r.real::<R>()?;
+            drag[j] = r.real::<R>()?;
+            if !(phi[j] >= R::ZERO && phi[j] < R::ONE) {
+                return Err(r.fail(CheckpointFault::Value));
+            }
+        }
+        if apply {
+            let fluid = &mut self.fluid;
+            fluid.column.set_state(&u[..cells], &phi[..cells])?;
+            (fluid.carried, fluid.drag_sum) = (carried, drag);
         }
         Ok(())
     }

@@ -60,11 +60,13 @@ impl Fnv1a {
     }
 }
 
-impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
+impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
     /// Digest of the state: step count, grains (position, velocity, spin,
     /// diameter, fixed, class, held fluctuation draws), the contacts in
     /// (i, j) order with their spring history, the generator state (seed and
-    /// flow epoch; draws are keyed by these) and the bed level.
+    /// flow epoch; draws are keyed by these), the bed level and, with the
+    /// coupled flow, its state (per cell: u_f, φ, the carried force, the
+    /// grains' drag summed since the last update).
     ///
     /// ```
     /// use mbs_kernel::{Scenario, Sim};
@@ -100,7 +102,25 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
         h.word(self.flow_epoch);
         h.word(u64::from(self.flow_on));
         h.real(self.bed_level);
+        self.fluid_digest(&mut h);
         h.finish()
+    }
+
+    /// Adds the coupled flow's state to `h`: each cell's u_f, φ, the
+    /// stabiliser's force carried to the next update and the grains' drag
+    /// summed since the last; nothing with clear water (its digests are
+    /// those of before the coupled flow).
+    fn fluid_digest(&self, h: &mut Fnv1a) {
+        if let Some(column) = self.fluid_column() {
+            let f = &self.fluid;
+            let cells = column.velocities().iter().zip(column.solid_fractions());
+            for ((&u, &phi), (&carried, &drag)) in cells.zip(f.carried.iter().zip(&f.drag_sum)) {
+                h.real(u);
+                h.real(phi);
+                h.real(carried);
+                h.real(drag);
+            }
+        }
     }
 }
 
@@ -118,7 +138,8 @@ pub enum FieldGroup {
     /// The contacts (i, j) in (i, j) order with their spring history e_n, e_s.
     Springs,
     /// The flow state: step count, the held fluctuation draws of every
-    /// grain, seed, flow epoch, flow on, mean bed level.
+    /// grain, seed, flow epoch, flow on, mean bed level, and the coupled
+    /// flow's state.
     Flow,
 }
 
@@ -145,7 +166,7 @@ impl FieldGroup {
     }
 }
 
-impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
+impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
     /// Digest (FNV-1a over canonical bits, as [`Sim::digest`]) of one
     /// group of fields alone: equal full digests imply nothing about the
     /// groups' and the reverse, but a full digest that differs has at least
@@ -196,6 +217,7 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
                 h.word(self.flow_epoch);
                 h.word(u64::from(self.flow_on));
                 h.real(self.bed_level);
+                self.fluid_digest(&mut h);
             }
         }
         h.finish()

@@ -77,7 +77,7 @@ impl GrainField {
     }
 }
 
-impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
+impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
     fn slot(&mut self, i: usize, field: GrainField) -> Option<&mut R> {
         let g = &mut self.grains;
         if i >= g.len {

@@ -1,12 +1,39 @@
 //! The prescribed flow (docs/model.md §6) and the drag it exerts (docs/model.md §3):
 //! log-law mean velocity (14), Nezu turbulence intensities (15), sheltering
-//! (16) and the drag force (4)–(5). The fluid is not solved.
+//! (16) and the drag force (4)–(5). The fluid is not solved, unless the
+//! flow's model is [`FlowModel::Coupled`] (docs/model.md §13, in
+//! [`crate::fluid`]).
 //!
 //! Heights `y` here are measured from the mean bed level (docs/model.md §6).
 
 use crate::error::{check, non_negative, positive, Error};
+use crate::fluid::FluidConfig;
 use crate::random::{Stream, TURBULENCE_STREAM};
 use crate::real::Real;
+
+/// What drives the grains' drag (docs/model.md §6, §13).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[repr(u8)]
+pub enum FlowModel {
+    /// The paper's clear water: the prescribed log law (14) (the default).
+    #[default]
+    ClearWater = 0,
+    /// The coupled flow: the column of [`FlowConfig::fluid`], which feels
+    /// the grains (docs/model.md §13).
+    Coupled = 1,
+}
+
+impl FlowModel {
+    /// The model of a checkpoint byte.
+    pub(crate) fn from_code(code: u8) -> Option<Self> {
+        match code {
+            0 => Some(FlowModel::ClearWater),
+            1 => Some(FlowModel::Coupled),
+            _ => None,
+        }
+    }
+}
 
 /// User-facing flow parameters (SI units). Defaults are those of docs/model.md §1.
 ///
@@ -46,6 +73,14 @@ pub struct FlowConfig {
     /// diameters (docs/model.md §6 applied per window, \[choice\] 5: the paper's bed,
     /// nld = 5, is one window). See [`crate::Sim::bed_level`].
     pub bed_level_window: f64,
+    /// Clear water (the default) or the coupled flow.
+    pub model: FlowModel,
+    /// The coupled flow's column; read only with [`FlowModel::Coupled`].
+    /// u* then gives the column's initial profile (the log law (14)) and
+    /// the depth h the decay of the fluctuations (15); the driving is
+    /// `fluid.driving` plus gravity along the bed slope
+    /// ([`crate::SimConfig::slope`]).
+    pub fluid: FluidConfig,
 }
 
 impl FlowConfig {
@@ -62,6 +97,8 @@ impl FlowConfig {
             hold_steps: 100,
             bed_level_interval: 100,
             bed_level_window: 5.0,
+            model: FlowModel::ClearWater,
+            fluid: FluidConfig::new(0, 0.0, 0.0, 0.0),
         }
     }
 
@@ -95,7 +132,12 @@ impl FlowConfig {
             "flow.bed_level_window",
             self.bed_level_window,
             ">= 1 (largest diameters)",
-        )
+        )?;
+        match self.model {
+            FlowModel::ClearWater => Ok(()),
+            // The capacity is checked by `Sim::set_flow`.
+            FlowModel::Coupled => self.fluid.validate(usize::MAX),
+        }
     }
 }
 

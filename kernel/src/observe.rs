@@ -62,7 +62,7 @@ pub fn q_star(q_b: f64, d: f64, s: f64, g: f64) -> f64 {
     q_b / libm::sqrt((s - 1.0) * g * d * d * d)
 }
 
-impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
+impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
     /// Largest speed of a mobile grain (m/s).
     pub fn max_speed(&self) -> f64 {
         let g = &self.grains;

@@ -52,6 +52,7 @@ impl FlowSpec {
             hold_steps: self.hold_steps,
             bed_level_interval: self.bed_level_interval,
             bed_level_window: self.bed_level_window,
+            ..FlowConfig::new(u_star, self.reference_diameter)
         }
     }
 }
@@ -166,6 +167,7 @@ impl Scenario {
             y_max: self.flow.depth,
             skin: self.skin * d,
             seed: self.seed,
+            slope: 0.0,
         })
     }
 
@@ -182,9 +184,9 @@ impl Scenario {
     }
 
     /// Resets `sim` and builds the initial bed.
-    pub fn build<R: Real, const N: usize, const K: usize>(
+    pub fn build<R: Real, const N: usize, const K: usize, const C: usize>(
         &self,
-        sim: &mut Sim<R, N, K>,
+        sim: &mut Sim<R, N, K, C>,
     ) -> Result<BedInfo, Error> {
         sim.build_bed(&self.sim_config()?, &self.bed)
     }
@@ -192,9 +194,9 @@ impl Scenario {
     /// The fixed golden-digest run: build the bed, `settle_steps` steps
     /// without flow, then `flow_steps` steps under the flow at `tau_star`.
     /// Returns the digests after each phase.
-    pub fn digests<R: Real, const N: usize, const K: usize>(
+    pub fn digests<R: Real, const N: usize, const K: usize, const C: usize>(
         &self,
-        sim: &mut Sim<R, N, K>,
+        sim: &mut Sim<R, N, K, C>,
         tau_star: f64,
         settle_steps: u64,
         flow_steps: u64,

@@ -8,7 +8,8 @@ use crate::constants::{ContactConstants, Material, A2};
 use crate::contact::{ContactLaw, Spring, Tension};
 use crate::error::{check, finite, positive, Capacity, Error};
 use crate::events::Events;
-use crate::flow::{FlowConfig, Profile};
+use crate::flow::{FlowConfig, FlowModel, Profile};
+use crate::fluid::{Coupling, FluidConfig};
 use crate::grains::{GrainSpec, Grains, MAX_CLASSES};
 use crate::neighbours::Neighbours;
 use crate::real::Real;
@@ -41,7 +42,9 @@ pub struct SimConfig {
     /// What part of the normal force may pull: the paper's rule (8) by
     /// default, or none (8').
     pub tension: Tension,
-    /// Gravity (g_x, g_y) (m/s²); (0, −9.81) by default. Tilt it to incline the bed.
+    /// Gravity (g_x, g_y) (m/s²); (0, −9.81) by default. Tilt it to incline
+    /// the bed as a whole, water included (the buoyancy then tilts too); for
+    /// a river bed use [`SimConfig::slope`].
     pub gravity: [f64; 2],
     /// Periodic width L (m); grains live in 0 ≤ x < L.
     pub width: f64,
@@ -54,6 +57,16 @@ pub struct SimConfig {
     pub skin: f64,
     /// Seed of every random draw (docs/model.md §7: all randomness from one seed).
     pub seed: u64,
+    /// Bed slope θ (rad), 0 ≤ θ < 0.5; 0 by default. x runs down the slope,
+    /// y normal to the bed. The water is in uniform open-channel flow (Maurin
+    /// et al. 2015): its pressure is hydrostatic normal to the bed, so a
+    /// grain feels its whole weight along the slope and its buoyant weight
+    /// normal to it: accelerations g sin θ · s/(s + C_M) along x and
+    /// −g cos θ · (s − 1)/(s + C_M) along y (docs/model.md (2) with a slope),
+    /// g = −`gravity.y`. A slope needs the vertical gravity (`gravity.x` = 0);
+    /// θ = 0 is the paper's horizontal bed, bit for bit. The coupled flow is
+    /// driven by g sin θ besides its own `driving` (docs/model.md §13).
+    pub slope: f64,
 }
 
 impl SimConfig {
@@ -72,7 +85,46 @@ impl SimConfig {
             self.y_max,
             "finite and > y_min",
         )?;
-        crate::error::non_negative("skin", self.skin)
+        crate::error::non_negative("skin", self.skin)?;
+        check(
+            self.slope.is_finite() && (0.0..0.5).contains(&self.slope),
+            "slope",
+            self.slope,
+            "in [0, 0.5) rad",
+        )?;
+        check(
+            self.slope == 0.0 || self.gravity[0] == 0.0,
+            "gravity.x",
+            self.gravity[0],
+            "0 with a bed slope (the slope tilts the vertical gravity)",
+        )
+    }
+
+    /// The acceleration of weight less buoyancy over inertia (m/s²) along x
+    /// and y: (g_x, g_y)(s − 1)/(s + C_M) (docs/model.md (2)); with a
+    /// slope θ, (g sin θ · s, −g cos θ · (s − 1))/(s + C_M), g = −g_y
+    /// (see [`SimConfig::slope`]).
+    pub fn reduced_gravity(&self) -> [f64; 2] {
+        let m = &self.material;
+        let reduce = (m.s - 1.0) / (m.s + m.c_m);
+        if self.slope == 0.0 {
+            return [self.gravity[0] * reduce, self.gravity[1] * reduce];
+        }
+        let g = -self.gravity[1];
+        [
+            g * libm::sin(self.slope) * m.s / (m.s + m.c_m),
+            self.gravity[1] * libm::cos(self.slope) * reduce,
+        ]
+    }
+
+    /// g sin θ (m/s²): gravity along the bed slope, which drives the
+    /// coupled flow (docs/model.md §13); 0 without a slope.
+    pub fn slope_driving(&self) -> f64 {
+        if self.slope == 0.0 {
+            0.0
+        } else {
+            -self.gravity[1] * libm::sin(self.slope)
+        }
     }
 }
 
@@ -117,7 +169,15 @@ pub(crate) fn check_grain(c: &SimConfig, spec: &GrainSpec) -> Result<(), Error> 
 }
 
 /// A simulation of up to `N` grains with up to `K` neighbours (j > i) per grain,
-/// in precision `R` (`f32` or `f64`).
+/// in precision `R` (`f32` or `f64`), with a column of up to `C` cells for
+/// the coupled flow (docs/model.md §13).
+///
+/// `C` is a capacity as `N`: the column's arrays are inline, so the
+/// coupled flow needs no allocator, and a `Sim` keeps the all-zero
+/// property. It defaults to 0, no column: the clear-water simulations of
+/// the host and the board keep their size and their code; a coupled flow
+/// with more cells than `C` is refused by [`Sim::set_flow`] with
+/// [`Capacity::FluidCells`].
 ///
 /// All storage is inline; nothing is allocated. [`Sim::new`] is a `const fn`
 /// that yields all-zero bits, so a firmware can place a simulation in a
@@ -140,7 +200,7 @@ pub(crate) fn check_grain(c: &SimConfig, spec: &GrainSpec) -> Result<(), Error> 
 /// # Ok::<(), mbs_kernel::Error>(())
 /// ```
 #[derive(Debug, Clone)]
-pub struct Sim<R: Real, const N: usize, const K: usize> {
+pub struct Sim<R: Real, const N: usize, const K: usize, const C: usize = 0> {
     pub(crate) grains: Grains<R, N>,
     pub(crate) nbrs: Neighbours<R, N, K>,
     /// The batched step's pair index (empty without vector lanes).
@@ -168,6 +228,8 @@ pub struct Sim<R: Real, const N: usize, const K: usize> {
     pub(crate) events: Events,
     /// Whether the steps count contacts and seam crossings ([`Sim::count_events`]).
     pub(crate) count_events: bool,
+    /// The coupled flow (docs/model.md §13), off with clear water.
+    pub(crate) fluid: Coupling<R, C>,
 }
 
 const ZERO_MATERIAL: Material = Material {
@@ -177,6 +239,21 @@ const ZERO_MATERIAL: Material = Material {
     c_d: 0.0,
     mu: 0.0,
     nu: 0.0,
+};
+
+/// All zero bits.
+const ZERO_FLUID: FluidConfig = FluidConfig {
+    cells: 0,
+    bottom: 0.0,
+    surface: 0.0,
+    cross_section: 0.0,
+    density: 0.0,
+    viscosity: 0.0,
+    kappa: 0.0,
+    phi_max: 0.0,
+    driving: 0.0,
+    update_steps: 0,
+    hindrance: 0.0,
 };
 
 const ZERO_FLOW: FlowConfig = FlowConfig {
@@ -190,15 +267,17 @@ const ZERO_FLOW: FlowConfig = FlowConfig {
     hold_steps: 0,
     bed_level_interval: 0,
     bed_level_window: 0.0,
+    model: FlowModel::ClearWater,
+    fluid: ZERO_FLUID,
 };
 
-impl<R: Real, const N: usize, const K: usize> Default for Sim<R, N, K> {
+impl<R: Real, const N: usize, const K: usize, const C: usize> Default for Sim<R, N, K, C> {
     fn default() -> Self {
         Self::new()
     }
 }
 
-impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
+impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
     /// An empty, unconfigured simulation (all-zero bits). Call [`Sim::reset`].
     pub const fn new() -> Self {
         Sim {
@@ -221,6 +300,7 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
                 y_max: 0.0,
                 skin: 0.0,
                 seed: 0,
+                slope: 0.0,
             },
             configured: false,
             law: ContactLaw::ZERO,
@@ -237,6 +317,7 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
             step: 0,
             events: Events::ZERO,
             count_events: false,
+            fluid: Coupling::new(),
         }
     }
 
@@ -262,16 +343,13 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
             tension: config.tension,
         };
         self.step_dt = R::from_f64(config.step_dt);
-        let reduce = (m.s - 1.0) / (m.s + m.c_m);
-        self.g_red = [
-            R::from_f64(config.gravity[0] * reduce),
-            R::from_f64(config.gravity[1] * reduce),
-        ];
+        self.g_red = config.reduced_gravity().map(R::from_f64);
         self.width = R::from_f64(config.width);
         self.y_min = R::from_f64(config.y_min);
         self.y_max = R::from_f64(config.y_max);
         self.flow = ZERO_FLOW;
         self.flow_on = false;
+        self.fluid.on = false;
         self.profile = Profile::ZERO;
         self.flow_epoch = 0;
         self.bed_level = R::ZERO;
@@ -329,24 +407,50 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
         Ok(i)
     }
 
-    /// Switches the flow on (drag (4)–(5) with (14)–(16)) or off (`None`: no drag).
-    /// Hold periods of the fluctuations and bed-level updates count from now.
+    /// Switches the flow on (drag (4)–(5) with (14)–(16), or with the
+    /// coupled flow of docs/model.md §13) or off (`None`: no drag).
+    /// Hold periods of the fluctuations, bed-level updates and the coupled
+    /// flow's updates count from now. A coupled flow starts from the log
+    /// law (14) of `u_star` above the mean bed level of now, with the solid
+    /// fractions of the grains of now; its cells must fit the capacity `C`
+    /// ([`Capacity::FluidCells`]). On an error the flow is unchanged, except
+    /// for a coupled flow whose column refused the grains (a slab's solid
+    /// fraction ≥ 1), which leaves the flow off.
     pub fn set_flow(&mut self, flow: Option<&FlowConfig>) -> Result<(), Error> {
         match flow {
             Some(f) => {
                 f.validate()?;
+                let coupled = f.model == FlowModel::Coupled;
+                if coupled {
+                    f.fluid.validate(C)?;
+                }
                 self.flow = *f;
                 self.profile = Profile::new(f);
                 self.flow_on = true;
                 self.flow_epoch = self.step;
+                self.fluid.on = false;
+                if let Err(e) = if coupled {
+                    self.start_coupling()
+                } else {
+                    Ok(())
+                } {
+                    self.set_flow(None)?;
+                    return Err(e);
+                }
             }
             None => {
                 self.flow = ZERO_FLOW;
                 self.profile = Profile::ZERO;
                 self.flow_on = false;
+                self.fluid.on = false;
             }
         }
         Ok(())
+    }
+
+    /// The coupled flow's column (docs/model.md §13), if the coupled flow is on.
+    pub fn fluid_column(&self) -> Option<&crate::fluid::Column<R, C>> {
+        self.fluid.on.then_some(&self.fluid.column)
     }
 
     /// Number of grains.
@@ -461,7 +565,9 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
 
     /// The turbulent fluctuation (u, v) (m/s) grain `i` currently feels
     /// (docs/model.md (15)): its held draws times the rms at its height, zero where
-    /// U = 0, for fixed grains, or without flow or turbulence.
+    /// U = 0, for fixed grains, or without flow or turbulence; with the
+    /// coupled flow, the rms of the local shear velocity where u_f > 0
+    /// (docs/model.md §13).
     pub fn fluctuation(&self, i: usize) -> Option<(f64, f64)> {
         if i >= self.grains.len {
             return None;
@@ -469,6 +575,16 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
         let g = &self.grains;
         if !self.flow_on || g.fixed[i] {
             return Some((0.0, 0.0));
+        }
+        if self.fluid.on {
+            // The coupled flow's (15): u*_loc for u*, where u_f > 0.
+            let at = self.fluid.at(g.y[i]);
+            if !(self.profile.turbulence && at.u > R::ZERO) {
+                return Some((0.0, 0.0));
+            }
+            let u = g.z_u[i] * (R::from_f64(2.30) * at.scale);
+            let v = g.z_v[i] * (R::from_f64(1.27) * at.scale);
+            return Some((u.to_f64(), v.to_f64()));
         }
         let y = g.y[i] - self.bed_level;
         let p = &self.profile;

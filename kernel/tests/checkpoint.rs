@@ -129,10 +129,10 @@ fn damaged_checkpoints_are_refused_and_change_nothing() {
     let mut bad = good.clone();
     bad[8 + 144] = 2;
     assert_eq!(fault(refused(&mut sim, &bad)), CheckpointFault::Value);
-    // A NaN where the first grain's x is: after the header (8 + 145 + 66
+    // A NaN where the first grain's x is: after the header (8 + 153 + 147
     // (flow) + 16 + 8 (bed level) + 4 (grain count)) bytes.
     let mut bad = good.clone();
-    let x0 = 8 + 145 + 66 + 16 + 8 + 4;
+    let x0 = 8 + 153 + 147 + 16 + 8 + 4;
     bad[x0..x0 + 8].copy_from_slice(&f64::NAN.to_bits().to_le_bytes());
     assert_eq!(fault(refused(&mut sim, &bad)), CheckpointFault::Value);
     // Every single flipped byte is refused or restores to a valid state:
@@ -226,13 +226,32 @@ fn the_tension_rule_is_restored() {
 
     let mut paper = Box::new(Big::<f64>::new());
     run(&mut *paper, 1500, 0);
-    let mut old = bytes(&*paper);
-    assert_eq!(old.remove(8 + 144), 0);
-    old[4..6].copy_from_slice(&2u16.to_le_bytes());
-    let mut restored = Box::new(Other::<f64>::new());
-    restored.restore(&old).unwrap();
-    assert_eq!(restored.config(), paper.config());
-    assert_eq!(restored.digest(), paper.digest());
+    for version in [3, 2] {
+        let old = downgrade(&bytes(&*paper), version);
+        let mut restored = Box::new(Other::<f64>::new());
+        restored.restore(&old).unwrap();
+        assert_eq!(restored.config(), paper.config());
+        assert_eq!(restored.digest(), paper.digest());
+    }
+}
+
+/// A clear-water checkpoint of the current version as version 3 (no slope,
+/// no flow model, no fluid configuration) or 2 (no tension byte either).
+fn downgrade(bytes: &[u8], version: u16) -> Vec<u8> {
+    let mut old = bytes.to_vec();
+    // The flow model and the fluid's configuration after the 66 bytes of
+    // the flow, then the slope after the tension byte.
+    let flow_end = 8 + 153 + 66;
+    assert_eq!(old[flow_end], 0, "clear water");
+    old.drain(flow_end..flow_end + 81);
+    let slope = f64::from_le_bytes(old[8 + 145..8 + 153].try_into().unwrap());
+    assert_eq!(slope, 0.0);
+    old.drain(8 + 145..8 + 153);
+    if version == 2 {
+        assert_eq!(old.remove(8 + 144), 0);
+    }
+    old[4..6].copy_from_slice(&version.to_le_bytes());
+    old
 }
 
 /// `Sim::MAX_CHECKPOINT_LEN` is the length of an empty simulation's

@@ -185,6 +185,46 @@ impl<R: Real, const C: usize> Column<R, C> {
         Ok(())
     }
 
+    /// Starts the column from the solid fractions of `slabs` and the
+    /// velocity `velocity(y)` at each cell's centre y (e.g. the log law
+    /// (14)); on an error the column is unchanged.
+    pub fn start(&mut self, slabs: &Slabs<R, C>, velocity: impl Fn(R) -> R) -> Result<(), Error> {
+        let n = self.grid.cells;
+        check(
+            slabs.grid == self.grid,
+            "fluid.slabs",
+            slabs.grid.cells as f64,
+            "filled for this column's grid (Slabs::clear)",
+        )?;
+        for j in 0..n {
+            let (u, phi) = (velocity(self.grid.centre(j)), slabs.solid_fraction(j));
+            check(R::is_finite(u), "fluid.velocity", u.to_f64(), "finite")?;
+            check(
+                phi >= R::ZERO && phi < R::ONE,
+                "fluid.solid_fraction",
+                phi.to_f64(),
+                "in [0, 1)",
+            )?;
+        }
+        for j in 0..n {
+            self.u[j] = velocity(self.grid.centre(j));
+            self.phi[j] = slabs.solid_fraction(j);
+        }
+        self.refresh_mixing();
+        Ok(())
+    }
+
+    /// The stress the no-slip bottom took in the last [`Column::advance`]
+    /// (Pa): ρ (1 − φ_0)(ν + ν_t) 2u_0/Δy with the step's lagged ν_t, the
+    /// bottom's term of docs/model.md (C6), so that the momentum of the
+    /// step balances exactly; 0 before the first step.
+    pub fn wall_stress(&self) -> R {
+        if self.grid.cells == 0 {
+            return R::ZERO;
+        }
+        -(self.density * self.grid.dy * self.system.lower[0] * self.u[0])
+    }
+
     /// u_f at each cell's centre (m/s), bottom first: state.
     pub fn velocities(&self) -> &[R] {
         &self.u[..self.grid.cells]

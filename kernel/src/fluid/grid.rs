@@ -61,6 +61,17 @@ impl<R: Real> Grid<R> {
         self.bottom + (R::from_f64(j as f64) + R::HALF) * self.dy
     }
 
+    /// The cell that holds height `y`, the nearest cell for heights
+    /// outside the column; `None` without cells or for a NaN.
+    pub fn cell(&self, y: R) -> Option<usize> {
+        let s = (y - self.bottom) * self.inv_dy;
+        if self.cells == 0 || s.to_f64().is_nan() {
+            return None;
+        }
+        // `as usize` saturates: a negative offset gives cell 0.
+        Some((s.to_f64() as usize).min(self.cells - 1))
+    }
+
     /// The cells that the heights [lo, hi] touch, first and last, or `None`
     /// if they are all outside the column (or not numbers).
     pub(crate) fn span(&self, lo: R, hi: R) -> Option<(usize, usize)> {

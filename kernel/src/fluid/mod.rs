@@ -3,8 +3,10 @@
 //! from the bottom of the fixed layer to the free surface, that feels the
 //! grains through their solid fraction and their drag.
 //!
-//! Not yet wired into [`crate::Sim`]: a caller fills [`Slabs`] from its grains
-//! and calls [`Column::advance`] every few grain steps. One concept per file:
+//! A [`crate::Sim`] with the coupled flow ([`crate::FlowModel::Coupled`])
+//! holds a column in its `Coupling` and updates it every
+//! [`FluidConfig::update_steps`] grain steps; a caller can also drive a
+//! [`Column`] alone: fill [`Slabs`] and call [`Column::advance`]. One concept per file:
 //!
 //! | file | what | docs/model.md |
 //! |---|---|---|
@@ -15,6 +17,7 @@
 //! | `mixing` | the mixing length (Li & Sawamoto 1995, free-surface factor) | docs/model.md (C3) |
 //! | `tridiagonal` | [`Tridiagonal`]: the Thomas solve in fixed-size arrays | docs/model.md (C6) |
 //! | `column` | [`Column`]: the state u_f, one implicit step, the queries | docs/model.md (C4)–(C6) |
+//! | `coupling` | `Coupling`: the column inside a `Sim`, its slabs, the hindrance per cell | docs/model.md §13, (C7) |
 //!
 //! Like the rest of the kernel: no allocation (arrays of the capacity `C`,
 //! a const generic), never panics (every failure is an [`crate::Error`]),
@@ -23,6 +26,7 @@
 
 mod column;
 mod config;
+mod coupling;
 mod grid;
 mod mixing;
 mod slabs;
@@ -31,6 +35,7 @@ mod tridiagonal;
 
 pub use column::Column;
 pub use config::FluidConfig;
+pub(crate) use coupling::Coupling;
 pub use grid::Grid;
 pub use slabs::Slabs;
 pub use slice::slice_volume;

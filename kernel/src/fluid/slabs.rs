@@ -38,7 +38,8 @@ pub struct Slabs<R: Real, const C: usize> {
     pub(crate) momentum: [R; C],
     /// Σ_i w_ij Ξ_i (kg/s), w_ij = V_ij / V_i the grain's share of the slab.
     pub(crate) drag: [R; C],
-    /// Σ_i w_ij Ξ_i u_p,i (N).
+    /// Σ_i w_ij Ξ_i u_p,i (N) of [`Slabs::add_grain`], plus the sources of
+    /// [`Slabs::add_source`].
     pub(crate) drag_velocity: [R; C],
 }
 
@@ -105,6 +106,46 @@ impl<R: Real, const C: usize> Slabs<R, C> {
             self.drag_velocity[j] += share * u_p;
         }
         Ok(())
+    }
+
+    /// Adds a sphere of radius `r` centred at height `y`, moving downstream
+    /// at `u_p`, with drag factor `xi` (kg/s): its volume and velocity as
+    /// [`Slabs::add_grain`] and Ξ to k_j, but nothing to m_j: the caller
+    /// sets the explicit part of the sink with [`Slabs::add_source`] (the
+    /// coupled `Sim`'s stabiliser, docs/model.md §13).
+    pub fn add_exchange(&mut self, y: R, r: R, u_p: R, xi: R) -> Result<(), Error> {
+        finite("fluid.grain_height", y.to_f64())?;
+        positive("fluid.grain_radius", r.to_f64())?;
+        finite("fluid.grain_velocity", u_p.to_f64())?;
+        non_negative("fluid.grain_drag", xi.to_f64())?;
+        let Some((first, last)) = self.grid.span(y - r, y + r) else {
+            return Ok(());
+        };
+        let inv_volume = R::ONE / slice_volume(r, -r, r);
+        for j in first..=last {
+            let part = slice_volume(r, self.grid.face(j) - y, self.grid.face(j + 1) - y);
+            self.solid[j] += part;
+            self.momentum[j] += part * u_p;
+            self.drag[j] += part * inv_volume * xi;
+        }
+        Ok(())
+    }
+
+    /// Σ_i w_ij Ξ_i of slab `j` (kg/s): k_j times the slab's volume; 0
+    /// outside the column.
+    pub fn drag_factor(&self, j: usize) -> R {
+        match self.drag.get(j) {
+            Some(&k) if j < self.grid.cells => k,
+            _ => R::ZERO,
+        }
+    }
+
+    /// Adds `force` (N) to slab `j`'s explicit source m_j V_slab (nothing
+    /// outside the column).
+    pub fn add_source(&mut self, j: usize, force: R) {
+        if let (true, Some(m)) = (j < self.grid.cells, self.drag_velocity.get_mut(j)) {
+            *m += force;
+        }
     }
 
     /// Solid fraction φ_j of slab `j` (docs/model.md (C2)); 0 outside the column.

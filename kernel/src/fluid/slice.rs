@@ -24,7 +24,9 @@ pub fn slice_volume<R: Real>(r: R, z_lo: R, z_hi: R) -> R {
     let a = R::max(z_lo, -r);
     let b = R::min(z_hi, r);
     if b > a {
-        R::from_f64(PI) * (r * r * (b - a) - (b * b * b - a * a * a) / R::from_f64(3.0))
+        // Never negative: a thin slice's two terms cancel to round-off.
+        let v = R::from_f64(PI) * (r * r * (b - a) - (b * b * b - a * a * a) / R::from_f64(3.0));
+        R::max(v, R::ZERO)
     } else {
         R::ZERO
     }

@@ -52,6 +52,9 @@ pub(crate) struct Params<R: Real> {
     pub(crate) law: ContactLaw<R>,
     pub(crate) mover: Mover<R>,
     pub(crate) drag: Option<(Profile<R>, R)>,
+    /// The grains' force arrays hold forces found before the step (the
+    /// coupled flow's drag): each grain's sums start from them.
+    pub(crate) forces_added: bool,
     /// Count the contacts made, broken and sliding ([`crate::Sim::count_events`]).
     pub(crate) count_events: bool,
 }
@@ -73,6 +76,9 @@ pub(crate) fn batched_step<R: Real, const N: usize, const K: usize>(
 ) -> Option<Result<R, Error>> {
     if !index.ready {
         return None;
+    }
+    if params.forces_added {
+        index.take_forces(grains);
     }
     let (grains, index, params): (&mut dyn Any, &mut dyn Any, &dyn Any) = (grains, index, params);
     if let (Some(g), Some(b), Some(p)) = (

@@ -10,6 +10,11 @@
 //!   do not fit the index): one grain at a time.
 //!
 //! Both move grains with the same integrator ([`mover`]).
+//!
+//! With the coupled flow (docs/model.md §13) the column is first updated
+//! every M steps (`Sim::exchange`), and the drag of every mobile grain is
+//! found one grain at a time ([`scalar::add_coupled_drag`]) before either
+//! path, which then starts each grain's sums from it.
 
 #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
 mod batch;
@@ -35,7 +40,7 @@ use mover::Mover;
 /// would take stack the largest bed does not have.
 const GEOMETRY_AHEAD: bool = !cfg!(target_os = "none");
 
-impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
+impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
     /// Advances `steps` steps.
     pub fn run(&mut self, steps: u64) -> Result<(), Error> {
         for _ in 0..steps {
@@ -68,15 +73,28 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
         let mut events = Events::ZERO;
         if self.flow_on {
             let since = self.step.saturating_sub(self.flow_epoch);
-            if since.is_multiple_of(u64::from(self.flow.bed_level_interval.max(1))) {
+            let update = u64::from(self.flow.fluid.update_steps.max(1));
+            let exchange = self.fluid.on && since > 0 && since.is_multiple_of(update);
+            if exchange {
+                self.exchange()?;
+            }
+            let bed_level = since.is_multiple_of(u64::from(self.flow.bed_level_interval.max(1)));
+            if bed_level {
                 self.update_bed_level();
                 events.bed_level_updates = 1;
+            }
+            if self.fluid.on && (exchange || bed_level) {
+                self.refresh_coupling();
             }
             let hold = u64::from(self.flow.hold_steps.max(1));
             if self.profile.turbulence && since.is_multiple_of(hold) {
                 self.draw_fluctuations(since / hold);
                 events.turbulence_redraws = 1;
             }
+        }
+        let coupled = self.flow_on && self.fluid.on;
+        if coupled {
+            scalar::add_coupled_drag(&mut self.grains, &mut self.fluid, &self.profile);
         }
         let mover = self.mover();
         #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
@@ -85,7 +103,8 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
                 width: self.width,
                 law: self.law,
                 mover,
-                drag: self.flow_on.then_some((self.profile, self.bed_level)),
+                drag: (self.flow_on && !coupled).then_some((self.profile, self.bed_level)),
+                forces_added: coupled,
                 count_events: self.count_events,
             };
             batch::batched_step(&mut self.grains, &mut self.index, &params, &mut events)
@@ -97,7 +116,7 @@ impl<R: Real, const N: usize, const K: usize> Sim<R, N, K> {
         let moved = match batched {
             Some(moved) => moved,
             None => {
-                if self.flow_on {
+                if self.flow_on && !coupled {
                     scalar::add_drag(&mut self.grains, &self.profile, self.bed_level);
                 }
                 self.index.history_to_slots(&mut self.nbrs.spring);
@@ -253,6 +272,46 @@ mod tests {
                 Some((a, b)) => assert!(a.1 != scalar.1 && b.1 != scalar32.1),
             }
         }
+    }
+
+    /// The paper's bed settled, then under the coupled flow at the paper's
+    /// τ* (hindrance on, an update every 100 steps), stepped as
+    /// [`digests`] does: the digest.
+    fn coupled_digest<R: Real, const BUFFER: usize, const BATCHED: bool>() -> u64 {
+        let mut sim = std::boxed::Box::new(Sim::<R, 64, 8, 1024>::new());
+        let sc = Scenario::paper();
+        let info = sc.build(&mut *sim).unwrap();
+        for _ in 0..1500 {
+            sim.step_with::<BUFFER, BATCHED>().unwrap();
+        }
+        let mut flow = sc.flow(Scenario::PAPER_TAU_STAR);
+        let d = sc.bed.max_diameter();
+        let bottom = info.y_min + 1.5 * d;
+        let cells = ((flow.depth - bottom) / (0.5 * d)) as usize;
+        let mut fluid = crate::fluid::FluidConfig::new(cells, bottom, flow.depth, info.width * d);
+        fluid.driving = crate::fluid::FluidConfig::driving_for(flow.u_star, flow.depth);
+        fluid.hindrance = 3.1;
+        (flow.model, flow.fluid) = (crate::FlowModel::Coupled, fluid);
+        sim.set_flow(Some(&flow)).unwrap();
+        for _ in 0..2000 {
+            sim.step_with::<BUFFER, BATCHED>().unwrap();
+        }
+        #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+        assert_eq!(sim.index.ready, BATCHED);
+        assert!(sim.fluid_in_transit() != 0.0, "the column was updated");
+        sim.digest()
+    }
+
+    /// The coupled flow: the batched step and the scalar step (geometry
+    /// ahead or not) give the same bits, in both precisions.
+    #[test]
+    fn coupled_flow_is_batched_with_the_scalar_bits() {
+        let scalar = coupled_digest::<f64, 0, false>();
+        assert_eq!(coupled_digest::<f64, 8, false>(), scalar);
+        assert_eq!(coupled_digest::<f64, 8, true>(), scalar);
+        let scalar = coupled_digest::<f32, 0, false>();
+        assert_eq!(coupled_digest::<f32, 8, false>(), scalar);
+        assert_eq!(coupled_digest::<f32, 8, true>(), scalar);
     }
 
     /// A grain in many pairs (a large grain ringed by 14 small ones, as

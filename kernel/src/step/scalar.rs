@@ -13,6 +13,7 @@ use crate::contact::{ContactLaw, Spring};
 use crate::error::Error;
 use crate::events::Events;
 use crate::flow::Profile;
+use crate::fluid::Coupling;
 use crate::grains::Grains;
 use crate::neighbours::Neighbours;
 use crate::periodic::periodic;
@@ -136,6 +137,40 @@ pub(crate) fn add_drag<R: Real, const N: usize>(
         );
         g.fx[i] += fx;
         g.fy[i] += fy;
+    }
+}
+
+/// The coupled flow's drag on every mobile grain of `g` (docs/model.md §13):
+/// (4)–(5) with u_f of the column at the grain's centre for U, times the
+/// hindrance (C7), without sheltering (16) (the column's velocity already
+/// falls inside the bed); the fluctuations (15) of the held draws with the
+/// local shear velocity of the column's Reynolds stress (C4) for u*, where
+/// u_f > 0 and the `profile`'s turbulence is on; each read linear between
+/// the cell centres ([`Coupling::at`]). The streamwise drag is also summed
+/// per cell for the column's next update ([`Coupling::deposit`]).
+pub(crate) fn add_coupled_drag<R: Real, const N: usize, const C: usize>(
+    g: &mut Grains<R, N>,
+    fluid: &mut Coupling<R, C>,
+    profile: &Profile<R>,
+) {
+    let (rms_u, rms_v) = (R::from_f64(2.30), R::from_f64(1.27));
+    for i in 0..g.len.min(N) {
+        if g.fixed[i] {
+            continue;
+        }
+        let at = fluid.at(g.y[i]);
+        let (fluct_u, fluct_v) = if profile.turbulence && at.u > R::ZERO {
+            (g.z_u[i] * (rms_u * at.scale), g.z_v[i] * (rms_v * at.scale))
+        } else {
+            (R::ZERO, R::ZERO)
+        };
+        let wx = at.u + fluct_u - g.u[i];
+        let wy = fluct_v - g.v[i];
+        let xi = g.drag_coef[i] * at.hindrance * R::sqrt(wx * wx + wy * wy);
+        let (fx, fy) = (xi * wx, xi * wy);
+        g.fx[i] += fx;
+        g.fy[i] += fy;
+        fluid.deposit(&at, fx);
     }
 }
 

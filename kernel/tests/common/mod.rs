@@ -59,6 +59,7 @@ pub fn config(dt: f64, k_n: f64, eta_n: f64, mu: f64) -> SimConfig {
         y_max: 200.0 * D,
         skin: 0.1 * D,
         seed: 1,
+        slope: 0.0,
     }
 }
 

@@ -1,0 +1,126 @@
+//! `impl Sim`: the coupled flow (docs/model.md §13): starting its column,
+//! and the update every M grain steps that exchanges momentum with the
+//! grains. The grains' drag from the column is in the step
+//! ([`crate::step`]).
+
+use crate::error::Error;
+use crate::real::Real;
+use crate::sim::Sim;
+
+impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
+    /// Starts the coupled flow of `self.flow` (validated, its cells fit `C`):
+    /// the column at the solid fractions of the grains of now, its velocity
+    /// the log law (14) of u* above the mean bed level of now; driven by
+    /// `fluid.driving` plus g sin θ of the bed slope. The summed drag and
+    /// the carried force start at 0.
+    pub(crate) fn start_coupling(&mut self) -> Result<(), Error> {
+        self.fluid.on = false;
+        self.update_bed_level();
+        let mut config = self.flow.fluid;
+        config.driving += self.config.slope_driving();
+        let fluid = &mut self.fluid;
+        fluid.column.reset(&config)?;
+        fluid.slabs.clear(fluid.column.grid())?;
+        let g = &mut self.grains;
+        let n = g.len.min(N);
+        for i in 0..n {
+            fluid.slabs.add_grain(g.y[i], g.r[i], g.u[i], R::ZERO)?;
+        }
+        fluid.drag_sum.fill(R::ZERO);
+        fluid.carried.fill(R::ZERO);
+        let (profile, bed_level) = (&self.profile, self.bed_level);
+        fluid
+            .column
+            .start(&fluid.slabs, |y| profile.mean_velocity(y - bed_level))?;
+        self.refresh_coupling();
+        let fluid = &mut self.fluid;
+        let steps = self.flow.fluid.update_steps.max(1);
+        fluid.exchange_dt = R::from_f64(f64::from(steps) * self.config.step_dt);
+        fluid.inv_steps = R::from_f64(1.0 / f64::from(steps));
+        fluid.on = true;
+        Ok(())
+    }
+
+    /// The update of the column after M grain steps (docs/model.md §13):
+    ///
+    /// 1. the drag the grains received over the M steps, summed per cell
+    ///    (`Coupling::deposit`) and averaged, as an explicit sink: the
+    ///    fluid loses exactly what the grains gained; the slabs from the
+    ///    grains of now (docs/model.md (C1)–(C2)) and, to keep the step
+    ///    stable where the grains hold the fluid tightly, each mobile
+    ///    grain's drag factor of now
+    ///    Ξ = ½ρC_D A2 d² (1 − φ)^(−n) |u_f − u_p| as an implicit
+    ///    stabiliser: the sink k (u_f − u_f⁰), balanced so that it takes
+    ///    no momentum at u_f = u_f⁰ (u_f⁰ the velocity before the step);
+    /// 2. the stabiliser's force of the previous update, k (u_f − u_f⁰),
+    ///    returned as a source, so that over a run the fluid's sink is
+    ///    the grains' drag exactly, but for the last update's, in transit;
+    /// 3. each fixed grain with its drag factor Ξ = ½ρC_D A2 d² (1 − φ)^(−n)
+    ///    |u_f| as an implicit sink (the bed's resistance, as in
+    ///    kernel/tests/fluid.rs);
+    /// 4. one implicit step of M step_dt (docs/model.md (C6)), the
+    ///    hindrance of the new φ, the stabiliser's force kept, the sums
+    ///    emptied.
+    ///
+    /// On an error the column's velocities and the sums are unchanged.
+    pub(crate) fn exchange(&mut self) -> Result<(), Error> {
+        let fluid = &mut self.fluid;
+        let g = &mut self.grains;
+        let n = g.len.min(N);
+        let cells = fluid.column.grid().cells().min(C);
+        fluid.slabs.clear(fluid.column.grid())?;
+        for i in 0..n {
+            let (y, r, u) = (g.y[i], g.r[i], g.u[i]);
+            if !g.fixed[i] {
+                let at = fluid.at(y);
+                let xi = g.drag_coef[i] * at.hindrance * R::abs(at.u - u);
+                fluid.slabs.add_exchange(y, r, u, xi)?;
+            }
+        }
+        let velocities = fluid.column.velocities();
+        for j in 0..cells {
+            let k = fluid.slabs.drag_factor(j);
+            let u = velocities.get(j).copied().unwrap_or(R::ZERO);
+            (fluid.stabiliser[j], fluid.previous[j]) = (k, u);
+            let drag = fluid.drag_sum[j] * fluid.inv_steps;
+            fluid.slabs.add_source(j, k * u + fluid.carried[j] - drag);
+        }
+        for i in 0..n {
+            let (y, r) = (g.y[i], g.r[i]);
+            if g.fixed[i] {
+                let at = fluid.at(y);
+                let xi = g.drag_coef[i] * at.hindrance * R::abs(at.u);
+                fluid.slabs.add_grain(y, r, R::ZERO, xi)?;
+            }
+        }
+        fluid.column.advance(&fluid.slabs, fluid.exchange_dt)?;
+        for (j, &u) in fluid.column.velocities().iter().enumerate().take(cells) {
+            fluid.carried[j] = fluid.stabiliser[j] * (u - fluid.previous[j]);
+        }
+        fluid.drag_sum.fill(R::ZERO);
+        Ok(())
+    }
+
+    /// Recomputes the coupled flow's tables from its state and the mean
+    /// bed level (`Coupling::refresh`): after an update of either, and
+    /// after a restore.
+    pub(crate) fn refresh_coupling(&mut self) {
+        let minus_inv_depth = self.profile.minus_inv_depth;
+        self.fluid
+            .refresh(&self.flow.fluid, minus_inv_depth, self.bed_level);
+    }
+
+    /// The momentum of the coupled flow's stabiliser in transit (N s per
+    /// slice; 0 without the coupled flow): taken from the fluid at the
+    /// last update and returned at the next (docs/model.md §13). Over a
+    /// run, the fluid's momentum change plus the grains' momentum change
+    /// from the drag equals the driving impulse less the bed's (the
+    /// no-slip bottom's stress and the fixed grains' drag), less this.
+    pub fn fluid_in_transit(&self) -> f64 {
+        if self.fluid.on {
+            self.fluid.in_transit().to_f64()
+        } else {
+            0.0
+        }
+    }
+}

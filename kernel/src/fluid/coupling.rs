@@ -1,0 +1,165 @@
+//! The coupled flow's state inside a [`crate::Sim`] (docs/model.md §13): the
+//! column, the slabs it is fed from, the per-cell sums of the exchange, and
+//! the tables the grains read between two updates.
+
+use super::column::Column;
+use super::config::FluidConfig;
+use super::slabs::Slabs;
+use crate::real::Real;
+
+/// The column of a coupled `Sim`, its scratch slabs, the drag sums and the
+/// stabiliser's force of each cell, and per cell centre the tables of the
+/// grains' drag. All-zero bits are the value [`Coupling::new`] (off), so
+/// it can live in a zeroed `Sim`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Coupling<R: Real, const C: usize> {
+    /// The coupled flow is on.
+    pub(crate) on: bool,
+    /// The fluid: u_f and φ of each cell (state).
+    pub(crate) column: Column<R, C>,
+    /// Scratch of an update: the grains' slab sums.
+    pub(crate) slabs: Slabs<R, C>,
+    /// (1 − φ_j)^(−n) at each cell centre, docs/model.md (C7); 1 without
+    /// hindrance. Derived ([`Coupling::refresh`]).
+    pub(crate) hindrance: [R; C],
+    /// u*_loc exp(−(y − y_bed)/h) at each cell centre: the scale of the
+    /// fluctuations (15) with the local shear velocity (C4). Derived
+    /// ([`Coupling::refresh`]).
+    pub(crate) scale: [R; C],
+    /// The stabiliser's force of each cell at the last update (N),
+    /// returned to the fluid at the next (docs/model.md §13): state.
+    pub(crate) carried: [R; C],
+    /// The streamwise drag the grains received since the last update,
+    /// summed per cell with the weights of the interpolation of u_f
+    /// ([`Coupling::deposit`]), N: state.
+    pub(crate) drag_sum: [R; C],
+    /// Scratch of an update: the mobile grains' Σ w Ξ of each cell (kg/s).
+    pub(crate) stabiliser: [R; C],
+    /// Scratch of an update: u_f of each cell before it.
+    pub(crate) previous: [R; C],
+    /// The column's time step M step_dt (s).
+    pub(crate) exchange_dt: R,
+    /// 1/M, the average of the drag summed over M grain steps.
+    pub(crate) inv_steps: R,
+}
+
+/// What a grain at some height reads of the coupled flow: u_f, the scale of
+/// its fluctuations and its hindrance, all linear between the two cell
+/// centres around it ([`Coupling::at`]), and where its drag goes.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Local<R: Real> {
+    /// u_f (m/s).
+    pub(crate) u: R,
+    /// u*_loc exp(−(y − y_bed)/h) (m/s).
+    pub(crate) scale: R,
+    /// (1 − φ)^(−n).
+    pub(crate) hindrance: R,
+    /// The lower of the two centres.
+    cell: usize,
+    /// The weight of the upper centre, in [0, 1).
+    frac: R,
+}
+
+impl<R: Real, const C: usize> Coupling<R, C> {
+    /// Off, no cells.
+    pub(crate) const fn new() -> Self {
+        Coupling {
+            on: false,
+            column: Column::new(),
+            slabs: Slabs::new(),
+            hindrance: [R::ZERO; C],
+            scale: [R::ZERO; C],
+            carried: [R::ZERO; C],
+            drag_sum: [R::ZERO; C],
+            stabiliser: [R::ZERO; C],
+            previous: [R::ZERO; C],
+            exchange_dt: R::ZERO,
+            inv_steps: R::ZERO,
+        }
+    }
+
+    /// The stabiliser's momentum in transit (N s): taken from the fluid at
+    /// the last update, returned at the next.
+    pub(crate) fn in_transit(&self) -> R {
+        let mut sum = R::ZERO;
+        for &f in &self.carried[..self.column.grid().cells().min(C)] {
+            sum += f;
+        }
+        sum * self.exchange_dt
+    }
+
+    /// The flow at height `y`, linear between the two cell centres around
+    /// it; below the first centre the tables of the bottom cell and u_f
+    /// falling linearly to 0 at the no-slip bottom (as
+    /// [`Column::velocity_at`]), above the last centre the top cell's.
+    #[inline]
+    pub(crate) fn at(&self, y: R) -> Local<R> {
+        let grid = self.column.grid();
+        let n = grid.cells().min(C);
+        let u = self.column.velocities();
+        let s = (y - grid.bottom) * grid.inv_dy - R::HALF;
+        // `as usize` saturates; s > 0 here.
+        let i = if s > R::ZERO { s.to_f64() as usize } else { 0 };
+        match (u.get(i), u.get(i + 1)) {
+            (Some(&lo), Some(&hi)) if s > R::ZERO && i + 1 < n => {
+                let frac = s - R::from_f64(i as f64);
+                let lerp = |t: &[R; C]| t[i] + (t[i + 1] - t[i]) * frac;
+                Local {
+                    u: lo + (hi - lo) * frac,
+                    scale: lerp(&self.scale),
+                    hindrance: lerp(&self.hindrance),
+                    cell: i,
+                    frac,
+                }
+            }
+            _ => {
+                let j = if s > R::ZERO { n.saturating_sub(1) } else { 0 };
+                let wall = R::min(R::max((s + R::HALF) * R::from_f64(2.0), R::ZERO), R::ONE);
+                let top = u.get(j).copied().unwrap_or(R::ZERO);
+                Local {
+                    u: if s > R::ZERO { top } else { top * wall },
+                    scale: self.scale.get(j).copied().unwrap_or(R::ZERO),
+                    hindrance: self.hindrance.get(j).copied().unwrap_or(R::ONE),
+                    cell: j,
+                    frac: R::ZERO,
+                }
+            }
+        }
+    }
+
+    /// Adds the streamwise drag `force` (N) a grain received where it read
+    /// `at` to the cells' sums with the weights of its interpolation: the
+    /// two centres around it by their distances, all of it to one cell
+    /// beyond the first or the last centre (the wall takes nothing), so the
+    /// sums take the whole force, to round-off.
+    #[inline]
+    pub(crate) fn deposit(&mut self, at: &Local<R>, force: R) {
+        let upper = force * at.frac;
+        if let Some(sum) = self.drag_sum.get_mut(at.cell) {
+            *sum += force - upper;
+        }
+        if let (true, Some(sum)) = (at.frac != R::ZERO, self.drag_sum.get_mut(at.cell + 1)) {
+            *sum += upper;
+        }
+    }
+
+    /// Recomputes the tables of each cell centre from the state: the
+    /// hindrance (1 − φ)^(−n) with exponent `config.hindrance` (f64
+    /// `libm::pow`), and the scale of the fluctuations u*_loc exp(−(y −
+    /// `bed_level`)/h) (`minus_inv_depth` = −1/h). After every update of
+    /// the column or of the bed level, and after a restore.
+    pub(crate) fn refresh(&mut self, config: &FluidConfig, minus_inv_depth: R, bed_level: R) {
+        let n = config.hindrance;
+        let grid = self.column.grid();
+        for (j, &phi) in self.column.solid_fractions().iter().enumerate().take(C) {
+            self.hindrance[j] = if n == 0.0 {
+                R::ONE
+            } else {
+                R::from_f64(libm::pow(1.0 - phi.to_f64(), -n))
+            };
+            let y = grid.centre(j);
+            let decay = R::exp((y - bed_level) * minus_inv_depth);
+            self.scale[j] = self.column.shear_velocity_at(y) * decay;
+        }
+    }
+}
