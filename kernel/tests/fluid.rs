@@ -28,6 +28,20 @@ fn rough_config(h: f64, u_star: f64) -> FluidConfig {
     c
 }
 
+/// One step of `dt` of the column over the fixed rough bed of [`run_rough`].
+fn rough_step<R: Real>(column: &mut Col<R>, slabs: &mut Slabs<R, CAP>, dt: f64) {
+    let coef = 0.5 * RHO * C_D * PI / 4.0 * D * D;
+    slabs.clear(column.grid()).unwrap();
+    let y = R::from_f64(0.5 * D);
+    let xi = R::from_f64(coef) * R::abs(column.velocity_at(y));
+    for _ in 0..ACROSS {
+        slabs
+            .add_grain(y, R::from_f64(0.5 * D), R::ZERO, xi)
+            .unwrap();
+    }
+    column.advance(slabs, R::from_f64(dt)).unwrap();
+}
+
 /// Runs `steps` steps of `dt` of the column over the fixed rough bed: one row
 /// of ACROSS touching grains centred at D/2, at rest, each with the drag
 /// factor ½ ρ C_D (π/4) D² |u_f| of the flow at its centre (docs/model.md (5)
@@ -37,19 +51,10 @@ fn run_rough<R: Real>(config: &FluidConfig, steps: usize, dt: f64) -> (Box<Col<R
     let mut column = Box::new(Col::<R>::new());
     column.reset(config).unwrap();
     let mut slabs = Box::new(Slabs::<R, CAP>::new());
-    let coef = 0.5 * RHO * C_D * PI / 4.0 * D * D;
     let mut change = 0.0f64;
     for _ in 0..steps {
-        slabs.clear(column.grid()).unwrap();
-        let y = R::from_f64(0.5 * D);
-        let xi = R::from_f64(coef) * R::abs(column.velocity_at(y));
-        for _ in 0..ACROSS {
-            slabs
-                .add_grain(y, R::from_f64(0.5 * D), R::ZERO, xi)
-                .unwrap();
-        }
         let before: Vec<R> = column.velocities().to_vec();
-        column.advance(&slabs, R::from_f64(dt)).unwrap();
+        rough_step(&mut column, &mut slabs, dt);
         change = before
             .iter()
             .zip(column.velocities())
@@ -389,18 +394,9 @@ fn bits<R: Real>(golden: u64) {
     copy.set_state(first.velocities(), first.solid_fractions())
         .unwrap();
     let mut slabs = Box::new(Slabs::<R, CAP>::new());
-    let coef = 0.5 * RHO * C_D * PI / 4.0 * D * D;
     for column in [&mut first, &mut copy] {
         for _ in 0..200 {
-            slabs.clear(column.grid()).unwrap();
-            let y = R::from_f64(0.5 * D);
-            let xi = R::from_f64(coef) * R::abs(column.velocity_at(y));
-            for _ in 0..ACROSS {
-                slabs
-                    .add_grain(y, R::from_f64(0.5 * D), R::ZERO, xi)
-                    .unwrap();
-            }
-            column.advance(&slabs, R::from_f64(0.01)).unwrap();
+            rough_step(column, &mut slabs, 0.01);
         }
     }
     assert_eq!(profile_digest(&first), profile_digest(&a));

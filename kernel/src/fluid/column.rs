@@ -73,13 +73,7 @@ impl<R: Real, const C: usize> Column<R, C> {
     /// An empty column (no cells); [`Column::reset`] configures it.
     pub const fn new() -> Self {
         Column {
-            grid: Grid {
-                bottom: R::ZERO,
-                dy: R::ZERO,
-                inv_dy: R::ZERO,
-                slab_volume: R::ZERO,
-                cells: 0,
-            },
+            grid: Grid::EMPTY,
             density: R::ZERO,
             viscosity: R::ZERO,
             kappa: R::ZERO,
@@ -127,20 +121,10 @@ impl<R: Real, const C: usize> Column<R, C> {
         positive("fluid.dt", dt.to_f64())?;
         let n = self.grid.cells;
         check(n >= 2, "fluid.cells", n as f64, ">= 2 (Column::reset)")?;
-        check(
-            slabs.grid == self.grid,
-            "fluid.slabs",
-            slabs.grid.cells as f64,
-            "filled for this column's grid (Slabs::clear)",
-        )?;
+        self.check_grid(slabs)?;
         for j in 0..n {
             let phi = slabs.solid_fraction(j);
-            check(
-                phi >= R::ZERO && phi < R::ONE,
-                "fluid.solid_fraction",
-                phi.to_f64(),
-                "in [0, 1)",
-            )?;
+            check_fraction(phi)?;
             let (k, m) = slabs.drag_coefficients(j);
             check(
                 R::is_finite(k) && R::is_finite(m),
@@ -190,21 +174,11 @@ impl<R: Real, const C: usize> Column<R, C> {
     /// (14)); on an error the column is unchanged.
     pub fn start(&mut self, slabs: &Slabs<R, C>, velocity: impl Fn(R) -> R) -> Result<(), Error> {
         let n = self.grid.cells;
-        check(
-            slabs.grid == self.grid,
-            "fluid.slabs",
-            slabs.grid.cells as f64,
-            "filled for this column's grid (Slabs::clear)",
-        )?;
+        self.check_grid(slabs)?;
         for j in 0..n {
             let (u, phi) = (velocity(self.grid.centre(j)), slabs.solid_fraction(j));
             check(R::is_finite(u), "fluid.velocity", u.to_f64(), "finite")?;
-            check(
-                phi >= R::ZERO && phi < R::ONE,
-                "fluid.solid_fraction",
-                phi.to_f64(),
-                "in [0, 1)",
-            )?;
+            check_fraction(phi)?;
         }
         for j in 0..n {
             self.u[j] = velocity(self.grid.centre(j));
@@ -212,6 +186,16 @@ impl<R: Real, const C: usize> Column<R, C> {
         }
         self.refresh_mixing();
         Ok(())
+    }
+
+    /// Checks that `slabs` was filled for this column's grid.
+    fn check_grid(&self, slabs: &Slabs<R, C>) -> Result<(), Error> {
+        check(
+            slabs.grid == self.grid,
+            "fluid.slabs",
+            slabs.grid.cells as f64,
+            "filled for this column's grid (Slabs::clear)",
+        )
     }
 
     /// The stress the no-slip bottom took in the last [`Column::advance`]
@@ -248,12 +232,7 @@ impl<R: Real, const C: usize> Column<R, C> {
         )?;
         for (&u, &phi) in velocities.iter().zip(solid_fractions) {
             check(R::is_finite(u), "fluid.velocity", u.to_f64(), "finite")?;
-            check(
-                phi >= R::ZERO && phi < R::ONE,
-                "fluid.solid_fraction",
-                phi.to_f64(),
-                "in [0, 1)",
-            )?;
+            check_fraction(phi)?;
         }
         self.u[..n].copy_from_slice(velocities);
         self.phi[..n].copy_from_slice(solid_fractions);
@@ -361,4 +340,14 @@ impl<R: Real, const C: usize> Column<R, C> {
             &mut self.mixing[..n],
         );
     }
+}
+
+/// Checks a cell's solid fraction: in [0, 1).
+fn check_fraction<R: Real>(phi: R) -> Result<(), Error> {
+    check(
+        phi >= R::ZERO && phi < R::ONE,
+        "fluid.solid_fraction",
+        phi.to_f64(),
+        "in [0, 1)",
+    )
 }

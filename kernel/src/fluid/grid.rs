@@ -21,6 +21,15 @@ pub struct Grid<R: Real> {
 }
 
 impl<R: Real> Grid<R> {
+    /// The grid of no cells.
+    pub(crate) const EMPTY: Self = Grid {
+        bottom: R::ZERO,
+        dy: R::ZERO,
+        inv_dy: R::ZERO,
+        slab_volume: R::ZERO,
+        cells: 0,
+    };
+
     /// `cells` cells from `bottom` to `surface` with slabs of `cross_section`
     /// (validated by [`super::FluidConfig::validate`]).
     pub(crate) fn new(cells: usize, bottom: f64, surface: f64, cross_section: f64) -> Self {

@@ -53,13 +53,7 @@ impl<R: Real, const C: usize> Slabs<R, C> {
     /// No cells, all sums zero.
     pub const fn new() -> Self {
         Slabs {
-            grid: Grid {
-                bottom: R::ZERO,
-                dy: R::ZERO,
-                inv_dy: R::ZERO,
-                slab_volume: R::ZERO,
-                cells: 0,
-            },
+            grid: Grid::EMPTY,
             solid: [R::ZERO; C],
             momentum: [R::ZERO; C],
             drag: [R::ZERO; C],
@@ -89,6 +83,21 @@ impl<R: Real, const C: usize> Slabs<R, C> {
     /// to the slabs it cuts, docs/model.md (C1)–(C2). The parts outside the
     /// column are left out. Fixed grains are added with u_p = 0.
     pub fn add_grain(&mut self, y: R, r: R, u_p: R, xi: R) -> Result<(), Error> {
+        self.add(y, r, u_p, xi, true)
+    }
+
+    /// Adds a sphere of radius `r` centred at height `y`, moving downstream
+    /// at `u_p`, with drag factor `xi` (kg/s): its volume and velocity as
+    /// [`Slabs::add_grain`] and Ξ to k_j, but nothing to m_j: the caller
+    /// sets the explicit part of the sink with [`Slabs::add_source`] (the
+    /// coupled `Sim`'s stabiliser, docs/model.md §13).
+    pub fn add_exchange(&mut self, y: R, r: R, u_p: R, xi: R) -> Result<(), Error> {
+        self.add(y, r, u_p, xi, false)
+    }
+
+    /// [`Slabs::add_grain`] (`explicit`: with its part of m_j) or
+    /// [`Slabs::add_exchange`] (without).
+    fn add(&mut self, y: R, r: R, u_p: R, xi: R, explicit: bool) -> Result<(), Error> {
         finite("fluid.grain_height", y.to_f64())?;
         positive("fluid.grain_radius", r.to_f64())?;
         finite("fluid.grain_velocity", u_p.to_f64())?;
@@ -103,30 +112,9 @@ impl<R: Real, const C: usize> Slabs<R, C> {
             self.solid[j] += part;
             self.momentum[j] += part * u_p;
             self.drag[j] += share;
-            self.drag_velocity[j] += share * u_p;
-        }
-        Ok(())
-    }
-
-    /// Adds a sphere of radius `r` centred at height `y`, moving downstream
-    /// at `u_p`, with drag factor `xi` (kg/s): its volume and velocity as
-    /// [`Slabs::add_grain`] and Ξ to k_j, but nothing to m_j: the caller
-    /// sets the explicit part of the sink with [`Slabs::add_source`] (the
-    /// coupled `Sim`'s stabiliser, docs/model.md §13).
-    pub fn add_exchange(&mut self, y: R, r: R, u_p: R, xi: R) -> Result<(), Error> {
-        finite("fluid.grain_height", y.to_f64())?;
-        positive("fluid.grain_radius", r.to_f64())?;
-        finite("fluid.grain_velocity", u_p.to_f64())?;
-        non_negative("fluid.grain_drag", xi.to_f64())?;
-        let Some((first, last)) = self.grid.span(y - r, y + r) else {
-            return Ok(());
-        };
-        let inv_volume = R::ONE / slice_volume(r, -r, r);
-        for j in first..=last {
-            let part = slice_volume(r, self.grid.face(j) - y, self.grid.face(j + 1) - y);
-            self.solid[j] += part;
-            self.momentum[j] += part * u_p;
-            self.drag[j] += part * inv_volume * xi;
+            if explicit {
+                self.drag_velocity[j] += share * u_p;
+            }
         }
         Ok(())
     }
