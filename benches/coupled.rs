@@ -116,7 +116,10 @@ fn bench<R: Real>(c: &mut Criterion) {
     let mut fluid = FluidConfig::new(cells, bottom, flow.depth, width * d);
     fluid.driving = FluidConfig::driving_for(flow.u_star, flow.depth);
     fluid.hindrance = 3.1;
-    if let Some(m) = std::env::var("MBS_UPDATE_STEPS").ok().and_then(|m| m.parse().ok()) {
+    if let Some(m) = std::env::var("MBS_UPDATE_STEPS")
+        .ok()
+        .and_then(|m| m.parse().ok())
+    {
         fluid.update_steps = m;
     }
     (flow.model, flow.fluid) = (FlowModel::Coupled, fluid);

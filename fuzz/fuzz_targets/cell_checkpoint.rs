@@ -8,6 +8,10 @@ use mbs::cell::CellCheckpoint;
 fuzz_target!(|data: &[u8]| {
     if let Ok(ck) = CellCheckpoint::decode(data, 0x5eed) {
         assert!(ck.sim.len() <= data.len());
-        assert_eq!(ck.encode(), data, "what decodes re-encodes to the same bytes");
+        assert_eq!(
+            ck.encode(),
+            data,
+            "what decodes re-encodes to the same bytes"
+        );
     }
 });

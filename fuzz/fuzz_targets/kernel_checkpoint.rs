@@ -17,7 +17,8 @@ fn valid() -> &'static [u8] {
         let sc = Scenario::paper();
         sc.build(&mut *sim).expect("paper bed");
         sim.run(200).expect("runs");
-        sim.set_flow(Some(&sc.flow(Scenario::PAPER_TAU_STAR))).expect("flow");
+        sim.set_flow(Some(&sc.flow(Scenario::PAPER_TAU_STAR)))
+            .expect("flow");
         sim.run(200).expect("runs");
         let mut out = Vec::new();
         sim.checkpoint(|b| out.extend_from_slice(b));
@@ -49,6 +50,10 @@ fuzz_target!(|data: &[u8]| {
         Ok(()) => {
             let _ = sim.run(3);
         }
-        Err(_) => assert_eq!(sim.digest(), before, "a refused checkpoint changed the simulation"),
+        Err(_) => assert_eq!(
+            sim.digest(),
+            before,
+            "a refused checkpoint changed the simulation"
+        ),
     }
 });
