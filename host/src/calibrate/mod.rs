@@ -331,11 +331,21 @@ impl Curve {
     /// standard error.
     pub fn mean_log_ratio(&self, reference: Reference, floor: f64) -> (f64, f64) {
         let ratios = self.log_ratios(reference);
-        let total: f64 = ratios.iter().map(|&(_, e)| Self::weight(e, floor)).sum();
-        let mean = self.weighted(reference, floor, |r, _| r);
+        let weights: Vec<f64> = ratios
+            .iter()
+            .map(|&(_, e)| Self::weight(e, floor))
+            .collect();
+        let total: f64 = weights.iter().sum();
+        let mean = ratios
+            .iter()
+            .zip(&weights)
+            .map(|(p, w)| w * p.0)
+            .sum::<f64>()
+            / total;
         let variance: f64 = ratios
             .iter()
-            .map(|&(_, e)| (Self::weight(e, floor) / total * e).powi(2))
+            .zip(&weights)
+            .map(|(p, w)| (w / total * p.1).powi(2))
             .sum();
         (mean, variance.sqrt())
     }
@@ -443,9 +453,8 @@ impl Context<'_> {
             let mut curves = Vec::new();
             let mut more = false;
             for (c, config) in configs.iter().enumerate() {
-                let counts: Vec<usize> = seeds[c].clone();
                 let mut chunks = Vec::new();
-                for &n in &counts {
+                for &n in &seeds[c] {
                     let (chunk, tail) = rest.split_at(n);
                     rest = tail;
                     chunks.push(chunk);
