@@ -20,9 +20,9 @@ use crate::error::HostError;
 use crate::framing::{CheckpointError, Reader, Writer};
 use crate::input::{read_bounded, Bound};
 use crate::output::{remove_if_present, write_atomic};
-use crate::sims::{check_restored, max_checkpoint_len, with_sim, SimJob, NEIGHBOURS};
+use crate::sims::{check_restored, max_checkpoint_len, with_sim, HostSim, SimJob};
 use indicatif::ProgressBar;
-use mbs_kernel::{Fnv1a, Real, Rest, RestWatch, Sim, G};
+use mbs_kernel::{Fnv1a, Real, Rest, RestWatch, G};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
@@ -49,6 +49,9 @@ impl BedKey {
     pub fn new(config: &ConfigFile, seed: u64) -> BedKey {
         let mut config = crate::config::canonical(config);
         config.flow.tau_star = Vec::new();
+        // Beds settle without flow: clear water and the coupled flow share them.
+        config.flow.model = Default::default();
+        config.fluid = Default::default();
         config.time.spin_up = 0.0;
         config.time.window = 0.0;
         config.time.sample_steps = 0;
@@ -202,7 +205,7 @@ impl SimJob for BedJob<'_> {
     /// of its windows (docs/model.md §7 step 3):
     /// the bed (`None` if stopped after writing its checkpoint) and the
     /// grain-steps computed.
-    fn run<R: Real, const N: usize>(self, sim: &mut Sim<R, N, NEIGHBOURS>) -> Self::Output {
+    fn run<R: Real, const N: usize>(self, sim: &mut HostSim<R, N>) -> Self::Output {
         let sc = self.config.scenario_at(self.seed);
         let fail = || HostError::kernel(format!("settling the bed of seed {}", self.seed));
         let refuse = |message: String| HostError::Checkpoint {

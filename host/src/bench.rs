@@ -14,7 +14,7 @@
 use crate::error::HostError;
 use crate::input::{read_bounded, Bound};
 use crate::output::{create_dir, write_atomic};
-use crate::sims::{with_sim, SimJob, NEIGHBOURS};
+use crate::sims::{with_sim, HostSim, SimJob};
 use crate::text::number;
 use mbs_kernel::contact::{ContactLaw, Spring};
 use mbs_kernel::{BedSpec, Error, Fnv1a, GrainSpec, Real, Scenario, Sim};
@@ -136,8 +136,8 @@ impl BenchBed {
 /// Puts a prepared bed into `sim`: settled (`flow` false) or after
 /// [`FLOW_WARM_UP`] steps of flow at τ* = 0.2. With `beds`, prepared beds
 /// are read from and written to that directory.
-pub fn prepare<R: Real, const N: usize, const K: usize>(
-    sim: &mut Sim<R, N, K>,
+pub fn prepare<R: Real, const N: usize, const K: usize, const C: usize>(
+    sim: &mut Sim<R, N, K, C>,
     bed: &BenchBed,
     flow: bool,
     beds: Option<&Path>,
@@ -145,8 +145,8 @@ pub fn prepare<R: Real, const N: usize, const K: usize>(
     prepare_columns(sim, bed, bed.columns(), flow, beds)
 }
 
-fn prepare_columns<R: Real, const N: usize, const K: usize>(
-    sim: &mut Sim<R, N, K>,
+fn prepare_columns<R: Real, const N: usize, const K: usize, const C: usize>(
+    sim: &mut Sim<R, N, K, C>,
     bed: &BenchBed,
     columns: u32,
     flow: bool,
@@ -192,8 +192,8 @@ fn bed_error(error: Error) -> HostError {
 
 /// Replaces the bed in `sim` by `copies` copies of it side by side (grain
 /// positions and velocities; contacts restart from their overlaps).
-fn tile<R: Real, const N: usize, const K: usize>(
-    sim: &mut Sim<R, N, K>,
+fn tile<R: Real, const N: usize, const K: usize, const C: usize>(
+    sim: &mut Sim<R, N, K, C>,
     copies: u32,
 ) -> Result<(), Error> {
     let grains: Vec<GrainSpec> = (0..sim.len()).filter_map(|i| sim.grain(i)).collect();
@@ -236,7 +236,7 @@ pub struct ContactLawCase<R: Real> {
 
 impl<R: Real> ContactLawCase<R> {
     /// The contacts of `sim`.
-    pub fn new<const N: usize, const K: usize>(sim: &Sim<R, N, K>) -> Self {
+    pub fn new<const N: usize, const K: usize, const C: usize>(sim: &Sim<R, N, K, C>) -> Self {
         let law = sim.contact_law();
         let contacts = sim
             .contacts()
@@ -260,8 +260,8 @@ impl<R: Real> ContactLawCase<R> {
 
 /// A prepared bed and repetitions of a case on it: what both `mbs bench`
 /// and the criterion benches time ([`Prepared::time`]).
-pub struct Prepared<'s, R: Real, const N: usize, const K: usize> {
-    sim: &'s mut Sim<R, N, K>,
+pub struct Prepared<'s, R: Real, const N: usize, const K: usize, const C: usize> {
+    sim: &'s mut Sim<R, N, K, C>,
     case: Case,
     law: ContactLawCase<R>,
     /// Checkpoint of the state the step cases start from (empty otherwise).
@@ -277,7 +277,7 @@ pub struct Prepared<'s, R: Real, const N: usize, const K: usize> {
     rebuild_time: Duration,
 }
 
-impl<'s, R: Real, const N: usize, const K: usize> Prepared<'s, R, N, K> {
+impl<'s, R: Real, const N: usize, const K: usize, const C: usize> Prepared<'s, R, N, K, C> {
     /// Prepares `bed` in `sim` for `case` ([`prepare`]) and rebuilds the
     /// neighbour lists, which a restored bed would otherwise do, untimed,
     /// on its first step. The flow case also takes that first step untimed:
@@ -285,7 +285,7 @@ impl<'s, R: Real, const N: usize, const K: usize> Prepared<'s, R, N, K> {
     /// flow does once per 800 steps, so a short timed run (callgrind's 20
     /// steps) would otherwise count them 40 times too often.
     pub fn new(
-        sim: &'s mut Sim<R, N, K>,
+        sim: &'s mut Sim<R, N, K, C>,
         bed: &BenchBed,
         case: Case,
         beds: Option<&Path>,
@@ -313,7 +313,7 @@ impl<'s, R: Real, const N: usize, const K: usize> Prepared<'s, R, N, K> {
     }
 
     /// The simulation.
-    pub fn sim(&self) -> &Sim<R, N, K> {
+    pub fn sim(&self) -> &Sim<R, N, K, C> {
         self.sim
     }
 
@@ -444,7 +444,7 @@ pub struct Bench<'a> {
 impl SimJob for Bench<'_> {
     type Output = Result<BenchResult, HostError>;
 
-    fn run<R: Real, const N: usize>(self, sim: &mut Sim<R, N, NEIGHBOURS>) -> Self::Output {
+    fn run<R: Real, const N: usize>(self, sim: &mut HostSim<R, N>) -> Self::Output {
         let mut bed = Prepared::new(sim, &self.bed, self.case, self.beds)?;
         bed.split_rebuilds();
         let n = bed.sim().len() as f64;

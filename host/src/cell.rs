@@ -7,12 +7,14 @@
 //! stopped. With a [`FramePlan`] the cell also writes particle frames
 //! ([`Dumps`]), which change none of its numbers.
 //!
-//! Checkpoint file (version 3, framed by [`crate::framing`]): magic `MBSC`,
+//! Checkpoint file (version 4, framed by [`crate::framing`]): magic `MBSC`,
 //! the cell's key (FNV-1a of its specification) u64, phase u8 (1 spin-up,
 //! 2 window), steps done in the phase u64, samples u64, Σq* (f64 bits), the
 //! class count u32 and Σq* per class, Σq* of the current block, the
 //! finished blocks (count u64, then q* and bed level of each, f64 bits),
-//! the kernel checkpoint (u64 length, bytes). The CRC detects
+//! the profile sums (samples u64, cell count u32, then Σφ, Σφ u_p and Σu_f
+//! of each cell, f64 bits; [`crate::profiles`]), the kernel checkpoint (u64
+//! length, bytes). The CRC detects
 //! damage, not deliberate edits: a loaded state is
 //! checked field by field against the configuration ([`CellState::check`])
 //! and the restored kernel against the cell's scenario, so an edited file is
@@ -26,11 +28,12 @@ use crate::error::HostError;
 use crate::frames::Dumps;
 pub use crate::framing::CheckpointError;
 use crate::framing::{Reader, Writer};
-use crate::sims::{check_restored, with_sim, SimJob, NEIGHBOURS};
+use crate::profiles::{CellProfile, ProfileSums, Sampler, PROFILE_SAMPLES};
+use crate::sims::{check_restored, with_sim, HostSim, SimJob};
 use crate::stats::Target;
 use crate::text::number;
 use indicatif::ProgressBar;
-use mbs_kernel::{Fnv1a, Real, Sim, G};
+use mbs_kernel::{Fnv1a, Real, G};
 use serde::{Deserialize, Serialize};
 use std::path::PathBuf;
 use std::sync::atomic::AtomicBool;
@@ -39,7 +42,7 @@ use std::sync::atomic::AtomicBool;
 const CHUNK: u64 = crate::control::MIN_CHECKPOINT_STEPS;
 
 const MAGIC: [u8; 4] = *b"MBSC";
-const VERSION: u16 = 3;
+const VERSION: u16 = 4;
 
 /// One block of a cell's window (`time.block`).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -74,6 +77,9 @@ pub struct CellResult {
     pub grain_steps: u64,
     /// The settled bed the cell started from.
     pub bed: BedRecord,
+    /// Profiles over the window (absent in results of earlier versions).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub profile: Option<CellProfile>,
 }
 
 impl CellResult {
@@ -109,6 +115,8 @@ pub struct CellState {
     pub blocks: Vec<Block>,
     /// Σ q* of the current block's samples.
     pub block_sum: f64,
+    /// The profiles' sums.
+    pub profile: ProfileSums,
 }
 
 /// When a cell's window ends: the durations and the target.
@@ -118,6 +126,8 @@ pub struct WindowRule {
     pub durations: Durations,
     /// The standard error aimed at.
     pub target: Target,
+    /// Cells of the profiles ([`crate::profiles`]).
+    pub cells: usize,
 }
 
 impl WindowRule {
@@ -129,6 +139,7 @@ impl WindowRule {
                 relative: config.file.target.stderr_relative,
                 absolute: config.file.target.stderr_absolute,
             },
+            cells: crate::profiles::grid(config).cells(),
         }
     }
 
@@ -158,7 +169,19 @@ impl CellState {
         if self.per_class.len() != classes {
             return bad("size classes");
         }
-        let sums = self.per_class.iter().chain([&self.total, &self.block_sum]);
+        let p = &self.profile;
+        if [p.momentum.len(), p.fluid.len()] != [rule.cells; 2] || p.solid.len() != rule.cells {
+            return bad("profile cells");
+        }
+        let profile = p.solid.iter().chain(&p.momentum).chain(&p.fluid);
+        if p.samples != self.samples / PROFILE_SAMPLES || !profile.clone().all(|x| x.is_finite()) {
+            return bad("profile sums");
+        }
+        let sums = self
+            .per_class
+            .iter()
+            .chain([&self.total, &self.block_sum])
+            .chain(profile);
         if self.phase == Phase::SpinUp {
             let empty = self.samples == 0
                 && self.blocks.is_empty()
@@ -203,8 +226,9 @@ impl CellState {
         Ok(())
     }
 
-    fn new(classes: usize) -> Self {
+    fn new(classes: usize, cells: usize) -> Self {
         CellState {
+            profile: ProfileSums::new(cells),
             phase: Phase::SpinUp,
             done: 0,
             samples: 0,
@@ -252,18 +276,25 @@ impl CellCheckpoint {
             w.f64(b.q_star);
             w.f64(b.bed_level);
         }
+        let p = &s.profile;
+        w.u64(p.samples);
+        w.u32(p.solid.len() as u32);
+        for x in p.solid.iter().chain(&p.momentum).chain(&p.fluid) {
+            w.f64(*x);
+        }
         w.bytes(&self.sim);
         w.seal()
     }
 
     /// The length of the largest cell checkpoint with `classes` size
     /// classes, at most `blocks` blocks and a kernel checkpoint of at most
-    /// `sim_max` bytes.
-    pub fn max_len(classes: usize, blocks: u64, sim_max: usize) -> usize {
+    /// `sim_max` bytes, profiles of `cells` cells.
+    pub fn max_len(classes: usize, blocks: u64, cells: usize, sim_max: usize) -> usize {
         // Key, phase, done, samples, Σq*, class count.
         let head = 8 + 1 + 8 + 8 + 8 + 4;
         let blocks = usize::try_from(blocks).unwrap_or(usize::MAX / 32);
-        Writer::OVERHEAD + head + 8 * classes + 8 + 8 + 16 * blocks + 8 + sim_max
+        let profile = 8 + 4 + 24 * cells;
+        Writer::OVERHEAD + head + 8 * classes + 8 + 8 + 16 * blocks + profile + 8 + sim_max
     }
 
     /// Decodes and checks a checkpoint written for the cell `key`.
@@ -297,6 +328,14 @@ impl CellCheckpoint {
                 })
             })
             .collect::<Result<_, CheckpointError>>()?;
+        let profile_samples = r.u64()?;
+        let cells = r.u32()? as usize;
+        // Each cell takes 24 bytes: a count beyond the file is truncation.
+        if cells > bytes.len() / 24 {
+            return Err(CheckpointError::Truncated);
+        }
+        let mut column = || (0..cells).map(|_| r.f64()).collect::<Result<Vec<_>, _>>();
+        let (solid, momentum, fluid) = (column()?, column()?, column()?);
         let sim = r.bytes()?.to_vec();
         r.finish()?;
         Ok(CellCheckpoint {
@@ -309,6 +348,12 @@ impl CellCheckpoint {
                 per_class,
                 blocks,
                 block_sum,
+                profile: ProfileSums {
+                    samples: profile_samples,
+                    solid,
+                    momentum,
+                    fluid,
+                },
             },
             sim,
         })
@@ -358,7 +403,7 @@ pub struct FramePlan {
 
 /// Runs `n` steps, through `dumps` if the cell writes frames: the same bits.
 fn advance<R: Real, const N: usize>(
-    sim: &mut Sim<R, N, NEIGHBOURS>,
+    sim: &mut HostSim<R, N>,
     dumps: Option<&mut Dumps>,
     n: u64,
     fail: &dyn Fn(mbs_kernel::Error) -> HostError,
@@ -394,7 +439,7 @@ pub struct CellJob<'a> {
 impl SimJob for CellJob<'_> {
     type Output = Result<CellOutcome, HostError>;
 
-    fn run<R: Real, const N: usize>(self, sim: &mut Sim<R, N, NEIGHBOURS>) -> Self::Output {
+    fn run<R: Real, const N: usize>(self, sim: &mut HostSim<R, N>) -> Self::Output {
         let setup = self.config.setup(self.tau_star, self.seed);
         let sc = &setup.scenario;
         let context = format!("tau* = {}, seed {}", number(self.tau_star), self.seed);
@@ -441,7 +486,7 @@ impl SimJob for CellJob<'_> {
                     message: format!("the settled bed of seed {}: {why}", self.seed),
                 })?;
                 sim.set_flow(Some(&setup.flow)).map_err(fail())?;
-                CellState::new(classes.len())
+                CellState::new(classes.len(), rule.cells)
             }
         };
         // The frames' time is the time since the flow started (step `settled`).
@@ -452,6 +497,7 @@ impl SimJob for CellJob<'_> {
         };
         let kernel_error = |e| fail()(e);
         let (d_max, s) = (sc.bed.max_diameter(), sc.material.s);
+        let mut sampler = Sampler::new(self.config);
         let mut checkpoints = Checkpoints::new(self.control);
         let mut stepped = 0u64;
         loop {
@@ -501,6 +547,9 @@ impl SimJob for CellJob<'_> {
                     *sum += o.q_star_class(c, d_max, s, G);
                 }
                 state.samples += 1;
+                if state.samples % PROFILE_SAMPLES == 0 {
+                    sampler.sample(sim, &mut state.profile).map_err(fail())?;
+                }
                 if state.samples % durations.block_samples == 0 {
                     state.blocks.push(Block {
                         q_star: state.block_sum / durations.block_samples as f64,
@@ -544,6 +593,7 @@ impl SimJob for CellJob<'_> {
                 settle_s: self.bed.seconds(step_dt),
                 max_overlap_d: self.bed.max_overlap / d_max,
             },
+            profile: Some(state.profile.means()),
         }))
     }
 }
@@ -603,11 +653,17 @@ mod tests {
                     3
                 ],
                 block_sum: 0.2,
+                profile: ProfileSums {
+                    samples: 12,
+                    solid: vec![0.5, 0.25, 0.0, 0.0],
+                    momentum: vec![1e-3, 2e-3, 0.0, 0.0],
+                    fluid: vec![0.0, 0.1, 0.2, 0.3],
+                },
             },
             sim: vec![1, 2, 3, 4, 5],
         };
         let bytes = ck.encode();
-        assert_eq!(bytes.len(), CellCheckpoint::max_len(2, 3, 5));
+        assert_eq!(bytes.len(), CellCheckpoint::max_len(2, 3, 4, 5));
         assert_eq!(CellCheckpoint::decode(&bytes, 42), Ok(ck));
         assert_eq!(
             CellCheckpoint::decode(&bytes, 43),
@@ -629,7 +685,7 @@ mod tests {
         bad[4] = 9;
         assert_eq!(
             CellCheckpoint::decode(&bad, 42),
-            Err(CheckpointError::Version { found: 9, reads: 3 })
+            Err(CheckpointError::Version { found: 9, reads: 4 })
         );
         assert_eq!(
             CellCheckpoint::decode(b"nope", 42),

@@ -2,6 +2,7 @@
 //! and a short report on standard output.
 
 use crate::bench::bench;
+use crate::cell::CellResult;
 use crate::config::{long_run_warning, warnings, Config, ConfigError, Precision, DEFAULT_TOML};
 use crate::control::MIN_CHECKPOINT_STEPS;
 use crate::error::HostError;
@@ -12,14 +13,15 @@ use crate::log::{Header, Log};
 use crate::output::{create_dir, write_json, write_text};
 use crate::pack::{packing, write_packing, Packing};
 use crate::plot::{save, TransportFigure};
+use crate::profiles::{profiles_figure, write_profiles};
 use crate::progress::Progress;
 use crate::shard::Shard;
-use crate::sims::{with_sim, SimJob, NEIGHBOURS};
+use crate::sims::{with_sim, HostSim, SimJob};
 use crate::snapshot::{snapshots, write_picture, Snapshots};
 use crate::timeseries::{timeseries_figure, window_warnings, write_timeseries};
 use crate::trace::TRACE_BOUND;
 use indicatif::ProgressBar;
-use mbs_kernel::{explicit_damping_number, Real, Scenario, Sim};
+use mbs_kernel::{explicit_damping_number, Real, Scenario};
 use serde::Serialize;
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -449,6 +451,8 @@ fn run_logged(
     save(&figure, dir, "transport")?;
     write_timeseries(&dir.join("timeseries.csv"), config, &results)?;
     save(&timeseries_figure(config, &results), dir, "timeseries")?;
+    write_profiles(&dir.join("profiles.csv"), config, &results)?;
+    save(&profiles_figure(config, &results), dir, "profiles")?;
     let grain_steps: u64 =
         results.iter().map(|r| r.grain_steps).sum::<u64>() + outcome.bed_grain_steps;
     let computed = results.len() - outcome.reused;
@@ -475,7 +479,14 @@ fn run_logged(
             grain_steps_per_s: rate,
             warnings: log.warnings(),
             transport: &rows,
-            cells: &results,
+            // The profiles are in profiles.csv.
+            cells: &results
+                .iter()
+                .map(|r| CellResult {
+                    profile: None,
+                    ..r.clone()
+                })
+                .collect::<Vec<_>>(),
         },
     )?;
     if !common.quiet {
@@ -491,7 +502,7 @@ fn run_logged(
             None => format!("all reused from {}", crate::store::STORE),
         };
         text += &format!(
-            "{} cells, {speed}; wrote {}/transport.csv, transport.png, transport.svg, timeseries.csv, timeseries.png, timeseries.svg, summary.json\n",
+            "{} cells, {speed}; wrote {}/transport.csv, transport.png, transport.svg, timeseries.csv, timeseries.png, timeseries.svg, profiles.csv, profiles.png, profiles.svg, summary.json\n",
             results.len(),
             dir.display()
         );
@@ -624,7 +635,7 @@ struct DigestJob {
 impl SimJob for DigestJob {
     type Output = Result<(u64, u64), mbs_kernel::Error>;
 
-    fn run<R: Real, const N: usize>(self, sim: &mut Sim<R, N, NEIGHBOURS>) -> Self::Output {
+    fn run<R: Real, const N: usize>(self, sim: &mut HostSim<R, N>) -> Self::Output {
         self.scenario
             .digests(sim, self.tau_star, self.steps.0, self.steps.1)
     }

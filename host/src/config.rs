@@ -5,8 +5,8 @@
 use crate::input::{read_text_bounded, Bound};
 use crate::text::{excerpt, number, shown, QUOTE};
 use mbs_kernel::{
-    contact_constants, explicit_damping_number, BedSpec, ContactConstants, FlowConfig, FlowSpec,
-    Material, Scenario, SizeClass, Tension, TimeStepRule, G, MAX_CLASSES,
+    contact_constants, explicit_damping_number, BedSpec, ContactConstants, FlowConfig, FlowModel,
+    FlowSpec, FluidSpec, Material, Scenario, SizeClass, Tension, TimeStepRule, G, MAX_CLASSES,
 };
 use serde::{Deserialize, Serialize};
 use std::fmt;
@@ -79,6 +79,12 @@ fn config_key(name: &'static str) -> &'static str {
         "material.mu" => "contact.friction",
         "material.nu" => "contact.poisson",
         "grains.fraction (sum)" => "grains.classes (sum of fractions)",
+        "slope" => "bed.slope_rad",
+        "fluid.viscosity" => "fluid.viscosity_m2_s",
+        "fluid.cells" => "fluid.cell_d",
+        "fluid.density" => "flow.fluid_density",
+        "fluid.kappa" => "flow.kappa",
+        "fluid.driving" => "flow.tau_star",
         other => other,
     }
 }
@@ -255,6 +261,16 @@ pub struct BedSection {
     pub vacancy: f64,
     /// Fixed-grain height spread (diameters).
     pub fixed_spread: f64,
+    /// Bed slope θ (rad), the kernel's `SimConfig::slope`; 0 (the paper's
+    /// horizontal bed) is not written out, so that the keys of cells stay
+    /// as they were.
+    #[serde(skip_serializing_if = "is_zero")]
+    pub slope_rad: f64,
+}
+
+/// Whether a value is 0 (a key left out of the echo when it is).
+fn is_zero(value: &f64) -> bool {
+    *value == 0.0
 }
 
 /// `contact.tension`: what part of the normal force may pull a separating
@@ -282,6 +298,33 @@ impl TensionRule {
     /// the echoed configuration) of the paper's law stay as they were.
     fn is_paper(&self) -> bool {
         *self == TensionRule::Dashpot
+    }
+}
+
+/// `flow.model`: what drives the grains' drag, the kernel's [`FlowModel`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum FlowModelKey {
+    /// The paper's prescribed log law (docs/model.md §6).
+    #[default]
+    ClearWater,
+    /// The coupled flow (docs/model.md §13), its column in `[fluid]`.
+    Coupled,
+}
+
+impl FlowModelKey {
+    /// The kernel's model.
+    pub fn kernel(self) -> FlowModel {
+        match self {
+            FlowModelKey::ClearWater => FlowModel::ClearWater,
+            FlowModelKey::Coupled => FlowModel::Coupled,
+        }
+    }
+
+    /// The paper's clear water: not written out, so that the keys of cells
+    /// stay as they were.
+    fn is_paper(&self) -> bool {
+        *self == FlowModelKey::ClearWater
     }
 }
 
@@ -490,6 +533,26 @@ pub struct FlowSection {
     pub drag_coefficient: f64,
     /// C_M.
     pub added_mass: f64,
+    /// Clear water (the paper) or the coupled flow.
+    #[serde(skip_serializing_if = "FlowModelKey::is_paper")]
+    pub model: FlowModelKey,
+}
+
+/// `[fluid]`: the coupled flow's column (docs/model.md §13), read with
+/// `flow.model = "coupled"`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct FluidSection {
+    /// Largest cell height (largest diameters).
+    pub cell_d: f64,
+    /// Kinematic viscosity ν (m²/s).
+    pub viscosity_m2_s: f64,
+    /// φ_max of the mixing length (C3).
+    pub phi_max: f64,
+    /// Steps of constants_dt between two updates of the column.
+    pub update_steps: u32,
+    /// Exponent n of the hindrance (C7).
+    pub hindrance: f64,
 }
 
 /// `[run]`.
@@ -522,6 +585,10 @@ pub struct ConfigFile {
     pub time: TimeSection,
     /// `[flow]`.
     pub flow: FlowSection,
+    /// `[fluid]`, not written out at its defaults (the keys of cells stay
+    /// as they were).
+    #[serde(skip_serializing_if = "FluidSection::is_default")]
+    pub fluid: FluidSection,
     /// `[target]`.
     pub target: TargetSection,
     /// `[run]`.
@@ -558,6 +625,7 @@ impl Default for BedSection {
             spacing: b.spacing,
             vacancy: b.vacancy,
             fixed_spread: b.fixed_spread,
+            slope_rad: 0.0,
         }
     }
 }
@@ -614,7 +682,32 @@ impl Default for FlowSection {
             added_mass: p.material.c_m,
             u_star_m_s: None,
             slope: None,
+            model: FlowModelKey::ClearWater,
         }
+    }
+}
+
+/// Cells of the column at most: the fluid capacity of every host
+/// simulation ([`crate::sims::FLUID_CELLS`]).
+pub const MAX_FLUID_CELLS: usize = crate::sims::FLUID_CELLS;
+
+impl Default for FluidSection {
+    fn default() -> Self {
+        let p = Scenario::paper();
+        let f = p.flow.fluid;
+        FluidSection {
+            cell_d: f.cell_height / p.bed.max_diameter(),
+            viscosity_m2_s: f.viscosity,
+            phi_max: f.phi_max,
+            update_steps: f.update_steps / p.substeps,
+            hindrance: f.hindrance,
+        }
+    }
+}
+
+impl FluidSection {
+    fn is_default(&self) -> bool {
+        *self == FluidSection::default()
     }
 }
 
@@ -832,6 +925,13 @@ impl Config {
     pub fn validate(mut file: ConfigFile) -> Result<Config, ConfigError> {
         let bed = bed_spec(&file)?;
         let d = bed.max_diameter();
+        let slope = file.bed.slope_rad;
+        need(
+            slope.is_finite() && (0.0..0.5).contains(&slope),
+            "bed.slope_rad",
+            slope,
+            "in [0, 0.5) rad (0: the paper's horizontal bed)",
+        )?;
         let material = material(&file)?;
         flow_forms(&mut file, material.s, d)?;
         let rule = time_rule(&file, d, &material)?;
@@ -849,7 +949,7 @@ impl Config {
             Substeps::Count(n) => n,
             Substeps::Auto => 1,
         };
-        let mut flow = flow_spec(&file.flow, d, substeps)?;
+        let mut flow = flow_spec(&file, d, substeps)?;
         // A window holds at least one step; settling and spin-up may be skipped.
         for (key, value, zero_allowed) in [
             ("time.settle", t.settle, true),
@@ -928,6 +1028,7 @@ impl Config {
             substeps,
             bed,
             flow,
+            slope: file.bed.slope_rad,
             skin: r.skin_d,
             seed: r.seeds[0],
         };
@@ -940,11 +1041,12 @@ impl Config {
                 &scenario.bed,
                 scenario.rule.constants_dt,
             );
-            flow = flow_spec(&file.flow, d, substeps)?;
+            flow = flow_spec(&file, d, substeps)?;
             scenario.substeps = substeps;
             scenario.flow = flow;
         }
         stability(&scenario, &contact)?;
+        coupled_flow_fits(&scenario, &file.flow.tau_star)?;
         for &tau_star in &file.flow.tau_star {
             scenario
                 .flow(tau_star)
@@ -1309,7 +1411,8 @@ pub fn flow_forms(file: &mut ConfigFile, s: f64, d: f64) -> Result<(), ConfigErr
 /// `[flow]` except τ* into the kernel's flow specification, its intervals
 /// converted to integration steps (`substeps` per constants_dt); κ, ε0 and the
 /// intervals are checked by the kernel with the flow at each τ*.
-fn flow_spec(f: &FlowSection, d: f64, substeps: u32) -> Result<FlowSpec, ConfigError> {
+fn flow_spec(file: &ConfigFile, d: f64, substeps: u32) -> Result<FlowSpec, ConfigError> {
+    let f = &file.flow;
     need(
         !f.tau_star.is_empty() && f.tau_star.len() <= 1000,
         "flow.tau_star",
@@ -1361,7 +1464,91 @@ fn flow_spec(f: &FlowSection, d: f64, substeps: u32) -> Result<FlowSpec, ConfigE
         hold_steps: f.hold_steps.saturating_mul(substeps),
         bed_level_interval: f.bed_level_interval.saturating_mul(substeps),
         bed_level_window: f.bed_level_window,
+        model: f.model.kernel(),
+        fluid: fluid_spec(&file.fluid, d, substeps)?,
     })
+}
+
+/// `[fluid]` into the kernel's [`FluidSpec`], its update interval converted
+/// to integration steps; checked whatever the model, so that a bad value
+/// is an error before it is used.
+fn fluid_spec(f: &FluidSection, d: f64, substeps: u32) -> Result<FluidSpec, ConfigError> {
+    need(
+        f.cell_d.is_finite() && f.cell_d > 0.0 && f.cell_d <= 10.0,
+        "fluid.cell_d",
+        f.cell_d,
+        "in (0, 10] largest diameters",
+    )?;
+    need(
+        f.viscosity_m2_s.is_finite() && f.viscosity_m2_s > 0.0 && f.viscosity_m2_s <= 1.0,
+        "fluid.viscosity_m2_s",
+        f.viscosity_m2_s,
+        "in (0, 1] m^2/s (water: 1.0e-6)",
+    )?;
+    need(
+        f.phi_max.is_finite() && f.phi_max > 0.0 && f.phi_max < 1.0,
+        "fluid.phi_max",
+        f.phi_max,
+        "in (0, 1)",
+    )?;
+    need(
+        (1..=1_000_000).contains(&f.update_steps),
+        "fluid.update_steps",
+        f.update_steps,
+        "in [1, 1000000] steps of constants_dt",
+    )?;
+    need(
+        f.hindrance.is_finite() && (0.0..=10.0).contains(&f.hindrance),
+        "fluid.hindrance",
+        f.hindrance,
+        "in [0, 10] (Richardson-Zaki: 3.1; 0: off)",
+    )?;
+    Ok(FluidSpec {
+        cell_height: f.cell_d * d,
+        viscosity: f.viscosity_m2_s,
+        phi_max: f.phi_max,
+        update_steps: f.update_steps.saturating_mul(substeps),
+        hindrance: f.hindrance,
+    })
+}
+
+/// The coupled flow of `scenario` at each τ* fits the host's column and is
+/// driven forward: its cells at most [`MAX_FLUID_CELLS`], and the bed slope
+/// alone not a stronger flow than τ* (docs/model.md §13: the driving
+/// u*²/h − g sin θ ≥ 0).
+fn coupled_flow_fits(scenario: &Scenario, tau_stars: &[f64]) -> Result<(), ConfigError> {
+    if scenario.flow.model != FlowModel::Coupled {
+        return Ok(());
+    }
+    for (k, &tau_star) in tau_stars.iter().enumerate() {
+        let flow = scenario.flow(tau_star);
+        let cells = flow.fluid.cells;
+        need(
+            cells <= MAX_FLUID_CELLS,
+            "fluid.cell_d",
+            scenario.flow.fluid.cell_height / scenario.bed.max_diameter(),
+            &format!(
+                "large enough for at most {MAX_FLUID_CELLS} cells over the column's {:e} m \
+                 (here {cells} cells; or a smaller flow.depth)",
+                flow.fluid.surface - flow.fluid.bottom
+            ),
+        )?;
+        let s = scenario.material.s;
+        let h = scenario.flow.depth;
+        let least = h * scenario.slope.sin() / (s - 1.0) / scenario.bed.max_diameter();
+        need(
+            flow.fluid.driving >= 0.0,
+            &format!("flow.tau_star[{k}]"),
+            tau_star,
+            &format!(
+                ">= h sin(theta)/((s - 1) d_max) = {least:e}, the Shields number the bed slope \
+                 bed.slope_rad = {} alone drives over flow.depth = {h} m (a uniform flow: \
+                 flow.slope = [sin(theta)])",
+                scenario.slope
+            ),
+        )?;
+    }
+    Ok(())
 }
 
 /// The classical stability bound docs/model.md (11) on the integration step

@@ -111,7 +111,10 @@ impl FrameWriter {
     /// Looks at the grains' x to count their crossings of the periodic seam;
     /// call it at least every [`TRACK_SECONDS`] between frames (as
     /// [`run_steps`] does).
-    pub fn track<R: Real, const N: usize, const K: usize>(&mut self, sim: &Sim<R, N, K>) {
+    pub fn track<R: Real, const N: usize, const K: usize, const C: usize>(
+        &mut self,
+        sim: &Sim<R, N, K, C>,
+    ) {
         let x: Vec<f64> = (0..sim.len())
             .filter_map(|i| sim.grain(i))
             .map(|g| g.x)
@@ -121,9 +124,9 @@ impl FrameWriter {
 
     /// Writes the next frame of `sim` at `time` (s), and the `.pvd` listing
     /// every frame so far. Returns the frame's path.
-    pub fn write<R: Real, const N: usize, const K: usize>(
+    pub fn write<R: Real, const N: usize, const K: usize, const C: usize>(
         &mut self,
-        sim: &Sim<R, N, K>,
+        sim: &Sim<R, N, K, C>,
         time: f64,
     ) -> Result<PathBuf, HostError> {
         self.track(sim);
@@ -160,8 +163,8 @@ impl FrameWriter {
 
 /// Runs `steps` steps like [`crate::sims::run_steps`], letting `frames`
 /// [`FrameWriter::track`] the grains every [`TRACK_SECONDS`].
-pub fn run_steps<R: Real, const N: usize, const K: usize>(
-    sim: &mut Sim<R, N, K>,
+pub fn run_steps<R: Real, const N: usize, const K: usize, const C: usize>(
+    sim: &mut Sim<R, N, K, C>,
     steps: u64,
     progress: &ProgressBar,
     frames: &mut FrameWriter,
@@ -220,11 +223,11 @@ pub struct Dumps {
 impl Dumps {
     /// Starts the frames of a cell in `dir` afresh (earlier files of the
     /// directory are removed): the first frame now if the flow starts now.
-    pub fn start<R: Real, const N: usize, const K: usize>(
+    pub fn start<R: Real, const N: usize, const K: usize, const C: usize>(
         dir: &Path,
         every: u64,
         origin: u64,
-        sim: &Sim<R, N, K>,
+        sim: &Sim<R, N, K, C>,
     ) -> Result<Self, HostError> {
         match std::fs::remove_dir_all(dir) {
             Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
@@ -254,11 +257,11 @@ impl Dumps {
     /// step, interval, width and grains) the frames written up to it are
     /// kept, later ones removed, and the image counts taken over; else the
     /// collection starts afresh ([`Dumps::start`]).
-    pub fn resume<R: Real, const N: usize, const K: usize>(
+    pub fn resume<R: Real, const N: usize, const K: usize, const C: usize>(
         dir: &Path,
         every: u64,
         origin: u64,
-        sim: &Sim<R, N, K>,
+        sim: &Sim<R, N, K, C>,
     ) -> Result<Self, HostError> {
         let mut dumps = Self::start_keeping(dir, every, origin, sim)?;
         let path = dir.join(RESUME);
@@ -302,11 +305,11 @@ impl Dumps {
     }
 
     /// A writer in `dir` without removing anything, looking at `sim`.
-    fn start_keeping<R: Real, const N: usize, const K: usize>(
+    fn start_keeping<R: Real, const N: usize, const K: usize, const C: usize>(
         dir: &Path,
         every: u64,
         origin: u64,
-        sim: &Sim<R, N, K>,
+        sim: &Sim<R, N, K, C>,
     ) -> Result<Self, HostError> {
         let step_dt = sim.config().step_dt;
         let mut writer = FrameWriter::new(dir, "frames")?;
@@ -322,14 +325,17 @@ impl Dumps {
     }
 
     /// Steps since the flow started.
-    fn since<R: Real, const N: usize, const K: usize>(&self, sim: &Sim<R, N, K>) -> u64 {
+    fn since<R: Real, const N: usize, const K: usize, const C: usize>(
+        &self,
+        sim: &Sim<R, N, K, C>,
+    ) -> u64 {
         sim.step_count().saturating_sub(self.origin)
     }
 
     /// Writes the frame of now.
-    fn write<R: Real, const N: usize, const K: usize>(
+    fn write<R: Real, const N: usize, const K: usize, const C: usize>(
         &mut self,
-        sim: &Sim<R, N, K>,
+        sim: &Sim<R, N, K, C>,
     ) -> Result<(), HostError> {
         let step = self.since(sim);
         self.writer.write(sim, frame_time(step, self.step_dt))?;
@@ -340,9 +346,9 @@ impl Dumps {
     /// Runs `steps` steps in pieces that end on every frame (written) and
     /// at least every [`TRACK_SECONDS`] (a look): the same bits as one
     /// `sim.run(steps)`. A kernel error goes through `fail`.
-    pub fn run<R: Real, const N: usize, const K: usize>(
+    pub fn run<R: Real, const N: usize, const K: usize, const C: usize>(
         &mut self,
-        sim: &mut Sim<R, N, K>,
+        sim: &mut Sim<R, N, K, C>,
         steps: u64,
         fail: impl Fn(mbs_kernel::Error) -> HostError,
     ) -> Result<(), HostError> {
@@ -363,9 +369,9 @@ impl Dumps {
 
     /// Writes the [`RESUME`] record of now: call it with each checkpoint of
     /// the cell, before the checkpoint is written.
-    pub fn save<R: Real, const N: usize, const K: usize>(
+    pub fn save<R: Real, const N: usize, const K: usize, const C: usize>(
         &mut self,
-        sim: &Sim<R, N, K>,
+        sim: &Sim<R, N, K, C>,
     ) -> Result<(), HostError> {
         self.writer.track(sim);
         let record = Record {

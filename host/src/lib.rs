@@ -46,6 +46,7 @@ pub mod mixture;
 pub mod output;
 pub mod pack;
 pub mod plot;
+pub mod profiles;
 pub mod progress;
 pub mod references;
 pub mod shard;

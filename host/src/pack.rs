@@ -6,9 +6,9 @@ use crate::config::Config;
 use crate::error::HostError;
 use crate::output::{decimal, write_csv};
 use crate::plot::{save, LinesFigure};
-use crate::sims::{run_steps, with_sim, SimJob, NEIGHBOURS};
+use crate::sims::{run_steps, with_sim, HostSim, SimJob};
 use indicatif::ProgressBar;
-use mbs_kernel::{Real, Sim};
+use mbs_kernel::Real;
 use serde::Serialize;
 use std::path::Path;
 
@@ -51,13 +51,13 @@ pub struct Packing<'a> {
 impl SimJob for Packing<'_> {
     type Output = Result<Vec<PackSample>, HostError>;
 
-    fn run<R: Real, const N: usize>(self, sim: &mut Sim<R, N, NEIGHBOURS>) -> Self::Output {
+    fn run<R: Real, const N: usize>(self, sim: &mut HostSim<R, N>) -> Self::Output {
         let sc = self.config.scenario_at(self.seed);
         let fail = || HostError::kernel(format!("packing, seed {}", self.seed));
         sc.build(sim).map_err(fail())?;
         let every = self.every.max(1);
         let samples = self.steps / every;
-        let sample = |sim: &Sim<R, N, NEIGHBOURS>| {
+        let sample = |sim: &HostSim<R, N>| {
             let o = sim.observe();
             PackSample {
                 time: o.time,

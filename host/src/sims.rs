@@ -9,12 +9,19 @@ use mbs_kernel::{FlowConfig, Real, Scenario, Sim, SimConfig};
 /// Neighbour slots per grain of every host simulation (the kernel's `K`).
 pub const NEIGHBOURS: usize = 8;
 
+/// Cells of the coupled flow's column every host simulation holds (the
+/// kernel's `C`): 0.2 m of water over 0.5 mm grains in cells of d/4.
+pub const FLUID_CELLS: usize = 2048;
+
+/// A host simulation: `N` grains in precision `R`.
+pub type HostSim<R, const N: usize> = Sim<R, N, NEIGHBOURS, FLUID_CELLS>;
+
 /// Steps run between progress updates.
 const CHUNK: u64 = 2000;
 
 /// A simulation allocated directly on the heap, never built on the stack.
-pub fn boxed_sim<R: Real, const N: usize, const K: usize>() -> Box<Sim<R, N, K>> {
-    let zeroed = Box::<Sim<R, N, K>>::new_zeroed();
+pub fn boxed_sim<R: Real, const N: usize, const K: usize>() -> Box<Sim<R, N, K, FLUID_CELLS>> {
+    let zeroed = Box::<Sim<R, N, K, FLUID_CELLS>>::new_zeroed();
     // SAFETY: `Sim` documents (kernel/src/sim.rs) that every field is a
     // number, a bool, or a struct or array of those, and `Real` is sealed to
     // f32 and f64; so the all-zero bit pattern is a valid `Sim`, equal to
@@ -27,7 +34,7 @@ pub trait SimJob {
     /// What the job returns.
     type Output;
     /// Runs the job on `sim` (all zero, unconfigured).
-    fn run<R: Real, const N: usize>(self, sim: &mut Sim<R, N, NEIGHBOURS>) -> Self::Output;
+    fn run<R: Real, const N: usize>(self, sim: &mut HostSim<R, N>) -> Self::Output;
 }
 
 /// The compiled capacity a simulation of `capacity` grains gets: the
@@ -59,7 +66,7 @@ pub fn with_sim<J: SimJob>(precision: Precision, capacity: usize, job: J) -> J::
 /// integration steps taken. Else why not: a crafted or foreign state is
 /// refused, never trusted.
 pub fn check_restored<R: Real, const N: usize>(
-    sim: &Sim<R, N, NEIGHBOURS>,
+    sim: &HostSim<R, N>,
     scenario: &Scenario,
     flow: Option<&FlowConfig>,
     steps: u64,
@@ -86,8 +93,8 @@ pub fn check_restored<R: Real, const N: usize>(
 /// contacts in `precision` (`Sim::checkpoint_len`).
 pub fn checkpoint_len(precision: Precision, grains: usize, contacts: usize) -> usize {
     match precision {
-        Precision::F32 => Sim::<f32, 1, NEIGHBOURS>::checkpoint_len(grains, contacts),
-        Precision::F64 => Sim::<f64, 1, NEIGHBOURS>::checkpoint_len(grains, contacts),
+        Precision::F32 => HostSim::<f32, 1>::checkpoint_len(grains, contacts),
+        Precision::F64 => HostSim::<f64, 1>::checkpoint_len(grains, contacts),
     }
 }
 
@@ -95,18 +102,18 @@ pub fn checkpoint_len(precision: Precision, grains: usize, contacts: usize) -> u
 /// (`Sim::MAX_CHECKPOINT_LEN`): longer files are refused unread.
 pub fn max_checkpoint_len(precision: Precision, capacity: usize) -> usize {
     match (precision, compiled_capacity(capacity)) {
-        (Precision::F32, 256) => Sim::<f32, 256, NEIGHBOURS>::MAX_CHECKPOINT_LEN,
-        (Precision::F32, 4096) => Sim::<f32, 4096, NEIGHBOURS>::MAX_CHECKPOINT_LEN,
-        (Precision::F32, _) => Sim::<f32, 65536, NEIGHBOURS>::MAX_CHECKPOINT_LEN,
-        (Precision::F64, 256) => Sim::<f64, 256, NEIGHBOURS>::MAX_CHECKPOINT_LEN,
-        (Precision::F64, 4096) => Sim::<f64, 4096, NEIGHBOURS>::MAX_CHECKPOINT_LEN,
-        (Precision::F64, _) => Sim::<f64, 65536, NEIGHBOURS>::MAX_CHECKPOINT_LEN,
+        (Precision::F32, 256) => HostSim::<f32, 256>::MAX_CHECKPOINT_LEN,
+        (Precision::F32, 4096) => HostSim::<f32, 4096>::MAX_CHECKPOINT_LEN,
+        (Precision::F32, _) => HostSim::<f32, 65536>::MAX_CHECKPOINT_LEN,
+        (Precision::F64, 256) => HostSim::<f64, 256>::MAX_CHECKPOINT_LEN,
+        (Precision::F64, 4096) => HostSim::<f64, 4096>::MAX_CHECKPOINT_LEN,
+        (Precision::F64, _) => HostSim::<f64, 65536>::MAX_CHECKPOINT_LEN,
     }
 }
 
 /// Runs `steps` steps in chunks, reporting progress.
 pub fn run_steps<R: Real, const N: usize>(
-    sim: &mut Sim<R, N, NEIGHBOURS>,
+    sim: &mut HostSim<R, N>,
     steps: u64,
     progress: &ProgressBar,
 ) -> Result<(), mbs_kernel::Error> {
@@ -129,17 +136,33 @@ mod tests {
     fn zeroed_box_equals_new() {
         let sc = Scenario::paper();
         let mut a = boxed_sim::<f64, 64, 8>();
-        let mut b = Box::new(Sim::<f64, 64, 8>::new());
+        let mut b = Box::new(HostSim::<f64, 64>::new());
         // Every field, not only the digested state.
         assert_eq!(format!("{a:?}"), format!("{b:?}"));
         assert_eq!(
             format!("{:?}", boxed_sim::<f32, 64, 8>()),
-            format!("{:?}", Sim::<f32, 64, 8>::new())
+            format!("{:?}", HostSim::<f32, 64>::new())
         );
         assert_eq!(a.digest(), b.digest());
         assert_eq!(
             sc.digests(&mut *a, 0.2, 200, 200).unwrap(),
             sc.digests(&mut *b, 0.2, 200, 200).unwrap()
+        );
+        // And under the coupled flow, whose column the zeroed box holds too.
+        let coupled = Scenario {
+            flow: mbs_kernel::FlowSpec {
+                model: mbs_kernel::FlowModel::Coupled,
+                ..sc.flow
+            },
+            ..sc
+        };
+        let (mut a, mut b) = (
+            boxed_sim::<f64, 64, 8>(),
+            Box::new(HostSim::<f64, 64>::new()),
+        );
+        assert_eq!(
+            coupled.digests(&mut *a, 0.2, 200, 200).unwrap(),
+            coupled.digests(&mut *b, 0.2, 200, 200).unwrap()
         );
     }
 }

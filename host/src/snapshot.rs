@@ -7,10 +7,10 @@ use crate::control::Control;
 use crate::error::HostError;
 use crate::frames::{self, FrameWriter};
 use crate::plot::{save, BedFigure, Disc};
-use crate::sims::{with_sim, SimJob, NEIGHBOURS};
+use crate::sims::{with_sim, HostSim, SimJob};
 use indicatif::ProgressBar;
 use mbs_kernel::flow::Profile;
-use mbs_kernel::{FlowConfig, GrainSpec, Real, Sim};
+use mbs_kernel::{FlowConfig, GrainSpec, Real};
 use std::path::Path;
 use std::sync::atomic::AtomicBool;
 
@@ -59,7 +59,7 @@ pub struct Snapshot {
 impl SimJob for Snapshots<'_> {
     type Output = Result<Snapshot, HostError>;
 
-    fn run<R: Real, const N: usize>(self, sim: &mut Sim<R, N, NEIGHBOURS>) -> Self::Output {
+    fn run<R: Real, const N: usize>(self, sim: &mut HostSim<R, N>) -> Self::Output {
         let config = self.config;
         let setup = config.setup(self.tau_star, self.seed);
         let fail = || {
@@ -80,7 +80,7 @@ impl SimJob for Snapshots<'_> {
         };
         bed.run(sim)?;
         sim.set_flow(Some(&setup.flow)).map_err(fail())?;
-        let frame = |sim: &Sim<R, N, NEIGHBOURS>, flowed: bool| Frame {
+        let frame = |sim: &HostSim<R, N>, flowed: bool| Frame {
             time: sim.time(),
             width: sim.config().width,
             grains: (0..sim.len()).filter_map(|i| sim.grain(i)).collect(),

@@ -8,10 +8,8 @@ use crate::config::Config;
 use crate::error::HostError;
 use crate::experiment::TransportRow;
 use crate::output::{decimal, write_csv};
-use crate::plot::{Figure, LinesFigure, Px};
+use crate::plot::{LinesFigure, Panels};
 use crate::text::number;
-use plotters::coord::Shift;
-use plotters::prelude::*;
 use serde::Serialize;
 use std::path::Path;
 
@@ -62,31 +60,10 @@ pub fn write_timeseries(
     write_csv(path, None, &lines)
 }
 
-/// Panels stacked vertically, one figure each.
-pub struct Panels(pub Vec<LinesFigure>);
-
-impl Figure for Panels {
-    fn size(&self) -> (u32, u32) {
-        (900, 260 * self.0.len().max(1) as u32)
-    }
-
-    fn draw<DB: DrawingBackend>(
-        &self,
-        root: &DrawingArea<DB, Shift>,
-        px: Px,
-    ) -> Result<(), String> {
-        let areas = root.split_evenly((self.0.len().max(1), 1));
-        for (panel, area) in self.0.iter().zip(&areas) {
-            panel.draw(area, px)?;
-        }
-        Ok(())
-    }
-}
-
 /// q*(t) per τ*: a panel per τ* with a line per seed (block means).
 pub fn timeseries_figure(config: &Config, results: &[CellResult]) -> Panels {
-    Panels(
-        config
+    Panels {
+        panels: config
             .tau_stars
             .iter()
             .map(|&tau| LinesFigure {
@@ -117,7 +94,8 @@ pub fn timeseries_figure(config: &Config, results: &[CellResult]) -> Panels {
                 marks: Vec::new(),
             })
             .collect(),
-    )
+        side_by_side: false,
+    }
 }
 
 /// The warnings of the τ*s of a run: windows not steady (first against

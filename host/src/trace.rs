@@ -7,9 +7,11 @@
 
 use crate::config::Precision;
 use crate::input::Bound;
-use crate::sims::{boxed_sim, check_restored, checkpoint_len, with_sim, SimJob, NEIGHBOURS};
+use crate::sims::{
+    boxed_sim, check_restored, checkpoint_len, with_sim, HostSim, SimJob, NEIGHBOURS,
+};
 use base64::Engine;
-use mbs_kernel::{FieldGroup, Fnv1a, GrainField, Real, Scenario, Sim};
+use mbs_kernel::{FieldGroup, Fnv1a, GrainField, Real, Scenario};
 use serde::Serialize;
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
@@ -19,8 +21,6 @@ pub const FORMAT: &str = "mbs-trace 2";
 
 /// Grain values a mismatch report lists at most.
 const LISTED: usize = 12;
-
-type HostSim<R, const N: usize> = Sim<R, N, NEIGHBOURS>;
 
 /// A deliberate change of one grain's field by `ulps` units in the last
 /// place after `step` integration steps (`--nudge STEP:GRAIN:FIELD[:ULPS]`):

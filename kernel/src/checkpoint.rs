@@ -418,7 +418,7 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
         let bed_level = r.real::<R>()?;
         if apply {
             self.reset(&head.config)?;
-            self.set_flow(head.flow.as_ref())?;
+            self.switch_flow(head.flow.as_ref(), false)?;
         }
         let n = r.u32()? as usize;
         if n > N {

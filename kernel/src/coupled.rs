@@ -7,13 +7,26 @@ use crate::error::Error;
 use crate::real::Real;
 use crate::sim::Sim;
 
+/// Implicit steps at most that bring a starting column to its steady state
+/// over the grains at rest ([`Sim::steady_column`]).
+const STEADY_STEPS: u32 = 2000;
+
+/// Their time step, in units of the column's slowest time scale
+/// H/(κ u*) (H its height): large steps of the implicit scheme.
+const STEADY_DT: f64 = 0.1;
+
+/// The steady state is reached when no velocity changes in a step by more
+/// than this fraction of the largest.
+const STEADY_TOLERANCE: f64 = 1e-7;
+
 impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
     /// Starts the coupled flow of `self.flow` (validated, its cells fit `C`):
     /// the column at the solid fractions of the grains of now, its velocity
-    /// the log law (14) of u* above the mean bed level of now; driven by
-    /// `fluid.driving` plus g sin θ of the bed slope. The summed drag and
-    /// the carried force start at 0.
-    pub(crate) fn start_coupling(&mut self) -> Result<(), Error> {
+    /// the log law (14) of u* above the mean bed level of now, brought to
+    /// its steady state over the grains held at rest if `steady`
+    /// ([`Sim::steady_column`]); driven by `fluid.driving` plus g sin θ of
+    /// the bed slope. The summed drag and the carried force start at 0.
+    pub(crate) fn start_coupling(&mut self, steady: bool) -> Result<(), Error> {
         self.fluid.on = false;
         self.update_bed_level();
         let mut config = self.flow.fluid;
@@ -33,11 +46,65 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
             .column
             .start(&fluid.slabs, |y| profile.mean_velocity(y - bed_level))?;
         self.refresh_coupling();
+        if steady {
+            self.steady_column()?;
+        }
         let fluid = &mut self.fluid;
         let steps = self.flow.fluid.update_steps.max(1);
         fluid.exchange_dt = R::from_f64(f64::from(steps) * self.config.step_dt);
         fluid.inv_steps = R::from_f64(1.0 / f64::from(steps));
         fluid.on = true;
+        Ok(())
+    }
+
+    /// Brings the starting column to its steady state over the grains held
+    /// at rest (docs/model.md §13): implicit steps of [`STEADY_DT`] H/(κ u*)
+    /// (the column's slowest time scale; its viscous time H²/ν if u* = 0),
+    /// each grain a sink Ξ = ½ρC_D A2 d² (1 − φ)^(−n) |u_f| at rest like
+    /// the fixed grains of [`Sim::exchange`], until no velocity changes by
+    /// more than [`STEADY_TOLERANCE`] of the largest, or
+    /// [`STEADY_STEPS`] steps. The outer flow would otherwise take that
+    /// time scale, seconds to tens of seconds, to forget the log law (14).
+    fn steady_column(&mut self) -> Result<(), Error> {
+        let config = &self.flow.fluid;
+        let height = config.surface - config.bottom;
+        let rate = self.flow.kappa * self.flow.u_star / height;
+        let rate = if rate > 0.0 {
+            rate
+        } else {
+            config.viscosity / (height * height)
+        };
+        let dt = R::from_f64(STEADY_DT / rate);
+        let n = self.grains.len.min(N);
+        for _ in 0..STEADY_STEPS {
+            let fluid = &mut self.fluid;
+            let g = &self.grains;
+            fluid.slabs.clear(fluid.column.grid())?;
+            for i in 0..n {
+                let at = fluid.at(g.y[i]);
+                let xi = g.drag_coef[i] * at.hindrance * R::abs(at.u);
+                fluid.slabs.add_grain(g.y[i], g.r[i], R::ZERO, xi)?;
+            }
+            let cells = fluid.column.grid().cells().min(C);
+            fluid.previous[..cells].copy_from_slice(fluid.column.velocities());
+            fluid.column.advance(&fluid.slabs, dt)?;
+            let (mut change, mut largest) = (R::ZERO, R::ZERO);
+            for (&u, &before) in fluid.column.velocities().iter().zip(&fluid.previous) {
+                change = R::max(change, R::abs(u - before));
+                largest = R::max(largest, R::abs(u));
+            }
+            self.refresh_coupling();
+            if change <= R::from_f64(STEADY_TOLERANCE) * largest {
+                break;
+            }
+        }
+        let fluid = &mut self.fluid;
+        fluid.previous.fill(R::ZERO);
+        fluid.slabs.clear(fluid.column.grid())?;
+        let g = &self.grains;
+        for i in 0..n {
+            fluid.slabs.add_grain(g.y[i], g.r[i], g.u[i], R::ZERO)?;
+        }
         Ok(())
     }
 

@@ -138,5 +138,5 @@ pub use flow::{shear_velocity, FlowConfig, FlowModel};
 pub use grains::{GrainSpec, MAX_CLASSES};
 pub use observe::{q_star, Observation};
 pub use real::Real;
-pub use scenario::{FlowSpec, Scenario, G};
+pub use scenario::{FlowSpec, FluidSpec, Scenario, G};
 pub use sim::{Sim, SimConfig};

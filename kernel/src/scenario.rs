@@ -6,7 +6,8 @@ use crate::bed::{BedInfo, BedSpec};
 use crate::constants::{contact_constants, ContactConstants, Material, TimeStepRule};
 use crate::contact::Tension;
 use crate::error::Error;
-use crate::flow::{shear_velocity, FlowConfig};
+use crate::flow::{shear_velocity, FlowConfig, FlowModel};
+use crate::fluid::FluidConfig;
 use crate::real::Real;
 use crate::sim::{Sim, SimConfig};
 
@@ -36,6 +37,43 @@ pub struct FlowSpec {
     pub bed_level_interval: u32,
     /// Width of the bed-level windows, in largest diameters.
     pub bed_level_window: f64,
+    /// Clear water (the paper) or the coupled flow (docs/model.md §13).
+    pub model: FlowModel,
+    /// The coupled flow's column without its geometry and driving, which
+    /// [`Scenario::flow`] derives; read only with [`FlowModel::Coupled`].
+    pub fluid: FluidSpec,
+}
+
+/// The coupled flow's parameters a user chooses (docs/model.md §13); the
+/// rest of its [`FluidConfig`] follows from the bed, the material and the
+/// flow ([`Scenario::flow`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FluidSpec {
+    /// Largest height of a cell Δy (m): the column has the fewest equal
+    /// cells no higher than this.
+    pub cell_height: f64,
+    /// Kinematic viscosity ν (m²/s).
+    pub viscosity: f64,
+    /// φ_max of the mixing length (C3).
+    pub phi_max: f64,
+    /// Integration steps M between two updates of the column.
+    pub update_steps: u32,
+    /// Exponent n of the hindrance (C7); 0 turns it off.
+    pub hindrance: f64,
+}
+
+impl FluidSpec {
+    /// The defaults of [`FluidConfig::new`] with cells of `cell_height`.
+    pub const fn new(cell_height: f64) -> Self {
+        let f = FluidConfig::new(0, 0.0, 0.0, 0.0);
+        FluidSpec {
+            cell_height,
+            viscosity: f.viscosity,
+            phi_max: f.phi_max,
+            update_steps: f.update_steps,
+            hindrance: f.hindrance,
+        }
+    }
 }
 
 impl FlowSpec {
@@ -93,6 +131,8 @@ pub struct Scenario {
     /// The flow without its strength ([`Scenario::flow`] adds the u* of a
     /// τ*); its `depth` is also the top of the domain.
     pub flow: FlowSpec,
+    /// Bed slope θ (rad), [`SimConfig::slope`]: x runs down the slope.
+    pub slope: f64,
     /// Largest neighbour skin in units of the largest diameter.
     pub skin: f64,
     /// Seed of every random draw.
@@ -136,7 +176,22 @@ impl Scenario {
                 hold_steps: 100 * SUBSTEPS,
                 bed_level_interval: 100 * SUBSTEPS,
                 bed_level_window: 5.0,
+                model: FlowModel::ClearWater,
+                // \[choice\] cells of d/2; φ_max 0.6 of a packed bed, the
+                // largest mean solid fraction of the quasi-2-D beds of
+                // Frey (2014) (0.58–0.60), so that the mixing length (C3)
+                // starts at the bed's surface; the column updated every
+                // 10 Δt, a tenth of the fluctuations' hold (far below its
+                // drag relaxation time); Richardson–Zaki's hindrance 3.1,
+                // as in Maurin et al. (2015) (C7) (docs/model.md §13).
+                fluid: FluidSpec {
+                    phi_max: 0.6,
+                    update_steps: 10 * SUBSTEPS,
+                    hindrance: 3.1,
+                    ..FluidSpec::new(0.5 * D)
+                },
             },
+            slope: 0.0,
             skin: 0.1,
             seed: 1,
         }
@@ -167,7 +222,7 @@ impl Scenario {
             y_max: self.flow.depth,
             skin: self.skin * d,
             seed: self.seed,
-            slope: 0.0,
+            slope: self.slope,
         })
     }
 
@@ -177,10 +232,75 @@ impl Scenario {
     }
 
     /// The flow at Shields number `tau_star`: u* from τ* for the largest
-    /// grain (docs/model.md §6).
+    /// grain (docs/model.md §6). The coupled flow (docs/model.md §13) gets
+    /// the [`Scenario::column`] driven by g S = u*²/h, of which the bed
+    /// slope gives g sin θ (at most: a larger slope is an invalid
+    /// `fluid.driving`), so that the total shear stress at y = 0, the fixed
+    /// grains' mean centre height, is ρ u*².
+    ///
+    /// ```
+    /// use mbs_kernel::{FlowModel, Scenario};
+    ///
+    /// let mut sc = Scenario::paper();
+    /// sc.flow.model = FlowModel::Coupled;
+    /// let flow = sc.flow(0.2);
+    /// assert_eq!(flow.model, FlowModel::Coupled);
+    /// assert!((flow.fluid.driving * 0.2 - flow.u_star * flow.u_star).abs() < 1e-15);
+    /// ```
     pub fn flow(&self, tau_star: f64) -> FlowConfig {
-        let u_star = shear_velocity(tau_star, self.material.s, G, self.bed.max_diameter());
-        self.flow.at(u_star)
+        let d = self.bed.max_diameter();
+        let u_star = shear_velocity(tau_star, self.material.s, G, d);
+        let mut flow = self.flow.at(u_star);
+        if self.flow.model == FlowModel::Coupled {
+            let mut fluid = self.column();
+            let slope_drive = G * libm::sin(self.slope);
+            let drive = FluidConfig::driving_for(u_star, fluid.surface) - slope_drive;
+            // A uniform flow, u*² = g h sin θ, to round-off: the slope alone.
+            fluid.driving = if drive < 0.0 && drive >= -1e-9 * slope_drive {
+                0.0
+            } else {
+                drive
+            };
+            flow.model = FlowModel::Coupled;
+            flow.fluid = fluid;
+        }
+        flow
+    }
+
+    /// The coupled flow's column without driving (docs/model.md §13): from
+    /// below the lowest fixed grain, −(2 `fixed_spread` + ½) d_max (the
+    /// fixed heights are truncated at ±2σ), to the top of the domain, the
+    /// depth h, in equal cells of at most [`FluidSpec::cell_height`]; its
+    /// slabs as wide as the bed and one d_max thick.
+    ///
+    /// ```
+    /// use mbs_kernel::Scenario;
+    ///
+    /// let column = Scenario::paper().column();
+    /// assert_eq!(column.cells, 803); // (0.2 m + 7/6 d)/(d/2) = 802.3
+    /// assert_eq!(column.surface, 0.2);
+    /// ```
+    pub fn column(&self) -> FluidConfig {
+        let d = self.bed.max_diameter();
+        let f = &self.flow.fluid;
+        let bottom = -(2.0 * self.bed.fixed_spread + 0.5) * d;
+        let surface = self.flow.depth;
+        let cells = libm::ceil((surface - bottom) / f.cell_height);
+        // A NaN or huge count fails `FluidConfig::validate`.
+        let cells = if cells.is_finite() && cells < 1e9 {
+            cells as usize
+        } else {
+            usize::MAX
+        };
+        FluidConfig {
+            density: self.material.rho,
+            viscosity: f.viscosity,
+            kappa: self.flow.kappa,
+            phi_max: f.phi_max,
+            update_steps: f.update_steps,
+            hindrance: f.hindrance,
+            ..FluidConfig::new(cells, bottom, surface, self.bed.width() * d)
+        }
     }
 
     /// Resets `sim` and builds the initial bed.

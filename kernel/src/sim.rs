@@ -417,6 +417,16 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
     /// for a coupled flow whose column refused the grains (a slab's solid
     /// fraction ≥ 1), which leaves the flow off.
     pub fn set_flow(&mut self, flow: Option<&FlowConfig>) -> Result<(), Error> {
+        self.switch_flow(flow, true)
+    }
+
+    /// [`Sim::set_flow`]; a coupled column brought to its steady state only
+    /// if `steady` (a restore replaces the column's state at once).
+    pub(crate) fn switch_flow(
+        &mut self,
+        flow: Option<&FlowConfig>,
+        steady: bool,
+    ) -> Result<(), Error> {
         match flow {
             Some(f) => {
                 f.validate()?;
@@ -430,11 +440,11 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
                 self.flow_epoch = self.step;
                 self.fluid.on = false;
                 if let Err(e) = if coupled {
-                    self.start_coupling()
+                    self.start_coupling(steady)
                 } else {
                     Ok(())
                 } {
-                    self.set_flow(None)?;
+                    self.switch_flow(None, steady)?;
                     return Err(e);
                 }
             }

@@ -333,10 +333,11 @@ fn damaged_fluid_sections_are_refused() {
     // Truncated in the fluid section.
     assert!(target.restore(&good[..good.len() - 3]).is_err());
     assert_eq!((target.digest(), bytes(&*target)), before);
+    let template = coupled_run::<f64, 8, CELLS>(10, 0);
     for k in (0..good.len()).step_by(11) {
         let mut flipped = good.clone();
         flipped[k] ^= 0x5a;
-        let mut t = coupled_run::<f64, 8, CELLS>(10, 0);
+        let mut t = template.clone();
         let before = t.digest();
         match t.restore(&flipped) {
             Ok(()) => {

@@ -92,12 +92,7 @@ impl<R: Real, const C: usize> Column<R, C> {
         config.validate(C)?;
         self.u.fill(R::ZERO);
         self.phi.fill(R::ZERO);
-        self.grid = Grid::new(
-            config.cells,
-            config.bottom,
-            config.surface,
-            config.cross_section,
-        );
+        self.grid = config.grid();
         self.density = R::from_f64(config.density);
         self.viscosity = R::from_f64(config.viscosity);
         self.kappa = R::from_f64(config.kappa);

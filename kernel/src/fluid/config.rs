@@ -1,7 +1,9 @@
 //! The coupled flow's parameters (docs/model.md §13), in SI units and `f64`,
 //! checked once by [`FluidConfig::validate`].
 
+use super::grid::Grid;
 use crate::error::{check, finite, non_negative, positive, Capacity, Error};
+use crate::real::Real;
 
 /// Parameters of a [`super::Column`].
 ///
@@ -79,6 +81,13 @@ impl FluidConfig {
     /// is ρ u*² (docs/model.md (C5)).
     pub fn driving_for(u_star: f64, depth: f64) -> f64 {
         u_star * u_star / depth
+    }
+
+    /// The column's cells in precision `R` (meaningful once
+    /// [`Self::validate`] accepts the configuration), e.g. for
+    /// [`super::Slabs::clear`] outside a column.
+    pub fn grid<R: Real>(&self) -> Grid<R> {
+        Grid::new(self.cells, self.bottom, self.surface, self.cross_section)
     }
 
     /// Checks every field against the capacity `capacity` (the `C` of the
