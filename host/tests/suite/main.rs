@@ -8,6 +8,7 @@ mod attack;
 mod beds;
 mod calibrate;
 mod cli;
+mod coupled;
 mod figures;
 mod frames;
 mod hostile;
