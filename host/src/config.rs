@@ -1013,7 +1013,9 @@ impl Config {
             r.capacity,
             &format!(">= the bed's {grains} grains (a larger capacity or a smaller bed)"),
         )?;
-        let bed_top = (f64::from(bed.rows) + 3.0) * bed.pitch();
+        // The kernel's bound (`Sim::build_bed`): the highest fixed grain (2σ),
+        // the lattice and one d_max.
+        let bed_top = (2.0 * bed.fixed_spread + 1.0) * d + f64::from(bed.rows) * bed.pitch();
         need(
             flow.depth > bed_top,
             "flow.depth",
