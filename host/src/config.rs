@@ -3,6 +3,7 @@
 //! parameters. Every invalid value is reported as `key = value: must be …`.
 
 use crate::input::{read_text_bounded, Bound};
+use crate::measured::MeasuredProfile;
 use crate::text::{excerpt, number, shown, QUOTE};
 use mbs_kernel::{
     contact_constants, explicit_damping_number, BedSpec, ContactConstants, FlowConfig, FlowModel,
@@ -569,6 +570,12 @@ pub struct RunSection {
     pub capacity: usize,
     /// Largest neighbour skin (diameters; each rebuild adapts it, down to 0.3 of it).
     pub skin_d: f64,
+    /// A measured profile drawn over `profiles.png` ([`MeasuredProfile`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub measured_profiles: Option<PathBuf>,
+    /// Its heights are drawn at z/d minus this (largest diameters).
+    #[serde(skip_serializing_if = "is_zero")]
+    pub measured_shift_d: f64,
 }
 
 /// A configuration file as written (every section optional).
@@ -719,6 +726,8 @@ impl Default for RunSection {
             output: PathBuf::from("mbs-out"),
             capacity: 4096,
             skin_d: Scenario::paper().skin,
+            measured_profiles: None,
+            measured_shift_d: 0.0,
         }
     }
 }
@@ -749,6 +758,8 @@ pub struct Config {
     pub precision: Precision,
     /// Grain capacity (one of [`CAPACITIES`]).
     pub capacity: usize,
+    /// `run.measured_profiles`, read, its heights shifted.
+    pub measured: Option<MeasuredProfile>,
 }
 
 /// Phase lengths of a transport cell, in integration steps.
@@ -1001,6 +1012,26 @@ impl Config {
             "in (0, 1]",
         )?;
         need(
+            r.measured_shift_d.is_finite(),
+            "run.measured_shift_d",
+            r.measured_shift_d,
+            "finite",
+        )?;
+        let measured =
+            match &r.measured_profiles {
+                None => None,
+                Some(path) => Some(MeasuredProfile::read(path, r.measured_shift_d).map_err(
+                    |why| ConfigError::Invalid {
+                        key: "run.measured_profiles".into(),
+                        value: shown(path.display().to_string()),
+                        allowed: format!(
+                            "a CSV with columns z_over_d, solid_fraction, particle_velocity_m_s \
+                         (and optionally fluid_velocity_m_s), as validation/*/*.csv: {why}"
+                        ),
+                    },
+                )?),
+            };
+        need(
             CAPACITIES.contains(&r.capacity),
             "run.capacity",
             r.capacity,
@@ -1013,7 +1044,9 @@ impl Config {
             r.capacity,
             &format!(">= the bed's {grains} grains (a larger capacity or a smaller bed)"),
         )?;
-        let bed_top = (f64::from(bed.rows) + 3.0) * bed.pitch();
+        // The kernel's bound (`Sim::build_bed`): the highest fixed grain (2σ),
+        // the lattice and one d_max.
+        let bed_top = (2.0 * bed.fixed_spread + 1.0) * d + f64::from(bed.rows) * bed.pitch();
         need(
             flow.depth > bed_top,
             "flow.depth",
@@ -1133,6 +1166,7 @@ impl Config {
             output: r.output.clone(),
             precision: r.precision,
             capacity: r.capacity,
+            measured,
             file,
             scenario,
             contact,
@@ -1693,6 +1727,9 @@ pub fn canonical(config: &ConfigFile) -> ConfigFile {
     // A validated configuration holds its flow as `tau_star` too.
     c.flow.u_star_m_s = None;
     c.flow.slope = None;
+    // Only drawn: a cell store stays reusable with another measured profile.
+    c.run.measured_profiles = None;
+    c.run.measured_shift_d = 0.0;
     c
 }
 

@@ -42,6 +42,7 @@ pub mod frames;
 pub mod framing;
 pub mod input;
 pub mod log;
+pub mod measured;
 pub mod mixture;
 pub mod output;
 pub mod pack;

@@ -217,7 +217,8 @@ pub fn write_profiles(
 const ABOVE_BED_D: f64 = 15.0;
 
 /// φ, u_p and u_f against y/d, side by side, a line per τ*: from the
-/// column's bottom to [`ABOVE_BED_D`] above the highest grain.
+/// column's bottom to [`ABOVE_BED_D`] above the highest grain; the measured
+/// profile of `run.measured_profiles` as dots.
 pub fn profiles_figure(config: &Config, results: &[CellResult]) -> Panels {
     let y = heights(config);
     let profiles: Vec<(f64, CellProfile)> = config
@@ -247,9 +248,20 @@ pub fn profiles_figure(config: &Config, results: &[CellResult]) -> Panels {
         crate::config::FlowModelKey::ClearWater => "clear water",
         crate::config::FlowModelKey::Coupled => "coupled flow",
     };
-    let panel = |series, title: &str, x_label: &str| LinesFigure {
+    // `run.measured_profiles` as dots on each panel (u_f where it has it).
+    let measured = config
+        .measured
+        .as_ref()
+        .map(|m| (m.label.clone(), m.points()));
+    let dots = |k: usize| match &measured {
+        Some((label, points)) if !points[k].is_empty() => {
+            vec![(label.clone(), points[k].clone())]
+        }
+        _ => Vec::new(),
+    };
+    let panel = |series, k: usize, title: &str, x_label: &str| LinesFigure {
         series,
-        dots: Vec::new(),
+        dots: dots(k),
         title: title.into(),
         x_label: x_label.into(),
         y_label: "y/d".into(),
@@ -262,16 +274,19 @@ pub fn profiles_figure(config: &Config, results: &[CellResult]) -> Panels {
         panels: vec![
             panel(
                 shown(&|p| &p.solid_fraction, false),
+                0,
                 &format!("solid fraction ({model})"),
                 "φ",
             ),
             panel(
                 shown(&|p| &p.grain_velocity, true),
+                1,
                 "grain velocity",
                 "u_p (m/s)",
             ),
             panel(
                 shown(&|p| &p.fluid_velocity, false),
+                2,
                 "fluid velocity",
                 "u_f (m/s)",
             ),

@@ -93,3 +93,62 @@ fn the_snapshot_has_a_colour_bar_the_bed_level_the_flow_and_the_periodic_edges()
         "{texts:?}"
     );
 }
+
+#[test]
+fn measured_profiles_are_drawn_over_the_profiles_and_a_bad_file_is_a_configuration_error() {
+    let dir = tempfile::tempdir().unwrap();
+    // u_f given at one height only: its panel gets that one dot.
+    write(
+        dir.path(),
+        "m.csv",
+        "z_over_d,solid_fraction,particle_velocity_m_s,fluid_velocity_m_s\n\
+         0.5,0.55,0.0,\n1.5,0.2,0.05,\n3.0,0.0,0.0,0.3\n",
+    );
+    let measured = dir.path().join("m.csv");
+    let text = SMALL.replace("seeds = [1, 2]", "seeds = [1]").replace(
+        "[run]",
+        &format!(
+            "[run]\nmeasured_profiles = {:?}\nmeasured_shift_d = 0.5",
+            measured.display().to_string()
+        ),
+    );
+    let cfg = write(dir.path(), "measured.toml", &text);
+    let out = dir.path().join("out");
+    run_into(&cfg, &out).assert().success();
+    let texts = svg_texts(&out, "profiles");
+    let legends = texts.iter().filter(|t| *t == "measured (m.csv)").count();
+    assert_eq!(legends, 3, "{texts:?}");
+    // The shift and the file name are kept in the saved configuration.
+    let saved = std::fs::read_to_string(out.join("config.toml")).unwrap();
+    assert!(saved.contains("measured_shift_d = 0.5"), "{saved}");
+    assert!(saved.contains("m.csv"), "{saved}");
+
+    for (name, body) in [
+        ("missing.csv", None),
+        (
+            "empty.csv",
+            Some("z_over_d,solid_fraction,particle_velocity_m_s\n"),
+        ),
+        ("column.csv", Some("z_over_d,solid_fraction\n1.0,0.5\n")),
+        (
+            "nan.csv",
+            Some("z_over_d,solid_fraction,particle_velocity_m_s\nNaN,0.5,0.1\n"),
+        ),
+    ] {
+        if let Some(body) = body {
+            write(dir.path(), name, body);
+        }
+        let path = dir.path().join(name);
+        let bad = SMALL.replace(
+            "[run]",
+            &format!(
+                "[run]\nmeasured_profiles = {:?}",
+                path.display().to_string()
+            ),
+        );
+        let cfg = write(dir.path(), "bad.toml", &bad);
+        let output = run_into(&cfg, &dir.path().join("bad")).assert().failure();
+        let stderr = String::from_utf8_lossy(&output.get_output().stderr).into_owned();
+        assert!(stderr.contains("run.measured_profiles"), "{name}: {stderr}");
+    }
+}
