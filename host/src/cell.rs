@@ -139,7 +139,7 @@ impl WindowRule {
                 relative: config.file.target.stderr_relative,
                 absolute: config.file.target.stderr_absolute,
             },
-            cells: crate::profiles::grid(config).cells(),
+            cells: crate::profiles::ProfileGrid::of(config).grid.cells(),
         }
     }
 

@@ -105,7 +105,7 @@ pub fn run_all(
     let max_len = CellCheckpoint::max_len(
         config.scenario.bed.classes.len(),
         config.durations.max_blocks,
-        crate::profiles::grid(config).cells(),
+        crate::profiles::ProfileGrid::of(config).grid.cells(),
         max_checkpoint_len(config.precision, config.capacity),
     );
     let reason = format!(

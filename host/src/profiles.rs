@@ -1,6 +1,7 @@
 //! Vertical profiles of a cell's window (docs/model.md §13), on the cells of
 //! the coupled flow's column ([`mbs_kernel::Scenario::column`]) whatever the
-//! flow's model: per slab, the solid fraction φ (C2), the mean streamwise
+//! flow's model, continued down through the fixed grains ([`ProfileGrid`]):
+//! per slab, the solid fraction φ (C2), the mean streamwise
 //! grain velocity u_p (weighted by the grains' slice volumes, fixed grains
 //! included at rest) and the mean fluid velocity u_f: the column's with the
 //! coupled flow, the log law (14) above the mean bed level with clear
@@ -38,34 +39,55 @@ pub struct ProfileSums {
     pub fluid: Vec<f64>,
 }
 
-/// Slab sums of the grains on the column's cells, reused between samples
-/// (one allocation per cell, not per sample).
-pub struct Sampler {
-    grid: Grid<f64>,
-    slabs: Box<Slabs<f64, FLUID_CELLS>>,
+/// Cells of the profiles at most: the column's [`FLUID_CELLS`] and as many
+/// again below it.
+const PROFILE_CELLS: usize = 2 * FLUID_CELLS;
+
+/// The profiles' cells: those of the coupled flow's column (for clear water
+/// over fine grains, as many equal cells over the same heights as fit
+/// [`FLUID_CELLS`]; the coupled flow's column must fit them), continued
+/// downwards to the lowest fixed grain's bottom, −(2 `fixed_spread` + ½)
+/// d_max, where the column's water is at rest.
+#[derive(Debug, Clone, Copy)]
+pub struct ProfileGrid {
+    /// The cells, bottom up.
+    pub grid: Grid<f64>,
+    /// Cells below the column's bottom.
+    pub below: usize,
 }
 
-/// The profiles' cells: the coupled flow's column, or for clear water over
-/// fine grains, as many equal cells over the same heights as fit
-/// [`FLUID_CELLS`] (the coupled flow's column must fit them).
-pub fn grid(config: &Config) -> Grid<f64> {
-    let mut column = config.scenario.column();
-    column.cells = column.cells.min(FLUID_CELLS);
-    column.grid()
+impl ProfileGrid {
+    /// The profiles' cells of `config`.
+    pub fn of(config: &Config) -> ProfileGrid {
+        let sc = &config.scenario;
+        let mut column = sc.column();
+        column.cells = column.cells.min(FLUID_CELLS);
+        let dy = (column.surface - column.bottom) / column.cells as f64;
+        let reach = (2.0 * sc.bed.fixed_spread + 0.5) * sc.bed.max_diameter();
+        let below = ((reach / dy).ceil() as usize).min(PROFILE_CELLS - column.cells);
+        column.bottom -= below as f64 * dy;
+        column.cells += below;
+        ProfileGrid {
+            grid: column.grid(),
+            below,
+        }
+    }
+}
+
+/// Slab sums of the grains on the profiles' cells, reused between samples
+/// (one allocation per cell, not per sample).
+pub struct Sampler {
+    cells: ProfileGrid,
+    slabs: Box<Slabs<f64, PROFILE_CELLS>>,
 }
 
 impl Sampler {
-    /// The sampler of `config`'s column.
+    /// The sampler of `config`'s profiles.
     pub fn new(config: &Config) -> Sampler {
         Sampler {
-            grid: grid(config),
+            cells: ProfileGrid::of(config),
             slabs: Box::new(Slabs::new()),
         }
-    }
-
-    /// Cells of the column.
-    pub fn cells(&self) -> usize {
-        self.grid.cells()
     }
 
     /// Adds the profiles of `sim` now to `sums`.
@@ -74,8 +96,9 @@ impl Sampler {
         sim: &HostSim<R, N>,
         sums: &mut ProfileSums,
     ) -> Result<(), mbs_kernel::Error> {
-        let cells = self.grid.cells();
-        self.slabs.clear(self.grid)?;
+        let ProfileGrid { grid, below } = self.cells;
+        let cells = grid.cells();
+        self.slabs.clear(grid)?;
         for g in (0..sim.len()).filter_map(|i| sim.grain(i)) {
             self.slabs.add_grain(g.y, 0.5 * g.diameter, g.u, 0.0)?;
         }
@@ -86,8 +109,12 @@ impl Sampler {
             sums.solid[j] += phi;
             sums.momentum[j] += phi * self.slabs.grain_velocity(j);
             sums.fluid[j] += match (column, &clear) {
-                (Some(c), _) => c.velocities()[j].to_f64(),
-                (None, Some((law, level))) => law.mean_velocity(self.grid.centre(j) - level),
+                // Below the column's no-slip bottom the water is at rest.
+                (Some(c), _) => j
+                    .checked_sub(below)
+                    .and_then(|k| c.velocities().get(k))
+                    .map_or(0.0, |u| u.to_f64()),
+                (None, Some((law, level))) => law.mean_velocity(grid.centre(j) - level),
                 (None, None) => 0.0,
             };
         }
@@ -181,7 +208,7 @@ fn mean_profile(results: &[CellResult], tau_star: f64) -> Option<CellProfile> {
 /// Heights of the cell centres over the largest diameter (y = 0: the fixed
 /// grains' mean centre height).
 fn heights(config: &Config) -> Vec<f64> {
-    let grid = grid(config);
+    let grid = ProfileGrid::of(config).grid;
     let d = config.scenario.bed.max_diameter();
     (0..grid.cells()).map(|j| grid.centre(j) / d).collect()
 }
@@ -240,7 +267,10 @@ pub fn profiles_figure(config: &Config, results: &[CellResult]) -> Panels {
                     .filter(|((yj, _), phi)| **yj <= top && (!grains_only || **phi > 0.0))
                     .map(|((&yj, &v), _)| (v, yj))
                     .collect();
-                (format!("τ* = {}", number(*t)), points)
+                // Four significant digits: a τ* from a slope is long.
+                let tau = number(*t);
+                let tau = if tau.len() <= 6 { tau } else { format!("{t:.4}") };
+                (format!("τ* = {tau}"), points)
             })
             .collect::<Vec<_>>()
     };

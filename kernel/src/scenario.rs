@@ -268,8 +268,10 @@ impl Scenario {
     }
 
     /// The coupled flow's column without driving (docs/model.md §13): from
-    /// below the lowest fixed grain, −(2 `fixed_spread` + ½) d_max (the
-    /// fixed heights are truncated at ±2σ), to the top of the domain, the
+    /// the fixed grains' mean centre height y = 0, as HydroForceEngine's
+    /// (Maurin et al. 2015: below it the fixed layer holds the water at
+    /// rest, and a column reaching below the fixed grains carries a
+    /// spurious fast layer under them), to the top of the domain, the
     /// depth h, in equal cells of at most [`FluidSpec::cell_height`]; its
     /// slabs as wide as the bed and one d_max thick.
     ///
@@ -277,13 +279,13 @@ impl Scenario {
     /// use mbs_kernel::Scenario;
     ///
     /// let column = Scenario::paper().column();
-    /// assert_eq!(column.cells, 803); // (0.2 m + 7/6 d)/(d/2) = 802.3
+    /// assert_eq!((column.bottom, column.cells), (0.0, 800)); // 0.2 m in cells of d/2
     /// assert_eq!(column.surface, 0.2);
     /// ```
     pub fn column(&self) -> FluidConfig {
         let d = self.bed.max_diameter();
         let f = &self.flow.fluid;
-        let bottom = -(2.0 * self.bed.fixed_spread + 0.5) * d;
+        let bottom = 0.0;
         let surface = self.flow.depth;
         let cells = libm::ceil((surface - bottom) / f.cell_height);
         // A NaN or huge count fails `FluidConfig::validate`.

@@ -47,7 +47,8 @@ fn profiles_hold_the_grains_volume_exactly() {
         let rows = profiles(&out);
         for tau in [0.1, 0.3] {
             let rows: Vec<_> = rows.iter().filter(|r| r.0 == tau).collect();
-            assert_eq!(rows.len(), 803, "{name}: (0.2 m + 7/6 d) in cells of d/2");
+            // 0.2 m in cells of d/2, and 3 more down to the fixed grains (7/6 d).
+            assert_eq!(rows.len(), 803, "{name}");
             let dy = (rows[1].1 - rows[0].1) * d;
             let volume: f64 = rows.iter().map(|r| r.2 * area * dy).sum();
             assert!(
