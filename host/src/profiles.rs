@@ -269,7 +269,11 @@ pub fn profiles_figure(config: &Config, results: &[CellResult]) -> Panels {
                     .collect();
                 // Four significant digits: a τ* from a slope is long.
                 let tau = number(*t);
-                let tau = if tau.len() <= 6 { tau } else { format!("{t:.4}") };
+                let tau = if tau.len() <= 6 {
+                    tau
+                } else {
+                    format!("{t:.4}")
+                };
                 (format!("τ* = {tau}"), points)
             })
             .collect::<Vec<_>>()

@@ -121,13 +121,7 @@ fn transport_table_does_not_depend_on_threads() {
     let mut tables = Vec::new();
     for threads in ["1", "2"] {
         let out = dir.path().join(format!("t{threads}"));
-        mbs()
-            .args(["--threads", threads, "run"])
-            .arg(&cfg)
-            .arg("--out")
-            .arg(&out)
-            .assert()
-            .success();
+        run_on_threads(&cfg, &out, threads).assert().success();
         tables.push(std::fs::read(out.join("transport.csv")).unwrap());
     }
     assert_eq!(tables[0], tables[1]);

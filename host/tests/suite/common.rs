@@ -39,6 +39,16 @@ pub fn run_into(config: &Path, out: &Path) -> Command {
     c
 }
 
+/// `mbs --quiet --threads THREADS run CONFIG --out OUT`.
+pub fn run_on_threads(config: &Path, out: &Path, threads: &str) -> Command {
+    let mut c = mbs();
+    c.args(["--threads", threads, "run"])
+        .arg(config)
+        .arg("--out")
+        .arg(out);
+    c
+}
+
 /// `mbs --quiet run --resume DIR`.
 pub fn resume_in(dir: &Path) -> Command {
     let mut c = mbs();

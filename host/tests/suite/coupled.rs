@@ -73,13 +73,7 @@ fn coupled_runs_repeat_bit_for_bit() {
     let mut outputs = Vec::new();
     for threads in ["1", "2"] {
         let out = dir.path().join(format!("t{threads}"));
-        mbs()
-            .args(["--threads", threads, "run"])
-            .arg(&cfg)
-            .arg("--out")
-            .arg(&out)
-            .assert()
-            .success();
+        run_on_threads(&cfg, &out, threads).assert().success();
         outputs.push(out);
     }
     let stopped = dir.path().join("stopped");
