@@ -43,6 +43,21 @@ pub(crate) struct Coupling<R: Real, const C: usize> {
     pub(crate) inv_steps: R,
 }
 
+/// Where a grain lies between the cell centres ([`Coupling::place`]):
+/// between centres `cell` and `cell + 1` at `frac` of the way (`inside`),
+/// or below the first or above the last centre, in `cell`'s tables with
+/// `frac` = 0. Its drag goes to those centres by the same weights
+/// ([`Coupling::deposit`]).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Place<R: Real> {
+    /// The lower of the two centres, or the end cell.
+    pub(crate) cell: usize,
+    /// The weight of the upper centre, in [0, 1); 0 beyond the ends.
+    pub(crate) frac: R,
+    /// Between two centres.
+    pub(crate) inside: bool,
+}
+
 /// What a grain at some height reads of the coupled flow: u_f, the scale of
 /// its fluctuations and its hindrance, all linear between the two cell
 /// centres around it ([`Coupling::at`]), and where its drag goes.
@@ -54,10 +69,8 @@ pub(crate) struct Local<R: Real> {
     pub(crate) scale: R,
     /// (1 − φ)^(−n).
     pub(crate) hindrance: R,
-    /// The lower of the two centres.
-    cell: usize,
-    /// The weight of the upper centre, in [0, 1).
-    frac: R,
+    /// Where it was read.
+    pub(crate) place: Place<R>,
 }
 
 impl<R: Real, const C: usize> Coupling<R, C> {
@@ -88,57 +101,88 @@ impl<R: Real, const C: usize> Coupling<R, C> {
         sum * self.exchange_dt
     }
 
+    /// Height `y` in cells from the first centre: (y − bottom)/Δy − ½.
+    #[inline]
+    pub(crate) fn position(&self, y: R) -> R {
+        let grid = self.column.grid();
+        (y - grid.bottom) * grid.inv_dy - R::HALF
+    }
+
+    /// Where `position` ([`Coupling::position`]) lies between the cell
+    /// centres: between two, or beyond the first or the last.
+    #[inline]
+    pub(crate) fn place(&self, position: R) -> Place<R> {
+        let last = self.column.grid().cells().min(C).saturating_sub(1);
+        let above = position > R::ZERO;
+        // `as usize` saturates; position > 0 here.
+        let i = if above { position.to_f64() as usize } else { 0 };
+        if above && i < last {
+            Place {
+                cell: i,
+                frac: position - R::from_f64(i as f64),
+                inside: true,
+            }
+        } else {
+            Place {
+                cell: if above { last } else { 0 },
+                frac: R::ZERO,
+                inside: false,
+            }
+        }
+    }
+
+    /// u_f below the first centre at `position` (≤ 0), from its value `top`
+    /// there: falling linearly to 0 at the no-slip bottom (position −½).
+    #[inline]
+    pub(crate) fn wall(position: R, top: R) -> R {
+        let wall = R::min(R::max((position + R::HALF) * R::from_f64(2.0), R::ZERO), R::ONE);
+        top * wall
+    }
+
     /// The flow at height `y`, linear between the two cell centres around
     /// it; below the first centre the tables of the bottom cell and u_f
     /// falling linearly to 0 at the no-slip bottom (as
     /// [`Column::velocity_at`]), above the last centre the top cell's.
     #[inline]
     pub(crate) fn at(&self, y: R) -> Local<R> {
-        let grid = self.column.grid();
-        let n = grid.cells().min(C);
+        let s = self.position(y);
+        let place = self.place(s);
         let u = self.column.velocities();
-        let s = (y - grid.bottom) * grid.inv_dy - R::HALF;
-        // `as usize` saturates; s > 0 here.
-        let i = if s > R::ZERO { s.to_f64() as usize } else { 0 };
+        let (i, frac) = (place.cell, place.frac);
         match (u.get(i), u.get(i + 1)) {
-            (Some(&lo), Some(&hi)) if s > R::ZERO && i + 1 < n => {
-                let frac = s - R::from_f64(i as f64);
+            (Some(&lo), Some(&hi)) if place.inside => {
                 let lerp = |t: &[R; C]| t[i] + (t[i + 1] - t[i]) * frac;
                 Local {
                     u: lo + (hi - lo) * frac,
                     scale: lerp(&self.scale),
                     hindrance: lerp(&self.hindrance),
-                    cell: i,
-                    frac,
+                    place,
                 }
             }
             _ => {
-                let j = if s > R::ZERO { n.saturating_sub(1) } else { 0 };
-                let wall = R::min(R::max((s + R::HALF) * R::from_f64(2.0), R::ZERO), R::ONE);
-                let top = u.get(j).copied().unwrap_or(R::ZERO);
+                let top = u.get(i).copied().unwrap_or(R::ZERO);
                 Local {
-                    u: if s > R::ZERO { top } else { top * wall },
-                    scale: self.scale.get(j).copied().unwrap_or(R::ZERO),
-                    hindrance: self.hindrance.get(j).copied().unwrap_or(R::ONE),
-                    cell: j,
-                    frac: R::ZERO,
+                    u: if s > R::ZERO { top } else { Self::wall(s, top) },
+                    scale: self.scale.get(i).copied().unwrap_or(R::ZERO),
+                    hindrance: self.hindrance.get(i).copied().unwrap_or(R::ONE),
+                    place,
                 }
             }
         }
     }
 
-    /// Adds the streamwise drag `force` (N) a grain received where it read
-    /// `at` to the cells' sums with the weights of its interpolation: the
-    /// two centres around it by their distances, all of it to one cell
-    /// beyond the first or the last centre (the wall takes nothing), so the
-    /// sums take the whole force, to round-off.
+    /// Adds the streamwise drag `force` (N) a grain received at `place`
+    /// ([`Coupling::place`]) to the cells' sums with the weights of its
+    /// interpolation: the two centres around it by their distances, all of
+    /// it to one cell beyond the first or the last centre (the wall takes
+    /// nothing), so the sums take the whole force, to round-off.
     #[inline]
-    pub(crate) fn deposit(&mut self, at: &Local<R>, force: R) {
-        let upper = force * at.frac;
-        if let Some(sum) = self.drag_sum.get_mut(at.cell) {
+    pub(crate) fn deposit(&mut self, place: &Place<R>, force: R) {
+        let upper = force * place.frac;
+        if let Some(sum) = self.drag_sum.get_mut(place.cell) {
             *sum += force - upper;
         }
-        if let (true, Some(sum)) = (at.frac != R::ZERO, self.drag_sum.get_mut(at.cell + 1)) {
+        if let (true, Some(sum)) = (place.frac != R::ZERO, self.drag_sum.get_mut(place.cell + 1)) {
             *sum += upper;
         }
     }

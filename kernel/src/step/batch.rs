@@ -1,4 +1,5 @@
-//! The batched step: the drag (docs/model.md (4)–(5), flow on) on every grain, every
+//! The batched step: the drag (docs/model.md (4)–(5), flow on; with the
+//! coupled flow from its column, docs/model.md §13) on every grain, every
 //! listed pair's contact force (docs/model.md §2 geometry, law (6)–(9)), then every
 //! grain's force sum and motion (docs/model.md (1)–(3)), all in vector lanes, with
 //! the bits of the scalar step ([`super::scalar`], which runs on every other
@@ -34,6 +35,7 @@ use crate::contact::ContactLaw;
 use crate::error::Error;
 use crate::events::Events;
 use crate::flow::Profile;
+use crate::fluid::Coupling;
 use crate::grains::Grains;
 use crate::real::Real;
 use core::any::Any;
@@ -43,20 +45,29 @@ use core::arch::x86_64::{
     _mm256_unpacklo_ps,
 };
 
-/// What the batched step reads besides the grains and the pair index:
-/// the periodic width, the contact law, the integrator, and the drag
-/// (profile and mean bed level; flow on) or None.
+/// What the batched step reads besides the grains, the pair index and
+/// the coupled flow: the periodic width, the contact law, the integrator,
+/// and the flow.
 #[derive(Clone, Copy)]
 pub(crate) struct Params<R: Real> {
     pub(crate) width: R,
     pub(crate) law: ContactLaw<R>,
     pub(crate) mover: Mover<R>,
-    pub(crate) drag: Option<(Profile<R>, R)>,
-    /// The grains' force arrays hold forces found before the step (the
-    /// coupled flow's drag): each grain's sums start from them.
-    pub(crate) forces_added: bool,
+    pub(crate) flow: Flow<R>,
     /// Count the contacts made, broken and sliding ([`crate::Sim::count_events`]).
     pub(crate) count_events: bool,
+}
+
+/// The flow whose drag the batched step adds first.
+#[derive(Clone, Copy)]
+pub(crate) enum Flow<R: Real> {
+    /// No flow: no drag.
+    Off,
+    /// The clear-water flow: its profile and the mean bed level.
+    Clear(Profile<R>, R),
+    /// The coupled flow, from its column (the `Coupling` passed along);
+    /// the fluctuations (15) on or off (`Profile::turbulence`).
+    Coupled { turbulence: bool },
 }
 
 /// Runs the batched step if the pair index is ready: the largest squared
@@ -68,33 +79,34 @@ pub(crate) struct Params<R: Real> {
 /// index and parameters to each precision's types ([`Any`]): a comparison
 /// of two constant type ids, which each monomorphised copy folds away.
 #[inline]
-pub(crate) fn batched_step<R: Real, const N: usize, const K: usize>(
+pub(crate) fn batched_step<R: Real, const N: usize, const K: usize, const C: usize>(
     grains: &mut Grains<R, N>,
     index: &mut PairIndex<R, N, K>,
+    fluid: &mut Coupling<R, C>,
     params: &Params<R>,
     events: &mut Events,
 ) -> Option<Result<R, Error>> {
     if !index.ready {
         return None;
     }
-    if params.forces_added {
-        index.take_forces(grains);
-    }
-    let (grains, index, params): (&mut dyn Any, &mut dyn Any, &dyn Any) = (grains, index, params);
-    if let (Some(g), Some(b), Some(p)) = (
+    let (grains, index, fluid, params): (&mut dyn Any, &mut dyn Any, &mut dyn Any, &dyn Any) =
+        (grains, index, fluid, params);
+    if let (Some(g), Some(b), Some(f), Some(p)) = (
         grains.downcast_mut::<Grains<f64, N>>(),
         index.downcast_mut::<PairIndex<f64, N, K>>(),
+        fluid.downcast_mut::<Coupling<f64, C>>(),
         params.downcast_ref::<Params<f64>>(),
     ) {
-        let max_v2 = f64x4::batched_step(g, b, p, events);
+        let max_v2 = f64x4::batched_step(g, b, f, p, events);
         return Some(max_v2.map(R::from_f64));
     }
-    if let (Some(g), Some(b), Some(p)) = (
+    if let (Some(g), Some(b), Some(f), Some(p)) = (
         grains.downcast_mut::<Grains<f32, N>>(),
         index.downcast_mut::<PairIndex<f32, N, K>>(),
+        fluid.downcast_mut::<Coupling<f32, C>>(),
         params.downcast_ref::<Params<f32>>(),
     ) {
-        let max_v2 = f32x8::batched_step(g, b, p, events);
+        let max_v2 = f32x8::batched_step(g, b, f, p, events);
         // Exact: every f32 is an f64.
         return Some(max_v2.map(|v| R::from_f64(f64::from(v))));
     }
@@ -117,8 +129,10 @@ struct BatchStep<'a, R: Real, const N: usize, const K: usize> {
     law: ContactLaw<R>,
     mover: Mover<R>,
     batch: &'a mut PairIndex<R, N, K>,
-    /// The flow's drag, added to the forces first (flow on), or None.
+    /// The clear-water flow's drag, added to the forces first, or None.
     drag: Option<Drag<'a, R, N>>,
+    /// The coupled flow's drag, added to the forces first, or None.
+    coupled: Option<CoupledDrag<'a, R, N>>,
     /// The contacts made, broken and sliding and the seam crossings.
     events: &'a mut Events,
 }
@@ -145,13 +159,25 @@ impl<'a, R: Real, const N: usize, const K: usize> BatchStep<'a, R, N, K> {
             law: p.law,
             mover: p.mover,
             batch,
-            drag: p.drag.map(|(profile, bed_level)| Drag {
-                profile,
-                bed_level,
-                coef: &g.drag_coef,
-                z_u: &g.z_u,
-                z_v: &g.z_v,
-            }),
+            drag: match p.flow {
+                Flow::Clear(profile, bed_level) => Some(Drag {
+                    profile,
+                    bed_level,
+                    coef: &g.drag_coef,
+                    z_u: &g.z_u,
+                    z_v: &g.z_v,
+                }),
+                _ => None,
+            },
+            coupled: match p.flow {
+                Flow::Coupled { turbulence } => Some(CoupledDrag {
+                    turbulence,
+                    coef: &g.drag_coef,
+                    z_u: &g.z_u,
+                    z_v: &g.z_v,
+                }),
+                _ => None,
+            },
             events,
         }
     }
@@ -164,6 +190,17 @@ impl<'a, R: Real, const N: usize, const K: usize> BatchStep<'a, R, N, K> {
 struct Drag<'a, R: Real, const N: usize> {
     profile: Profile<R>,
     bed_level: R,
+    coef: &'a [R; N],
+    z_u: &'a [R; N],
+    z_v: &'a [R; N],
+}
+
+/// What the coupled flow's drag ([`crate::step::scalar::add_coupled_drag`])
+/// reads besides the column: whether the fluctuations (15) are on, and per
+/// grain ½ρC_D A2 d² and the held fluctuation draws.
+#[derive(Clone, Copy)]
+struct CoupledDrag<'a, R: Real, const N: usize> {
+    turbulence: bool,
     coef: &'a [R; N],
     z_u: &'a [R; N],
     z_v: &'a [R; N],
@@ -188,11 +225,11 @@ macro_rules! lanes {
         $to_rows:expr, $from_rows:expr, $to_mask:ident,
         $add:ident, $sub:ident, $mul:ident, $div:ident, $sqrt:ident,
         $and:ident, $andnot:ident, $xor:ident, $blendv:ident, $cmp:ident,
-        $max:ident, $movemask:ident, $to_int:ident, $int_sub:ident
+        $max:ident, $min:ident, $movemask:ident, $to_int:ident, $int_sub:ident
     ) => {
         #[allow(unsafe_code)]
         mod $module {
-            use super::{BatchStep, Grains, PairIndex, Params, CHUNK, PAIRS};
+            use super::{BatchStep, Coupling, Grains, PairIndex, Params, CHUNK, PAIRS};
             use crate::contact::Tension;
             use crate::error::Error;
             use crate::events::Events;
@@ -211,9 +248,10 @@ macro_rules! lanes {
             /// `b` (inlined into the step's dispatch, f64 spilled the
             /// grains' base: 7 % more instructions per grain-step).
             #[inline(never)]
-            pub(super) fn batched_step<const N: usize, const K: usize>(
+            pub(super) fn batched_step<const N: usize, const K: usize, const C: usize>(
                 g: &mut Grains<$R, N>,
                 b: &mut PairIndex<$R, N, K>,
+                fluid: &mut Coupling<$R, C>,
                 p: &Params<$R>,
                 events: &mut Events,
             ) -> Result<$R, Error> {
@@ -223,6 +261,9 @@ macro_rules! lanes {
                 unsafe {
                     if let Some(drag) = step.drag {
                         drag_pass(step, &drag);
+                    }
+                    if let Some(drag) = step.coupled {
+                        coupled_pass(step, &drag, fluid);
                     }
                     // One copy of the pair pass per (counting, tension
                     // rule): the paper's rule keeps its instructions.
@@ -424,6 +465,83 @@ macro_rules! lanes {
                     if let Some(sums) = b.sums.as_chunks_mut::<L>().0.get_mut(grp) {
                         for (sum, row) in sums.iter_mut().zip(rows) {
                             add_row(sum, row);
+                        }
+                    }
+                }
+            }
+
+            /// Adds the coupled flow's drag to every mobile grain's force, L
+            /// grains at a time, lane by lane as
+            /// [`add_coupled_drag`](crate::step::scalar::add_coupled_drag):
+            /// each grain's place between the cell centres
+            /// ([`Coupling::place`]) and its tables' values lane by lane,
+            /// the rest in lanes; then each grain's streamwise drag to the
+            /// cells' sums ([`Coupling::deposit`]) in grain order.
+            #[target_feature(enable = "avx2")]
+            fn coupled_pass<const N: usize, const K: usize, const C: usize>(
+                s: &mut BatchStep<'_, $R, N, K>,
+                d: &super::CoupledDrag<'_, $R, N>,
+                fluid: &mut Coupling<$R, C>,
+            ) {
+                let splat = $set1;
+                let zero = $setzero();
+                let (add, sub, mul) = ($add, $sub, $mul);
+                let select = |no: $V, yes: $V, mask: $V| $blendv(no, yes, mask);
+                let ones = <$R>::from_bits(<$bits>::MAX);
+                let grid = fluid.column.grid();
+                let (bottom, inv_dy) = (splat(grid.bottom), splat(grid.inv_dy));
+                let (half, one, two) = (splat(0.5), splat(1.0), splat(2.0));
+                let rms_u = splat(<$R as Real>::from_f64(2.30));
+                let rms_v = splat(<$R as Real>::from_f64(1.27));
+                let turbulence = splat(if d.turbulence { ones } else { 0.0 });
+                let b = &mut *s.batch;
+                let groups = s.n.min(N).div_ceil(L).min(N / L);
+                for grp in 0..groups {
+                    let mobile = load(group(&b.mobile, grp));
+                    if $movemask(mobile) == 0 {
+                        continue;
+                    }
+                    let at = |a: &[$R; N]| load(group(a, grp));
+                    // Coupling::position, Coupling::place.
+                    let position = sub(mul(sub(at(s.y), bottom), inv_dy), half);
+                    let places = lanes(position).map(|p| fluid.place(p));
+                    let lower = places.map(|p| p.cell);
+                    let upper = places.map(|p| p.cell + usize::from(p.inside));
+                    let frac = $gather(places.map(|p| p.frac));
+                    let inside = $gather(places.map(|p| if p.inside { ones } else { 0.0 }));
+                    // Coupling::at: linear between the centres inside; beyond
+                    // them the end cell's values, u_f falling to the wall below.
+                    let read = |t: &[$R]| {
+                        let lo = gather(t, &lower);
+                        (select(lo, add(lo, mul(sub(gather(t, &upper), lo), frac)), inside), lo)
+                    };
+                    let (u_f, top) = read(fluid.column.velocities());
+                    let wall = $min(one, $max(zero, mul(add(position, half), two)));
+                    let above = $cmp(position, zero, _CMP_GT_OQ);
+                    let u_f = select(select(mul(top, wall), top, above), u_f, inside);
+                    let (scale, _) = read(&fluid.scale);
+                    let (hindrance, _) = read(&fluid.hindrance);
+                    // (15) with u*_loc, where u_f > 0; (4)–(5) with u_f and the
+                    // hindrance (C7).
+                    let fluctuates = $and($cmp(u_f, zero, _CMP_GT_OQ), turbulence);
+                    let fluct_u = $and(mul(at(d.z_u), mul(rms_u, scale)), fluctuates);
+                    let fluct_v = $and(mul(at(d.z_v), mul(rms_v, scale)), fluctuates);
+                    let wx = sub(add(u_f, fluct_u), at(s.u));
+                    let wy = sub(fluct_v, at(s.v));
+                    let speed = $sqrt(add(mul(wx, wx), mul(wy, wy)));
+                    let xi = mul(mul(at(d.coef), hindrance), speed);
+                    // The sums (+0) add the drag (+0 for fixed grains).
+                    let [fx, fy] = [mul(xi, wx), mul(xi, wy)].map(|f| $and(f, mobile));
+                    let rows = $to_rows([fx, fy, zero, zero]);
+                    if let Some(sums) = b.sums.as_chunks_mut::<L>().0.get_mut(grp) {
+                        for (sum, row) in sums.iter_mut().zip(rows) {
+                            add_row(sum, row);
+                        }
+                    }
+                    let (forces, moves) = (lanes(fx), lanes(mobile));
+                    for l in 0..L {
+                        if moves[l].to_bits() != 0 {
+                            fluid.deposit(&places[l], forces[l]);
                         }
                     }
                 }
@@ -845,6 +963,7 @@ lanes!(
     _mm256_blendv_pd,
     _mm256_cmp_pd,
     _mm256_max_pd,
+    _mm256_min_pd,
     _mm256_movemask_pd,
     _mm256_castpd_si256,
     _mm256_sub_epi64
@@ -885,6 +1004,7 @@ lanes!(
     _mm256_blendv_ps,
     _mm256_cmp_ps,
     _mm256_max_ps,
+    _mm256_min_ps,
     _mm256_movemask_ps,
     _mm256_castps_si256,
     _mm256_sub_epi32

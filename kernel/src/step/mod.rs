@@ -93,21 +93,25 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
             }
         }
         let coupled = self.flow_on && self.fluid.on;
-        if coupled {
-            scalar::add_coupled_drag(&mut self.grains, &mut self.fluid, &self.profile);
-        }
         let mover = self.mover();
         #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
         let batched = if BATCHED {
+            let flow = match (self.flow_on, coupled) {
+                (false, _) => batch::Flow::Off,
+                (true, false) => batch::Flow::Clear(self.profile, self.bed_level),
+                (true, true) => batch::Flow::Coupled {
+                    turbulence: self.profile.turbulence,
+                },
+            };
             let params = batch::Params {
                 width: self.width,
                 law: self.law,
                 mover,
-                drag: (self.flow_on && !coupled).then_some((self.profile, self.bed_level)),
-                forces_added: coupled,
+                flow,
                 count_events: self.count_events,
             };
-            batch::batched_step(&mut self.grains, &mut self.index, &params, &mut events)
+            let (g, index, fluid) = (&mut self.grains, &mut self.index, &mut self.fluid);
+            batch::batched_step(g, index, fluid, &params, &mut events)
         } else {
             None
         };
@@ -116,7 +120,9 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
         let moved = match batched {
             Some(moved) => moved,
             None => {
-                if self.flow_on && !coupled {
+                if coupled {
+                    scalar::add_coupled_drag(&mut self.grains, &mut self.fluid, &self.profile);
+                } else if self.flow_on {
                     scalar::add_drag(&mut self.grains, &self.profile, self.bed_level);
                 }
                 self.index.history_to_slots(&mut self.nbrs.spring);
