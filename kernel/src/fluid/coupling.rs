@@ -19,13 +19,16 @@ pub(crate) struct Coupling<R: Real, const C: usize> {
     pub(crate) column: Column<R, C>,
     /// Scratch of an update: the grains' slab sums.
     pub(crate) slabs: Slabs<R, C>,
-    /// (1 − φ_j)^(−n) at each cell centre, docs/model.md (C7); 1 without
-    /// hindrance. Derived ([`Coupling::refresh`]).
-    pub(crate) hindrance: [R; C],
-    /// u*_loc exp(−(y − y_bed)/h) at each cell centre: the scale of the
-    /// fluctuations (15) with the local shear velocity (C4). Derived
+    /// What a grain reads at each cell centre j, a row [u_f, scale,
+    /// hindrance, 0]: u_f; u*_loc exp(−(y − y_bed)/h), the scale of the
+    /// fluctuations (15) with the local shear velocity (C4); (1 − φ_j)^(−n),
+    /// docs/model.md (C7), 1 without hindrance. Derived
     /// ([`Coupling::refresh`]).
-    pub(crate) scale: [R; C],
+    pub(crate) centres: [[R; 4]; C],
+    /// Each row of [`Coupling::centres`] less the one below: centre j + 1's
+    /// values less centre j's (0 at the last centre), the slopes of the
+    /// linear reads between them. Derived ([`Coupling::refresh`]).
+    pub(crate) slopes: [[R; 4]; C],
     /// The stabiliser's force of each cell at the last update (N),
     /// returned to the fluid at the next (docs/model.md §13): state.
     pub(crate) carried: [R; C],
@@ -80,8 +83,8 @@ impl<R: Real, const C: usize> Coupling<R, C> {
             on: false,
             column: Column::new(),
             slabs: Slabs::new(),
-            hindrance: [R::ZERO; C],
-            scale: [R::ZERO; C],
+            centres: [[R::ZERO; 4]; C],
+            slopes: [[R::ZERO; 4]; C],
             carried: [R::ZERO; C],
             drag_sum: [R::ZERO; C],
             stabiliser: [R::ZERO; C],
@@ -140,70 +143,80 @@ impl<R: Real, const C: usize> Coupling<R, C> {
     }
 
     /// The flow at height `y`, linear between the two cell centres around
-    /// it; below the first centre the tables of the bottom cell and u_f
-    /// falling linearly to 0 at the no-slip bottom (as
-    /// [`Column::velocity_at`]), above the last centre the top cell's.
+    /// it (a value plus its slope times the fraction); below the first
+    /// centre the bottom cell's values with u_f falling linearly to 0 at
+    /// the no-slip bottom (as [`Column::velocity_at`]), above the last
+    /// centre the top cell's.
     #[inline]
     pub(crate) fn at(&self, y: R) -> Local<R> {
         let s = self.position(y);
         let place = self.place(s);
-        let u = self.column.velocities();
-        let (i, frac) = (place.cell, place.frac);
-        match (u.get(i), u.get(i + 1)) {
-            (Some(&lo), Some(&hi)) if place.inside => {
-                let lerp = |t: &[R; C]| t[i] + (t[i + 1] - t[i]) * frac;
-                Local {
-                    u: lo + (hi - lo) * frac,
-                    scale: lerp(&self.scale),
-                    hindrance: lerp(&self.hindrance),
-                    place,
-                }
+        let zero = [R::ZERO; 4];
+        let v = self.centres.get(place.cell).unwrap_or(&zero);
+        if place.inside {
+            let d = self.slopes.get(place.cell).unwrap_or(&zero);
+            let lerp = |k: usize| v[k] + d[k] * place.frac;
+            Local {
+                u: lerp(0),
+                scale: lerp(1),
+                hindrance: lerp(2),
+                place,
             }
-            _ => {
-                let top = u.get(i).copied().unwrap_or(R::ZERO);
-                Local {
-                    u: if s > R::ZERO { top } else { Self::wall(s, top) },
-                    scale: self.scale.get(i).copied().unwrap_or(R::ZERO),
-                    hindrance: self.hindrance.get(i).copied().unwrap_or(R::ONE),
-                    place,
-                }
+        } else {
+            Local {
+                u: if s > R::ZERO { v[0] } else { Self::wall(s, v[0]) },
+                scale: v[1],
+                hindrance: v[2],
+                place,
             }
         }
     }
 
-    /// Adds the streamwise drag `force` (N) a grain received at `place`
-    /// ([`Coupling::place`]) to the cells' sums with the weights of its
-    /// interpolation: the two centres around it by their distances, all of
-    /// it to one cell beyond the first or the last centre (the wall takes
-    /// nothing), so the sums take the whole force, to round-off.
+    /// Adds the streamwise drag `force` (N) a grain received at a place
+    /// ([`Coupling::place`]: `cell`, `frac`) to the cells' sums with the
+    /// weights of its interpolation: the two centres around it by their
+    /// distances, all of it to one cell beyond the first or the last centre
+    /// (the wall takes nothing), so the sums take the whole force, to
+    /// round-off.
     #[inline]
-    pub(crate) fn deposit(&mut self, place: &Place<R>, force: R) {
-        let upper = force * place.frac;
-        if let Some(sum) = self.drag_sum.get_mut(place.cell) {
+    pub(crate) fn deposit(&mut self, cell: usize, frac: R, force: R) {
+        let upper = force * frac;
+        if let Some(sum) = self.drag_sum.get_mut(cell) {
             *sum += force - upper;
         }
-        if let (true, Some(sum)) = (place.frac != R::ZERO, self.drag_sum.get_mut(place.cell + 1)) {
+        if let (true, Some(sum)) = (frac != R::ZERO, self.drag_sum.get_mut(cell + 1)) {
             *sum += upper;
         }
     }
 
-    /// Recomputes the tables of each cell centre from the state: the
-    /// hindrance (1 − φ)^(−n) with exponent `config.hindrance` (f64
-    /// `libm::pow`), and the scale of the fluctuations u*_loc exp(−(y −
-    /// `bed_level`)/h) (`minus_inv_depth` = −1/h). After every update of
-    /// the column or of the bed level, and after a restore.
+    /// Recomputes the table of each cell centre from the state
+    /// ([`Coupling::centres`], [`Coupling::slopes`]): u_f, the scale of the
+    /// fluctuations u*_loc exp(−(y − `bed_level`)/h) (`minus_inv_depth` =
+    /// −1/h) and the hindrance (1 − φ)^(−n) with exponent
+    /// `config.hindrance` (f64 `libm::pow`). After every update of the
+    /// column or of the bed level, and after a restore.
     pub(crate) fn refresh(&mut self, config: &FluidConfig, minus_inv_depth: R, bed_level: R) {
         let n = config.hindrance;
         let grid = self.column.grid();
-        for (j, &phi) in self.column.solid_fractions().iter().enumerate().take(C) {
-            self.hindrance[j] = if n == 0.0 {
+        let velocities = self.column.velocities();
+        let cells = self.column.solid_fractions().iter().zip(velocities);
+        for (j, (&phi, &u)) in cells.enumerate().take(C) {
+            let hindrance = if n == 0.0 {
                 R::ONE
             } else {
                 R::from_f64(libm::pow(1.0 - phi.to_f64(), -n))
             };
             let y = grid.centre(j);
             let decay = R::exp((y - bed_level) * minus_inv_depth);
-            self.scale[j] = self.column.shear_velocity_at(y) * decay;
+            let scale = self.column.shear_velocity_at(y) * decay;
+            self.centres[j] = [u, scale, hindrance, R::ZERO];
+        }
+        let cells = grid.cells().min(C);
+        for j in 0..cells {
+            self.slopes[j] = match (self.centres.get(j), self.centres.get(j + 1)) {
+                (Some(lo), Some(hi)) if j + 1 < cells => core::array::from_fn(|k| hi[k] - lo[k]),
+                _ => [R::ZERO; 4],
+            };
         }
     }
 }

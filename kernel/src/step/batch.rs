@@ -86,7 +86,8 @@ pub(crate) fn batched_step<R: Real, const N: usize, const K: usize, const C: usi
     params: &Params<R>,
     events: &mut Events,
 ) -> Option<Result<R, Error>> {
-    if !index.ready {
+    // Cell indices of the coupled flow are exact in f32 lanes below 2^24.
+    if !index.ready || C >= 1 << 24 {
         return None;
     }
     let (grains, index, fluid, params): (&mut dyn Any, &mut dyn Any, &mut dyn Any, &dyn Any) =
@@ -225,7 +226,7 @@ macro_rules! lanes {
         $to_rows:expr, $from_rows:expr, $to_mask:ident,
         $add:ident, $sub:ident, $mul:ident, $div:ident, $sqrt:ident,
         $and:ident, $andnot:ident, $xor:ident, $blendv:ident, $cmp:ident,
-        $max:ident, $min:ident, $movemask:ident, $to_int:ident, $int_sub:ident
+        $max:ident, $min:ident, $round:ident, $movemask:ident, $to_int:ident, $int_sub:ident
     ) => {
         #[allow(unsafe_code)]
         mod $module {
@@ -474,9 +475,12 @@ macro_rules! lanes {
             /// grains at a time, lane by lane as
             /// [`add_coupled_drag`](crate::step::scalar::add_coupled_drag):
             /// each grain's place between the cell centres
-            /// ([`Coupling::place`]) and its tables' values lane by lane,
-            /// the rest in lanes; then each grain's streamwise drag to the
-            /// cells' sums ([`Coupling::deposit`]) in grain order.
+            /// ([`Coupling::place`]) in lanes, the two rows of its cell
+            /// ([`Coupling::centres`], [`Coupling::slopes`]) loaded and
+            /// transposed to lanes, the drag in lanes; then each grain's
+            /// streamwise drag to the cells' sums ([`Coupling::deposit`]) in
+            /// grain order. The cell indices are exact in f32: the caller
+            /// takes fewer than 2^24 cells ([`super::batched_step`]).
             #[target_feature(enable = "avx2")]
             fn coupled_pass<const N: usize, const K: usize, const C: usize>(
                 s: &mut BatchStep<'_, $R, N, K>,
@@ -487,13 +491,19 @@ macro_rules! lanes {
                 let zero = $setzero();
                 let (add, sub, mul) = ($add, $sub, $mul);
                 let select = |no: $V, yes: $V, mask: $V| $blendv(no, yes, mask);
-                let ones = <$R>::from_bits(<$bits>::MAX);
                 let grid = fluid.column.grid();
                 let (bottom, inv_dy) = (splat(grid.bottom), splat(grid.inv_dy));
                 let (half, one, two) = (splat(0.5), splat(1.0), splat(2.0));
+                let last = grid.cells().min(C).saturating_sub(1);
+                let last_cell = splat(last as $R);
                 let rms_u = splat(<$R as Real>::from_f64(2.30));
                 let rms_v = splat(<$R as Real>::from_f64(1.27));
-                let turbulence = splat(if d.turbulence { ones } else { 0.0 });
+                let turbulence = splat(if d.turbulence {
+                    <$R>::from_bits(<$bits>::MAX)
+                } else {
+                    0.0
+                });
+                let no_row = [0.0; 4];
                 let b = &mut *s.batch;
                 let groups = s.n.min(N).div_ceil(L).min(N / L);
                 for grp in 0..groups {
@@ -502,25 +512,27 @@ macro_rules! lanes {
                         continue;
                     }
                     let at = |a: &[$R; N]| load(group(a, grp));
-                    // Coupling::position, Coupling::place.
+                    // Coupling::position and Coupling::place: between centres
+                    // i = ⌊position⌋ and i + 1 if 0 < position < last, else
+                    // the end cell with fraction 0.
                     let position = sub(mul(sub(at(s.y), bottom), inv_dy), half);
-                    let places = lanes(position).map(|p| fluid.place(p));
-                    let lower = places.map(|p| p.cell);
-                    let upper = places.map(|p| p.cell + usize::from(p.inside));
-                    let frac = $gather(places.map(|p| p.frac));
-                    let inside = $gather(places.map(|p| if p.inside { ones } else { 0.0 }));
-                    // Coupling::at: linear between the centres inside; beyond
-                    // them the end cell's values, u_f falling to the wall below.
-                    let read = |t: &[$R]| {
-                        let lo = gather(t, &lower);
-                        (select(lo, add(lo, mul(sub(gather(t, &upper), lo), frac)), inside), lo)
-                    };
-                    let (u_f, top) = read(fluid.column.velocities());
-                    let wall = $min(one, $max(zero, mul(add(position, half), two)));
                     let above = $cmp(position, zero, _CMP_GT_OQ);
-                    let u_f = select(select(mul(top, wall), top, above), u_f, inside);
-                    let (scale, _) = read(&fluid.scale);
-                    let (hindrance, _) = read(&fluid.hindrance);
+                    let inside = $and(above, $cmp(position, last_cell, _CMP_LT_OQ));
+                    let floor = $round::<{ _MM_FROUND_TO_ZERO | _MM_FROUND_NO_EXC }>(position);
+                    let frac = $and(sub(position, floor), inside);
+                    let cell = select($and(last_cell, above), floor, inside);
+                    let cells = lanes(cell).map(|c| c as usize);
+                    // Coupling::at: the value plus the slope times the fraction
+                    // inside; beyond, the end cell's values, u_f falling to 0
+                    // at the wall below.
+                    let row = |t: &[[$R; 4]; C], l: usize| load_row(t.get(cells[l]).unwrap_or(&no_row));
+                    let [u, scale, hindrance, _] = $from_rows(core::array::from_fn(|l| row(&fluid.centres, l)));
+                    let [du, dscale, dhindrance, _] =
+                        $from_rows(core::array::from_fn(|l| row(&fluid.slopes, l)));
+                    let lerp = |v: $V, dv: $V| select(v, add(v, mul(dv, frac)), inside);
+                    let wall = $min(one, $max(zero, mul(add(position, half), two)));
+                    let u_f = select(select(mul(u, wall), u, above), add(u, mul(du, frac)), inside);
+                    let (scale, hindrance) = (lerp(scale, dscale), lerp(hindrance, dhindrance));
                     // (15) with u*_loc, where u_f > 0; (4)–(5) with u_f and the
                     // hindrance (C7).
                     let fluctuates = $and($cmp(u_f, zero, _CMP_GT_OQ), turbulence);
@@ -538,10 +550,10 @@ macro_rules! lanes {
                             add_row(sum, row);
                         }
                     }
-                    let (forces, moves) = (lanes(fx), lanes(mobile));
+                    let (forces, fracs, moves) = (lanes(fx), lanes(frac), lanes(mobile));
                     for l in 0..L {
                         if moves[l].to_bits() != 0 {
-                            fluid.deposit(&places[l], forces[l]);
+                            fluid.deposit(cells[l], fracs[l], forces[l]);
                         }
                     }
                 }
@@ -964,6 +976,7 @@ lanes!(
     _mm256_cmp_pd,
     _mm256_max_pd,
     _mm256_min_pd,
+    _mm256_round_pd,
     _mm256_movemask_pd,
     _mm256_castpd_si256,
     _mm256_sub_epi64
@@ -1005,6 +1018,7 @@ lanes!(
     _mm256_cmp_ps,
     _mm256_max_ps,
     _mm256_min_ps,
+    _mm256_round_ps,
     _mm256_movemask_ps,
     _mm256_castps_si256,
     _mm256_sub_epi32

@@ -170,7 +170,7 @@ pub(crate) fn add_coupled_drag<R: Real, const N: usize, const C: usize>(
         let (fx, fy) = (xi * wx, xi * wy);
         g.fx[i] += fx;
         g.fy[i] += fy;
-        fluid.deposit(&at.place, fx);
+        fluid.deposit(at.place.cell, at.place.frac, fx);
     }
 }
 
