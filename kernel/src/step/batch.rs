@@ -226,7 +226,7 @@ macro_rules! lanes {
         $to_rows:expr, $from_rows:expr, $to_mask:ident,
         $add:ident, $sub:ident, $mul:ident, $div:ident, $sqrt:ident,
         $and:ident, $andnot:ident, $xor:ident, $blendv:ident, $cmp:ident,
-        $max:ident, $min:ident, $round:ident, $movemask:ident, $to_int:ident, $int_sub:ident
+        $max:ident, $min:ident, $round:ident, $to_index:expr, $movemask:ident, $to_int:ident, $int_sub:ident
     ) => {
         #[allow(unsafe_code)]
         mod $module {
@@ -239,6 +239,9 @@ macro_rules! lanes {
 
             /// Lanes per vector.
             const L: usize = $lanes;
+            /// Groups of L grains whose cells the coupled flow's drag finds
+            /// ahead ([`coupled_pass`]).
+            const BLOCK: usize = 64 / L;
             /// Second grains from a window ([`super::second_window`]).
             const SECOND_WINDOW: bool = super::second_window(L) == 2 * L;
             const _: () = assert!(L == super::lanes::<$R>());
@@ -504,56 +507,74 @@ macro_rules! lanes {
                     0.0
                 });
                 let no_row = [0.0; 4];
-                let b = &mut *s.batch;
-                let groups = s.n.min(N).div_ceil(L).min(N / L);
-                for grp in 0..groups {
-                    let mobile = load(group(&b.mobile, grp));
-                    if $movemask(mobile) == 0 {
-                        continue;
-                    }
-                    let at = |a: &[$R; N]| load(group(a, grp));
-                    // Coupling::position and Coupling::place: between centres
-                    // i = ⌊position⌋ and i + 1 if 0 < position < last, else
-                    // the end cell with fraction 0.
-                    let position = sub(mul(sub(at(s.y), bottom), inv_dy), half);
+                // Coupling::position and Coupling::place of group `grp`: the
+                // position, above the first centre, between two centres
+                // (i = ⌊position⌋ and i + 1, 0 < position < last), the
+                // fraction (0 beyond), the cell (i, else the end cell).
+                let place = |grp: usize| {
+                    let y = load(group(s.y, grp));
+                    let position = sub(mul(sub(y, bottom), inv_dy), half);
                     let above = $cmp(position, zero, _CMP_GT_OQ);
                     let inside = $and(above, $cmp(position, last_cell, _CMP_LT_OQ));
                     let floor = $round::<{ _MM_FROUND_TO_ZERO | _MM_FROUND_NO_EXC }>(position);
                     let frac = $and(sub(position, floor), inside);
                     let cell = select($and(last_cell, above), floor, inside);
-                    let cells = lanes(cell).map(|c| c as usize);
-                    // Coupling::at: the value plus the slope times the fraction
-                    // inside; beyond, the end cell's values, u_f falling to 0
-                    // at the wall below.
-                    let row = |t: &[[$R; 4]; C], l: usize| load_row(t.get(cells[l]).unwrap_or(&no_row));
-                    let [u, scale, hindrance, _] = $from_rows(core::array::from_fn(|l| row(&fluid.centres, l)));
-                    let [du, dscale, dhindrance, _] =
-                        $from_rows(core::array::from_fn(|l| row(&fluid.slopes, l)));
-                    let lerp = |v: $V, dv: $V| select(v, add(v, mul(dv, frac)), inside);
-                    let wall = $min(one, $max(zero, mul(add(position, half), two)));
-                    let u_f = select(select(mul(u, wall), u, above), add(u, mul(du, frac)), inside);
-                    let (scale, hindrance) = (lerp(scale, dscale), lerp(hindrance, dhindrance));
-                    // (15) with u*_loc, where u_f > 0; (4)–(5) with u_f and the
-                    // hindrance (C7).
-                    let fluctuates = $and($cmp(u_f, zero, _CMP_GT_OQ), turbulence);
-                    let fluct_u = $and(mul(at(d.z_u), mul(rms_u, scale)), fluctuates);
-                    let fluct_v = $and(mul(at(d.z_v), mul(rms_v, scale)), fluctuates);
-                    let wx = sub(add(u_f, fluct_u), at(s.u));
-                    let wy = sub(fluct_v, at(s.v));
-                    let speed = $sqrt(add(mul(wx, wx), mul(wy, wy)));
-                    let xi = mul(mul(at(d.coef), hindrance), speed);
-                    // The sums (+0) add the drag (+0 for fixed grains).
-                    let [fx, fy] = [mul(xi, wx), mul(xi, wy)].map(|f| $and(f, mobile));
-                    let rows = $to_rows([fx, fy, zero, zero]);
-                    if let Some(sums) = b.sums.as_chunks_mut::<L>().0.get_mut(grp) {
-                        for (sum, row) in sums.iter_mut().zip(rows) {
-                            add_row(sum, row);
+                    (position, above, inside, frac, cell)
+                };
+                let groups = s.n.min(N).div_ceil(L).min(N / L);
+                // Blocks of groups: first every cell of the block, so that
+                // the rows' loads do not wait on their addresses.
+                for first in (0..groups).step_by(BLOCK) {
+                    let block = first..(first + BLOCK).min(groups);
+                    let mut cells = [[0; L]; BLOCK];
+                    for (k, grp) in block.clone().enumerate() {
+                        if let Some(c) = cells.get_mut(k) {
+                            *c = $to_index(place(grp).4);
                         }
                     }
-                    let (forces, fracs, moves) = (lanes(fx), lanes(frac), lanes(mobile));
-                    for l in 0..L {
-                        if moves[l].to_bits() != 0 {
-                            fluid.deposit(cells[l], fracs[l], forces[l]);
+                    for (grp, cells) in block.zip(cells) {
+                        let mobile = load(group(&s.batch.mobile, grp));
+                        if $movemask(mobile) == 0 {
+                            continue;
+                        }
+                        let at = |a: &[$R; N]| load(group(a, grp));
+                        let (position, above, inside, frac, _) = place(grp);
+                        // Coupling::at: the value plus the slope times the
+                        // fraction inside; beyond, the end cell's values, u_f
+                        // falling to 0 at the wall below.
+                        let row = |t: &[[$R; 4]; C], l: usize| {
+                            load_row(t.get(cells[l] as usize).unwrap_or(&no_row))
+                        };
+                        let [u, scale, hindrance, _] =
+                            $from_rows(core::array::from_fn(|l| row(&fluid.centres, l)));
+                        let [du, dscale, dhindrance, _] =
+                            $from_rows(core::array::from_fn(|l| row(&fluid.slopes, l)));
+                        let lerp = |v: $V, dv: $V| select(v, add(v, mul(dv, frac)), inside);
+                        let wall = $min(one, $max(zero, mul(add(position, half), two)));
+                        let u_f = select(select(mul(u, wall), u, above), lerp(u, du), inside);
+                        let (scale, hindrance) = (lerp(scale, dscale), lerp(hindrance, dhindrance));
+                        // (15) with u*_loc, where u_f > 0; (4)–(5) with u_f and
+                        // the hindrance (C7).
+                        let fluctuates = $and($cmp(u_f, zero, _CMP_GT_OQ), turbulence);
+                        let fluct_u = $and(mul(at(d.z_u), mul(rms_u, scale)), fluctuates);
+                        let fluct_v = $and(mul(at(d.z_v), mul(rms_v, scale)), fluctuates);
+                        let wx = sub(add(u_f, fluct_u), at(s.u));
+                        let wy = sub(fluct_v, at(s.v));
+                        let speed = $sqrt(add(mul(wx, wx), mul(wy, wy)));
+                        let xi = mul(mul(at(d.coef), hindrance), speed);
+                        // The sums (+0) add the drag (+0 for fixed grains).
+                        let [fx, fy] = [mul(xi, wx), mul(xi, wy)].map(|f| $and(f, mobile));
+                        let rows = $to_rows([fx, fy, zero, zero]);
+                        if let Some(sums) = s.batch.sums.as_chunks_mut::<L>().0.get_mut(grp) {
+                            for (sum, row) in sums.iter_mut().zip(rows) {
+                                add_row(sum, row);
+                            }
+                        }
+                        let (forces, fracs, moves) = (lanes(fx), lanes(frac), lanes(mobile));
+                        for l in 0..L {
+                            if moves[l].to_bits() != 0 {
+                                fluid.deposit(cells[l] as usize, fracs[l], forces[l]);
+                            }
                         }
                     }
                 }
@@ -977,6 +998,15 @@ lanes!(
     _mm256_max_pd,
     _mm256_min_pd,
     _mm256_round_pd,
+    |v: __m256d| {
+        let i = _mm256_cvttpd_epi32(v);
+        [
+            _mm_extract_epi32::<0>(i),
+            _mm_extract_epi32::<1>(i),
+            _mm_extract_epi32::<2>(i),
+            _mm_extract_epi32::<3>(i),
+        ]
+    },
     _mm256_movemask_pd,
     _mm256_castpd_si256,
     _mm256_sub_epi64
@@ -1019,6 +1049,19 @@ lanes!(
     _mm256_max_ps,
     _mm256_min_ps,
     _mm256_round_ps,
+    |v: __m256| {
+        let i = _mm256_cvttps_epi32(v);
+        [
+            _mm256_extract_epi32::<0>(i),
+            _mm256_extract_epi32::<1>(i),
+            _mm256_extract_epi32::<2>(i),
+            _mm256_extract_epi32::<3>(i),
+            _mm256_extract_epi32::<4>(i),
+            _mm256_extract_epi32::<5>(i),
+            _mm256_extract_epi32::<6>(i),
+            _mm256_extract_epi32::<7>(i),
+        ]
+    },
     _mm256_movemask_ps,
     _mm256_castps_si256,
     _mm256_sub_epi32
