@@ -134,14 +134,6 @@ impl<R: Real, const C: usize> Coupling<R, C> {
         }
     }
 
-    /// u_f below the first centre at `position` (≤ 0), from its value `top`
-    /// there: falling linearly to 0 at the no-slip bottom (position −½).
-    #[inline]
-    pub(crate) fn wall(position: R, top: R) -> R {
-        let wall = R::min(R::max((position + R::HALF) * R::from_f64(2.0), R::ZERO), R::ONE);
-        top * wall
-    }
-
     /// The flow at height `y`, linear between the two cell centres around
     /// it (a value plus its slope times the fraction); below the first
     /// centre the bottom cell's values with u_f falling linearly to 0 at
@@ -163,8 +155,10 @@ impl<R: Real, const C: usize> Coupling<R, C> {
                 place,
             }
         } else {
+            // Below the first centre, falling to 0 at the wall (s = −½).
+            let wall = R::min(R::max((s + R::HALF) * R::from_f64(2.0), R::ZERO), R::ONE);
             Local {
-                u: if s > R::ZERO { v[0] } else { Self::wall(s, v[0]) },
+                u: if s > R::ZERO { v[0] } else { v[0] * wall },
                 scale: v[1],
                 hindrance: v[2],
                 place,

@@ -196,7 +196,7 @@ struct Drag<'a, R: Real, const N: usize> {
     z_v: &'a [R; N],
 }
 
-/// What the coupled flow's drag ([`crate::step::scalar::add_coupled_drag`])
+/// What the coupled flow's drag ([`super::scalar::add_coupled_drag`])
 /// reads besides the column: whether the fluctuations (15) are on, and per
 /// grain ½ρC_D A2 d² and the held fluctuation draws.
 #[derive(Clone, Copy)]
@@ -211,7 +211,9 @@ struct CoupledDrag<'a, R: Real, const N: usize> {
 /// precision `$R` (raw bits `$bits`), vector `$V` of `$lanes` lanes, and
 /// the precision's intrinsics; rows of a grain's four sums are `$Row`, and
 /// `$to_rows` and `$from_rows` transpose four vectors to a row per lane and
-/// back; `$to_mask` reads integer lanes as a lane mask. `unsafe` appears
+/// back; `$to_mask` reads integer lanes as a lane mask; `$round` rounds
+/// lanes (towards zero here) and `$to_index` truncates lanes to `i32`
+/// indices. `unsafe` appears
 /// five times in the macro: the call of a `#[target_feature]` function,
 /// sound because the build enables AVX2 (`cfg(target_feature = "avx2")`),
 /// and the loads and stores of a vector from and to a `[$R; $lanes]` and

@@ -12,9 +12,11 @@
 //! Both move grains with the same integrator ([`mover`]).
 //!
 //! With the coupled flow (docs/model.md §13) the column is first updated
-//! every M steps (`Sim::exchange`), and the drag of every mobile grain is
-//! found one grain at a time ([`scalar::add_coupled_drag`]) before either
-//! path, which then starts each grain's sums from it.
+//! every M steps (`Sim::exchange`); each path then finds the drag of every
+//! mobile grain from the column as it finds the clear-water drag, the
+//! batched step in lanes, the scalar step one grain at a time
+//! ([`scalar::add_coupled_drag`]), and adds each grain's streamwise drag to
+//! the cells' sums in grain order.
 
 #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
 mod batch;
