@@ -387,8 +387,9 @@ mod tests {
     }
 
     /// An empty 0.02 m wide box of the paper's constants and the `tension`
-    /// rule, floor at −0.01 m, room for 64 grains of up to 16 neighbours.
-    fn small_box<R: Real>(tension: Tension) -> Sim<R, 64, 16> {
+    /// rule, floor at −0.01 m, room for 64 grains of up to 16 neighbours
+    /// (and C cells of a coupled flow).
+    fn small_box<R: Real, const C: usize>(tension: Tension) -> Sim<R, 64, 16, C> {
         let mut sim = Sim::new();
         let mut config = Scenario::paper().sim_config().unwrap();
         (config.width, config.y_min, config.tension) = (0.02, -0.01, tension);
@@ -398,7 +399,10 @@ mod tests {
     }
 
     /// One step of a [`small_box`], batched or scalar (no buffer).
-    fn step_small_box<R: Real>(sim: &mut Sim<R, 64, 16>, batched: bool) -> Result<(), Error> {
+    fn step_small_box<R: Real, const C: usize>(
+        sim: &mut Sim<R, 64, 16, C>,
+        batched: bool,
+    ) -> Result<(), Error> {
         if batched {
             sim.step_with::<16, true>()
         } else {
@@ -407,7 +411,7 @@ mod tests {
     }
 
     fn ring_digest<R: Real>(big_first: bool, batched: bool) -> u64 {
-        let mut sim = small_box::<R>(Tension::Dashpot);
+        let mut sim = small_box::<R, 0>(Tension::Dashpot);
         let big = GrainSpec {
             x: 0.01,
             y: 0.005,
@@ -470,21 +474,63 @@ mod tests {
             no_tension: bool,
         ) {
             let t = if no_tension { Tension::None } else { Tension::Dashpot };
-            proptest::prop_assert_eq!(cluster::<f64>(&grains, flow, t, true), cluster::<f64>(&grains, flow, t, false));
-            proptest::prop_assert_eq!(cluster::<f32>(&grains, flow, t, true), cluster::<f32>(&grains, flow, t, false));
+            let flow = flow.then(|| Scenario::paper().flow(Scenario::PAPER_TAU_STAR));
+            let flow = flow.as_ref();
+            proptest::prop_assert_eq!(cluster::<f64, 0>(&grains, flow, t, true), cluster::<f64, 0>(&grains, flow, t, false));
+            proptest::prop_assert_eq!(cluster::<f32, 0>(&grains, flow, t, true), cluster::<f32, 0>(&grains, flow, t, false));
+        }
+
+        /// Random clusters under the coupled flow, its column from below
+        /// the grains or from among them, to among them or above them (so
+        /// that grains lie below the first cell centre, between the
+        /// centres and above the last), hindrance on or off, the
+        /// fluctuations on or off, an update every few steps: the batched
+        /// step gives the scalar step's bits step after step, or the same
+        /// error.
+        #[test]
+        fn random_clusters_under_the_coupled_flow_step_batched_as_scalar(
+            grains in proptest::collection::vec(
+                (
+                    0.0..0.02f64,
+                    0.0..0.0015f64,
+                    -0.05..0.05f64,
+                    -0.05..0.05f64,
+                    -50.0..50.0f64,
+                    0..3usize,
+                    proptest::bool::weighted(0.15),
+                ),
+                1..60,
+            ),
+            bottom in -0.002..0.001f64,
+            height in 0.0005..0.004f64,
+            cells in 2..16usize,
+            hindered: bool,
+            turbulence: bool,
+            update_steps in 1..8u32,
+        ) {
+            let mut flow = Scenario::paper().flow(Scenario::PAPER_TAU_STAR);
+            flow.turbulence = turbulence;
+            let mut fluid = crate::fluid::FluidConfig::new(cells, bottom, bottom + height, 0.02 * 0.5e-3);
+            fluid.driving = crate::fluid::FluidConfig::driving_for(flow.u_star, flow.depth);
+            fluid.hindrance = if hindered { 3.1 } else { 0.0 };
+            fluid.update_steps = update_steps;
+            (flow.model, flow.fluid) = (crate::FlowModel::Coupled, fluid);
+            let (flow, t) = (Some(&flow), Tension::Dashpot);
+            proptest::prop_assert_eq!(cluster::<f64, 16>(&grains, flow, t, true), cluster::<f64, 16>(&grains, flow, t, false));
+            proptest::prop_assert_eq!(cluster::<f32, 16>(&grains, flow, t, true), cluster::<f32, 16>(&grains, flow, t, false));
         }
     }
 
-    /// Steps a random cluster 40 times with the `tension` rule, batched or
-    /// scalar: each step's outcome, digest and events so far, up to the
-    /// first error.
-    fn cluster<R: Real>(
+    /// Steps a random cluster 40 times with the `tension` rule under
+    /// `flow` (or none), batched or scalar: each step's outcome, digest and
+    /// events so far, up to the first error.
+    fn cluster<R: Real, const C: usize>(
         grains: &[Loose],
-        flow: bool,
+        flow: Option<&crate::FlowConfig>,
         tension: Tension,
         batched: bool,
     ) -> std::vec::Vec<(Result<(), Error>, u64, Events)> {
-        let mut sim = small_box::<R>(tension);
+        let mut sim = small_box::<R, C>(tension);
         for &(x, y, u, v, spin, class, fixed) in grains {
             let spec = GrainSpec {
                 x,
@@ -498,9 +544,8 @@ mod tests {
             };
             sim.add_grain(&spec).unwrap();
         }
-        if flow {
-            sim.set_flow(Some(&Scenario::paper().flow(Scenario::PAPER_TAU_STAR)))
-                .unwrap();
+        if flow.is_some() {
+            sim.set_flow(flow).unwrap();
         }
         let mut outcomes = std::vec::Vec::new();
         for _ in 0..40 {
