@@ -76,6 +76,41 @@ pub(crate) struct Local<R: Real> {
     pub(crate) place: Place<R>,
 }
 
+/// The coupled flow's cells as a step reads and writes them, without the
+/// capacity `C` (code over them is one copy for every `C`): the grid's
+/// bottom and 1/Δy, the number of cells, the table of the cell centres
+/// ([`Coupling::centres`], [`Coupling::slopes`]) and the drag sums.
+pub(crate) struct Cells<'a, R: Real> {
+    /// Height of face 0 (m).
+    pub(crate) bottom: R,
+    /// 1/Δy.
+    pub(crate) inv_dy: R,
+    /// The cells in use.
+    pub(crate) count: usize,
+    pub(crate) centres: &'a [[R; 4]],
+    pub(crate) slopes: &'a [[R; 4]],
+    drag_sum: &'a mut [R],
+}
+
+impl<R: Real> Cells<'_, R> {
+    /// Adds the streamwise drag `force` (N) a grain received at a place
+    /// ([`Coupling::place`]: `cell`, `frac`) to the cells' sums with the
+    /// weights of its interpolation: the two centres around it by their
+    /// distances, all of it to one cell beyond the first or the last centre
+    /// (the wall takes nothing), so the sums take the whole force, to
+    /// round-off.
+    #[inline]
+    pub(crate) fn deposit(&mut self, cell: usize, frac: R, force: R) {
+        let upper = force * frac;
+        if let Some(sum) = self.drag_sum.get_mut(cell) {
+            *sum += force - upper;
+        }
+        if let (true, Some(sum)) = (frac != R::ZERO, self.drag_sum.get_mut(cell + 1)) {
+            *sum += upper;
+        }
+    }
+}
+
 impl<R: Real, const C: usize> Coupling<R, C> {
     /// Off, no cells.
     pub(crate) const fn new() -> Self {
@@ -167,19 +202,24 @@ impl<R: Real, const C: usize> Coupling<R, C> {
     }
 
     /// Adds the streamwise drag `force` (N) a grain received at a place
-    /// ([`Coupling::place`]: `cell`, `frac`) to the cells' sums with the
-    /// weights of its interpolation: the two centres around it by their
-    /// distances, all of it to one cell beyond the first or the last centre
-    /// (the wall takes nothing), so the sums take the whole force, to
-    /// round-off.
+    /// ([`Coupling::place`]: `cell`, `frac`) to the cells' sums
+    /// ([`Cells::deposit`]).
     #[inline]
     pub(crate) fn deposit(&mut self, cell: usize, frac: R, force: R) {
-        let upper = force * frac;
-        if let Some(sum) = self.drag_sum.get_mut(cell) {
-            *sum += force - upper;
-        }
-        if let (true, Some(sum)) = (frac != R::ZERO, self.drag_sum.get_mut(cell + 1)) {
-            *sum += upper;
+        self.cells().deposit(cell, frac, force);
+    }
+
+    /// The cells as a step reads and writes them ([`Cells`]).
+    #[inline]
+    pub(crate) fn cells(&mut self) -> Cells<'_, R> {
+        let grid = self.column.grid();
+        Cells {
+            bottom: grid.bottom,
+            inv_dy: grid.inv_dy,
+            count: grid.cells().min(C),
+            centres: &self.centres,
+            slopes: &self.slopes,
+            drag_sum: &mut self.drag_sum,
         }
     }
 

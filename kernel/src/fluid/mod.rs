@@ -35,7 +35,7 @@ mod tridiagonal;
 
 pub use column::Column;
 pub use config::FluidConfig;
-pub(crate) use coupling::Coupling;
+pub(crate) use coupling::{Cells, Coupling};
 pub use grid::Grid;
 pub use slabs::Slabs;
 pub use slice::slice_volume;

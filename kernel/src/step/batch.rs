@@ -35,7 +35,7 @@ use crate::contact::ContactLaw;
 use crate::error::Error;
 use crate::events::Events;
 use crate::flow::Profile;
-use crate::fluid::Coupling;
+use crate::fluid::{Cells, Coupling};
 use crate::grains::Grains;
 use crate::real::Real;
 use core::any::Any;
@@ -98,7 +98,10 @@ pub(crate) fn batched_step<R: Real, const N: usize, const K: usize, const C: usi
         fluid.downcast_mut::<Coupling<f64, C>>(),
         params.downcast_ref::<Params<f64>>(),
     ) {
-        let max_v2 = f64x4::batched_step(g, b, f, p, events);
+        if let Flow::Coupled { turbulence } = p.flow {
+            f64x4::coupled_drag(g, b, f.cells(), turbulence);
+        }
+        let max_v2 = f64x4::batched_step(g, b, p, events);
         return Some(max_v2.map(R::from_f64));
     }
     if let (Some(g), Some(b), Some(f), Some(p)) = (
@@ -107,7 +110,10 @@ pub(crate) fn batched_step<R: Real, const N: usize, const K: usize, const C: usi
         fluid.downcast_mut::<Coupling<f32, C>>(),
         params.downcast_ref::<Params<f32>>(),
     ) {
-        let max_v2 = f32x8::batched_step(g, b, f, p, events);
+        if let Flow::Coupled { turbulence } = p.flow {
+            f32x8::coupled_drag(g, b, f.cells(), turbulence);
+        }
+        let max_v2 = f32x8::batched_step(g, b, p, events);
         // Exact: every f32 is an f64.
         return Some(max_v2.map(|v| R::from_f64(f64::from(v))));
     }
@@ -132,8 +138,6 @@ struct BatchStep<'a, R: Real, const N: usize, const K: usize> {
     batch: &'a mut PairIndex<R, N, K>,
     /// The clear-water flow's drag, added to the forces first, or None.
     drag: Option<Drag<'a, R, N>>,
-    /// The coupled flow's drag, added to the forces first, or None.
-    coupled: Option<CoupledDrag<'a, R, N>>,
     /// The contacts made, broken and sliding and the seam crossings.
     events: &'a mut Events,
 }
@@ -170,15 +174,6 @@ impl<'a, R: Real, const N: usize, const K: usize> BatchStep<'a, R, N, K> {
                 }),
                 _ => None,
             },
-            coupled: match p.flow {
-                Flow::Coupled { turbulence } => Some(CoupledDrag {
-                    turbulence,
-                    coef: &g.drag_coef,
-                    z_u: &g.z_u,
-                    z_v: &g.z_v,
-                }),
-                _ => None,
-            },
             events,
         }
     }
@@ -196,17 +191,6 @@ struct Drag<'a, R: Real, const N: usize> {
     z_v: &'a [R; N],
 }
 
-/// What the coupled flow's drag ([`super::scalar::add_coupled_drag`])
-/// reads besides the column: whether the fluctuations (15) are on, and per
-/// grain ½ρC_D A2 d² and the held fluctuation draws.
-#[derive(Clone, Copy)]
-struct CoupledDrag<'a, R: Real, const N: usize> {
-    turbulence: bool,
-    coef: &'a [R; N],
-    z_u: &'a [R; N],
-    z_v: &'a [R; N],
-}
-
 /// The batched step in AVX2 lanes of one precision: module `$module`,
 /// precision `$R` (raw bits `$bits`), vector `$V` of `$lanes` lanes, and
 /// the precision's intrinsics; rows of a grain's four sums are `$Row`, and
@@ -214,7 +198,7 @@ struct CoupledDrag<'a, R: Real, const N: usize> {
 /// back; `$to_mask` reads integer lanes as a lane mask; `$round` rounds
 /// lanes (towards zero here) and `$to_index` truncates lanes to `i32`
 /// indices. `unsafe` appears
-/// five times in the macro: the call of a `#[target_feature]` function,
+/// six times in the macro: the calls of a `#[target_feature]` function,
 /// sound because the build enables AVX2 (`cfg(target_feature = "avx2")`),
 /// and the loads and stores of a vector from and to a `[$R; $lanes]` and
 /// of a row from and to a `[$R; 4]`, sound because the array is exactly
@@ -232,7 +216,7 @@ macro_rules! lanes {
     ) => {
         #[allow(unsafe_code)]
         mod $module {
-            use super::{BatchStep, Coupling, Grains, PairIndex, Params, CHUNK, PAIRS};
+            use super::{BatchStep, Cells, Grains, PairIndex, Params, CHUNK, PAIRS};
             use crate::contact::Tension;
             use crate::error::Error;
             use crate::events::Events;
@@ -254,10 +238,9 @@ macro_rules! lanes {
             /// `b` (inlined into the step's dispatch, f64 spilled the
             /// grains' base: 7 % more instructions per grain-step).
             #[inline(never)]
-            pub(super) fn batched_step<const N: usize, const K: usize, const C: usize>(
+            pub(super) fn batched_step<const N: usize, const K: usize>(
                 g: &mut Grains<$R, N>,
                 b: &mut PairIndex<$R, N, K>,
-                fluid: &mut Coupling<$R, C>,
                 p: &Params<$R>,
                 events: &mut Events,
             ) -> Result<$R, Error> {
@@ -267,9 +250,6 @@ macro_rules! lanes {
                 unsafe {
                     if let Some(drag) = step.drag {
                         drag_pass(step, &drag);
-                    }
-                    if let Some(drag) = step.coupled {
-                        coupled_pass(step, &drag, fluid);
                     }
                     // One copy of the pair pass per (counting, tension
                     // rule): the paper's rule keeps its instructions.
@@ -282,6 +262,23 @@ macro_rules! lanes {
                     }
                     grain_pass(step)
                 }
+            }
+
+            /// The coupled flow's drag on the grains `g` from its `cells`
+            /// into the sums of the pair index `b`, before
+            /// [`batched_step`] ([`coupled_pass`]; the fluctuations on if
+            /// `turbulence`). Never inlined, and apart from the batched
+            /// step: the clear-water step keeps its code.
+            #[inline(never)]
+            pub(super) fn coupled_drag<const N: usize, const K: usize>(
+                g: &Grains<$R, N>,
+                b: &mut PairIndex<$R, N, K>,
+                mut cells: Cells<'_, $R>,
+                turbulence: bool,
+            ) {
+                // SAFETY: this module is compiled only with AVX2 enabled for the
+                // whole build, so the CPU running it has AVX2.
+                unsafe { coupled_pass(g, b, &mut cells, turbulence) }
             }
 
             /// A vector from L values.
@@ -487,23 +484,23 @@ macro_rules! lanes {
             /// grain order. The cell indices are exact in f32: the caller
             /// takes fewer than 2^24 cells ([`super::batched_step`]).
             #[target_feature(enable = "avx2")]
-            fn coupled_pass<const N: usize, const K: usize, const C: usize>(
-                s: &mut BatchStep<'_, $R, N, K>,
-                d: &super::CoupledDrag<'_, $R, N>,
-                fluid: &mut Coupling<$R, C>,
+            fn coupled_pass<const N: usize, const K: usize>(
+                g: &Grains<$R, N>,
+                b: &mut PairIndex<$R, N, K>,
+                fluid: &mut Cells<'_, $R>,
+                turbulence: bool,
             ) {
                 let splat = $set1;
                 let zero = $setzero();
                 let (add, sub, mul) = ($add, $sub, $mul);
                 let select = |no: $V, yes: $V, mask: $V| $blendv(no, yes, mask);
-                let grid = fluid.column.grid();
-                let (bottom, inv_dy) = (splat(grid.bottom), splat(grid.inv_dy));
+                let (bottom, inv_dy) = (splat(fluid.bottom), splat(fluid.inv_dy));
                 let (half, one, two) = (splat(0.5), splat(1.0), splat(2.0));
-                let last = grid.cells().min(C).saturating_sub(1);
+                let last = fluid.count.saturating_sub(1);
                 let last_cell = splat(last as $R);
                 let rms_u = splat(<$R as Real>::from_f64(2.30));
                 let rms_v = splat(<$R as Real>::from_f64(1.27));
-                let turbulence = splat(if d.turbulence {
+                let turbulence = splat(if turbulence {
                     <$R>::from_bits(<$bits>::MAX)
                 } else {
                     0.0
@@ -514,7 +511,7 @@ macro_rules! lanes {
                 // (i = ⌊position⌋ and i + 1, 0 < position < last), the
                 // fraction (0 beyond), the cell (i, else the end cell).
                 let place = |grp: usize| {
-                    let y = load(group(s.y, grp));
+                    let y = load(group(&g.y, grp));
                     let position = sub(mul(sub(y, bottom), inv_dy), half);
                     let above = $cmp(position, zero, _CMP_GT_OQ);
                     let inside = $and(above, $cmp(position, last_cell, _CMP_LT_OQ));
@@ -523,7 +520,7 @@ macro_rules! lanes {
                     let cell = select($and(last_cell, above), floor, inside);
                     (position, above, inside, frac, cell)
                 };
-                let groups = s.n.min(N).div_ceil(L).min(N / L);
+                let groups = g.len.min(N).div_ceil(L).min(N / L);
                 // Blocks of groups: first every cell of the block, so that
                 // the rows' loads do not wait on their addresses.
                 for first in (0..groups).step_by(BLOCK) {
@@ -535,7 +532,7 @@ macro_rules! lanes {
                         }
                     }
                     for (grp, cells) in block.zip(cells) {
-                        let mobile = load(group(&s.batch.mobile, grp));
+                        let mobile = load(group(&b.mobile, grp));
                         if $movemask(mobile) == 0 {
                             continue;
                         }
@@ -544,13 +541,13 @@ macro_rules! lanes {
                         // Coupling::at: the value plus the slope times the
                         // fraction inside; beyond, the end cell's values, u_f
                         // falling to 0 at the wall below.
-                        let row = |t: &[[$R; 4]; C], l: usize| {
+                        let row = |t: &[[$R; 4]], l: usize| {
                             load_row(t.get(cells[l] as usize).unwrap_or(&no_row))
                         };
                         let [u, scale, hindrance, _] =
-                            $from_rows(core::array::from_fn(|l| row(&fluid.centres, l)));
+                            $from_rows(core::array::from_fn(|l| row(fluid.centres, l)));
                         let [du, dscale, dhindrance, _] =
-                            $from_rows(core::array::from_fn(|l| row(&fluid.slopes, l)));
+                            $from_rows(core::array::from_fn(|l| row(fluid.slopes, l)));
                         let lerp = |v: $V, dv: $V| select(v, add(v, mul(dv, frac)), inside);
                         let wall = $min(one, $max(zero, mul(add(position, half), two)));
                         let u_f = select(select(mul(u, wall), u, above), lerp(u, du), inside);
@@ -558,16 +555,16 @@ macro_rules! lanes {
                         // (15) with u*_loc, where u_f > 0; (4)–(5) with u_f and
                         // the hindrance (C7).
                         let fluctuates = $and($cmp(u_f, zero, _CMP_GT_OQ), turbulence);
-                        let fluct_u = $and(mul(at(d.z_u), mul(rms_u, scale)), fluctuates);
-                        let fluct_v = $and(mul(at(d.z_v), mul(rms_v, scale)), fluctuates);
-                        let wx = sub(add(u_f, fluct_u), at(s.u));
-                        let wy = sub(fluct_v, at(s.v));
+                        let fluct_u = $and(mul(at(&g.z_u), mul(rms_u, scale)), fluctuates);
+                        let fluct_v = $and(mul(at(&g.z_v), mul(rms_v, scale)), fluctuates);
+                        let wx = sub(add(u_f, fluct_u), at(&g.u));
+                        let wy = sub(fluct_v, at(&g.v));
                         let speed = $sqrt(add(mul(wx, wx), mul(wy, wy)));
-                        let xi = mul(mul(at(d.coef), hindrance), speed);
+                        let xi = mul(mul(at(&g.drag_coef), hindrance), speed);
                         // The sums (+0) add the drag (+0 for fixed grains).
                         let [fx, fy] = [mul(xi, wx), mul(xi, wy)].map(|f| $and(f, mobile));
                         let rows = $to_rows([fx, fy, zero, zero]);
-                        if let Some(sums) = s.batch.sums.as_chunks_mut::<L>().0.get_mut(grp) {
+                        if let Some(sums) = b.sums.as_chunks_mut::<L>().0.get_mut(grp) {
                             for (sum, row) in sums.iter_mut().zip(rows) {
                                 add_row(sum, row);
                             }
