@@ -79,7 +79,13 @@ pub(crate) struct Local<R: Real> {
 /// The coupled flow's cells as a step reads and writes them, without the
 /// capacity `C` (code over them is one copy for every `C`): the grid's
 /// bottom and 1/Δy, the number of cells, the table of the cell centres
-/// ([`Coupling::centres`], [`Coupling::slopes`]) and the drag sums.
+/// ([`Coupling::centres`], [`Coupling::slopes`]) and the drag sums. The
+/// batched step reads the grid and the table; elsewhere only the sums are
+/// used ([`Cells::deposit`]).
+#[cfg_attr(
+    not(all(target_arch = "x86_64", target_feature = "avx2")),
+    allow(dead_code)
+)]
 pub(crate) struct Cells<'a, R: Real> {
     /// Height of face 0 (m).
     pub(crate) bottom: R,

@@ -35,7 +35,9 @@ mod tridiagonal;
 
 pub use column::Column;
 pub use config::FluidConfig;
-pub(crate) use coupling::{Cells, Coupling};
+#[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+pub(crate) use coupling::Cells;
+pub(crate) use coupling::Coupling;
 pub use grid::Grid;
 pub use slabs::Slabs;
 pub use slice::slice_volume;
