@@ -197,8 +197,9 @@ struct Drag<'a, R: Real, const N: usize> {
 /// `$to_rows` and `$from_rows` transpose four vectors to a row per lane and
 /// back; `$to_mask` reads integer lanes as a lane mask; `$round` rounds
 /// lanes (towards zero here) and `$to_index` truncates lanes to `i32`
-/// indices. `unsafe` appears
-/// six times in the macro: the calls of a `#[target_feature]` function,
+/// indices. `unsafe` appears six times in the macro: the two calls of a
+/// `#[target_feature]` function (the batched step's passes, the coupled
+/// flow's drag),
 /// sound because the build enables AVX2 (`cfg(target_feature = "avx2")`),
 /// and the loads and stores of a vector from and to a `[$R; $lanes]` and
 /// of a row from and to a `[$R; 4]`, sound because the array is exactly
