@@ -12,7 +12,14 @@
 //!
 //! Both are timed within their first 400 steps, rewound between stretches,
 //! as `benches/step.rs`. Throughput is in grain-steps: criterion's elem/s
-//! inverted is ns per grain-step. `MBS_UPDATE_STEPS=M` sets the coupled
+//! inverted is ns per grain-step.
+//!
+//! The coupled bed moves more (no sheltering), so its neighbour lists are
+//! rebuilt more often: the number of rebuilds within the 400 steps of each
+//! is printed, and `clear-rebuild` and `coupled-rebuild` time one rebuild
+//! (`Sim::rebuild_neighbours`, per grain) from each start, so that the
+//! step's cost without its rebuilds is the step's less rebuilds / 400 times
+//! a rebuild's. `MBS_UPDATE_STEPS=M` sets the coupled
 //! flow's update interval (e.g. 100000: no update within the timed
 //! stretches, the cost of the grains' drag alone).
 //!
@@ -57,6 +64,8 @@ struct Window<S> {
 trait Steps {
     fn restore_at(&mut self, bytes: &[u8]) -> Result<(), Error>;
     fn steps(&mut self, n: u64) -> Result<(), Error>;
+    fn rebuild(&mut self) -> Result<(), Error>;
+    fn rebuilds(&self) -> u64;
 }
 
 impl<R: Real, const K: usize, const C: usize> Steps for Box<Sim<R, N, K, C>> {
@@ -67,9 +76,35 @@ impl<R: Real, const K: usize, const C: usize> Steps for Box<Sim<R, N, K, C>> {
     fn steps(&mut self, n: u64) -> Result<(), Error> {
         self.run(n)
     }
+    fn rebuild(&mut self) -> Result<(), Error> {
+        self.rebuild_neighbours()
+    }
+    fn rebuilds(&self) -> u64 {
+        self.events().neighbour_rebuilds
+    }
 }
 
 impl<S: Steps> Window<S> {
+    /// The neighbour rebuilds within the window's steps from its start.
+    fn rebuilds(&mut self) -> u64 {
+        self.sim.restore_at(&self.start).expect("rewind");
+        let before = self.sim.rebuilds();
+        self.sim.steps(WINDOW_STEPS).expect("steps");
+        self.taken = WINDOW_STEPS;
+        self.sim.rebuilds() - before
+    }
+
+    /// `times` rebuilds of the neighbour lists from the window's start.
+    fn time_rebuilds(&mut self, times: u64) -> Duration {
+        self.sim.restore_at(&self.start).expect("rewind");
+        self.taken = WINDOW_STEPS;
+        let clock = Instant::now();
+        for _ in 0..times {
+            self.sim.rebuild().expect("rebuild");
+        }
+        clock.elapsed()
+    }
+
     fn time(&mut self, times: u64) -> Duration {
         let mut total = Duration::ZERO;
         let mut left = times;
@@ -140,11 +175,23 @@ fn bench<R: Real>(c: &mut Criterion) {
         start: coupled_start,
         taken: WINDOW_STEPS,
     };
+    eprintln!(
+        "{}: neighbour rebuilds in {WINDOW_STEPS} steps: clear {}, coupled {}",
+        R::NAME,
+        clear.rebuilds(),
+        coupled.rebuilds()
+    );
     group.bench_function(BenchmarkId::new("clear", grains), |b| {
         b.iter_custom(|n| clear.time(n))
     });
     group.bench_function(BenchmarkId::new("coupled", grains), |b| {
         b.iter_custom(|n| coupled.time(n))
+    });
+    group.bench_function(BenchmarkId::new("clear-rebuild", grains), |b| {
+        b.iter_custom(|n| clear.time_rebuilds(n))
+    });
+    group.bench_function(BenchmarkId::new("coupled-rebuild", grains), |b| {
+        b.iter_custom(|n| coupled.time_rebuilds(n))
     });
     group.finish();
 }

@@ -19,13 +19,16 @@ pub(crate) struct Coupling<R: Real, const C: usize> {
     pub(crate) column: Column<R, C>,
     /// Scratch of an update: the grains' slab sums.
     pub(crate) slabs: Slabs<R, C>,
-    /// (1 − φ_j)^(−n) at each cell centre, docs/model.md (C7); 1 without
-    /// hindrance. Derived ([`Coupling::refresh`]).
-    pub(crate) hindrance: [R; C],
-    /// u*_loc exp(−(y − y_bed)/h) at each cell centre: the scale of the
-    /// fluctuations (15) with the local shear velocity (C4). Derived
+    /// What a grain reads at each cell centre j, a row [u_f, scale,
+    /// hindrance, 0]: u_f; u*_loc exp(−(y − y_bed)/h), the scale of the
+    /// fluctuations (15) with the local shear velocity (C4); (1 − φ_j)^(−n),
+    /// docs/model.md (C7), 1 without hindrance. Derived
     /// ([`Coupling::refresh`]).
-    pub(crate) scale: [R; C],
+    pub(crate) centres: [[R; 4]; C],
+    /// Each row of [`Coupling::centres`] less the one below: centre j + 1's
+    /// values less centre j's (0 at the last centre), the slopes of the
+    /// linear reads between them. Derived ([`Coupling::refresh`]).
+    pub(crate) slopes: [[R; 4]; C],
     /// The stabiliser's force of each cell at the last update (N),
     /// returned to the fluid at the next (docs/model.md §13): state.
     pub(crate) carried: [R; C],
@@ -43,6 +46,21 @@ pub(crate) struct Coupling<R: Real, const C: usize> {
     pub(crate) inv_steps: R,
 }
 
+/// Where a grain lies between the cell centres ([`Coupling::place`]):
+/// between centres `cell` and `cell + 1` at `frac` of the way (`inside`),
+/// or below the first or above the last centre, in `cell`'s tables with
+/// `frac` = 0. Its drag goes to those centres by the same weights
+/// ([`Coupling::deposit`]).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Place<R: Real> {
+    /// The lower of the two centres, or the end cell.
+    pub(crate) cell: usize,
+    /// The weight of the upper centre, in [0, 1); 0 beyond the ends.
+    pub(crate) frac: R,
+    /// Between two centres.
+    pub(crate) inside: bool,
+}
+
 /// What a grain at some height reads of the coupled flow: u_f, the scale of
 /// its fluctuations and its hindrance, all linear between the two cell
 /// centres around it ([`Coupling::at`]), and where its drag goes.
@@ -54,10 +72,49 @@ pub(crate) struct Local<R: Real> {
     pub(crate) scale: R,
     /// (1 − φ)^(−n).
     pub(crate) hindrance: R,
-    /// The lower of the two centres.
-    cell: usize,
-    /// The weight of the upper centre, in [0, 1).
-    frac: R,
+    /// Where it was read.
+    pub(crate) place: Place<R>,
+}
+
+/// The coupled flow's cells as a step reads and writes them, without the
+/// capacity `C` (code over them is one copy for every `C`): the grid's
+/// bottom and 1/Δy, the number of cells, the table of the cell centres
+/// ([`Coupling::centres`], [`Coupling::slopes`]) and the drag sums. The
+/// batched step reads the grid and the table; elsewhere only the sums are
+/// used ([`Cells::deposit`]).
+#[cfg_attr(
+    not(all(target_arch = "x86_64", target_feature = "avx2")),
+    allow(dead_code)
+)]
+pub(crate) struct Cells<'a, R: Real> {
+    /// Height of face 0 (m).
+    pub(crate) bottom: R,
+    /// 1/Δy.
+    pub(crate) inv_dy: R,
+    /// The cells in use.
+    pub(crate) count: usize,
+    pub(crate) centres: &'a [[R; 4]],
+    pub(crate) slopes: &'a [[R; 4]],
+    drag_sum: &'a mut [R],
+}
+
+impl<R: Real> Cells<'_, R> {
+    /// Adds the streamwise drag `force` (N) a grain received at a place
+    /// ([`Coupling::place`]: `cell`, `frac`) to the cells' sums with the
+    /// weights of its interpolation: the two centres around it by their
+    /// distances, all of it to one cell beyond the first or the last centre
+    /// (the wall takes nothing), so the sums take the whole force, to
+    /// round-off.
+    #[inline]
+    pub(crate) fn deposit(&mut self, cell: usize, frac: R, force: R) {
+        let upper = force * frac;
+        if let Some(sum) = self.drag_sum.get_mut(cell) {
+            *sum += force - upper;
+        }
+        if let (true, Some(sum)) = (frac != R::ZERO, self.drag_sum.get_mut(cell + 1)) {
+            *sum += upper;
+        }
+    }
 }
 
 impl<R: Real, const C: usize> Coupling<R, C> {
@@ -67,8 +124,8 @@ impl<R: Real, const C: usize> Coupling<R, C> {
             on: false,
             column: Column::new(),
             slabs: Slabs::new(),
-            hindrance: [R::ZERO; C],
-            scale: [R::ZERO; C],
+            centres: [[R::ZERO; 4]; C],
+            slopes: [[R::ZERO; 4]; C],
             carried: [R::ZERO; C],
             drag_sum: [R::ZERO; C],
             stabiliser: [R::ZERO; C],
@@ -88,78 +145,118 @@ impl<R: Real, const C: usize> Coupling<R, C> {
         sum * self.exchange_dt
     }
 
+    /// Height `y` in cells from the first centre: (y − bottom)/Δy − ½.
+    #[inline]
+    pub(crate) fn position(&self, y: R) -> R {
+        let grid = self.column.grid();
+        (y - grid.bottom) * grid.inv_dy - R::HALF
+    }
+
+    /// Where `position` ([`Coupling::position`]) lies between the cell
+    /// centres: between two, or beyond the first or the last.
+    #[inline]
+    pub(crate) fn place(&self, position: R) -> Place<R> {
+        let last = self.column.grid().cells().min(C).saturating_sub(1);
+        let above = position > R::ZERO;
+        // `as usize` saturates; position > 0 here.
+        let i = if above { position.to_f64() as usize } else { 0 };
+        if above && i < last {
+            Place {
+                cell: i,
+                frac: position - R::from_f64(i as f64),
+                inside: true,
+            }
+        } else {
+            Place {
+                cell: if above { last } else { 0 },
+                frac: R::ZERO,
+                inside: false,
+            }
+        }
+    }
+
     /// The flow at height `y`, linear between the two cell centres around
-    /// it; below the first centre the tables of the bottom cell and u_f
-    /// falling linearly to 0 at the no-slip bottom (as
-    /// [`Column::velocity_at`]), above the last centre the top cell's.
+    /// it (a value plus its slope times the fraction); below the first
+    /// centre the bottom cell's values with u_f falling linearly to 0 at
+    /// the no-slip bottom (as [`Column::velocity_at`]), above the last
+    /// centre the top cell's.
     #[inline]
     pub(crate) fn at(&self, y: R) -> Local<R> {
-        let grid = self.column.grid();
-        let n = grid.cells().min(C);
-        let u = self.column.velocities();
-        let s = (y - grid.bottom) * grid.inv_dy - R::HALF;
-        // `as usize` saturates; s > 0 here.
-        let i = if s > R::ZERO { s.to_f64() as usize } else { 0 };
-        match (u.get(i), u.get(i + 1)) {
-            (Some(&lo), Some(&hi)) if s > R::ZERO && i + 1 < n => {
-                let frac = s - R::from_f64(i as f64);
-                let lerp = |t: &[R; C]| t[i] + (t[i + 1] - t[i]) * frac;
-                Local {
-                    u: lo + (hi - lo) * frac,
-                    scale: lerp(&self.scale),
-                    hindrance: lerp(&self.hindrance),
-                    cell: i,
-                    frac,
-                }
+        let s = self.position(y);
+        let place = self.place(s);
+        let zero = [R::ZERO; 4];
+        let v = self.centres.get(place.cell).unwrap_or(&zero);
+        if place.inside {
+            let d = self.slopes.get(place.cell).unwrap_or(&zero);
+            let lerp = |k: usize| v[k] + d[k] * place.frac;
+            Local {
+                u: lerp(0),
+                scale: lerp(1),
+                hindrance: lerp(2),
+                place,
             }
-            _ => {
-                let j = if s > R::ZERO { n.saturating_sub(1) } else { 0 };
-                let wall = R::min(R::max((s + R::HALF) * R::from_f64(2.0), R::ZERO), R::ONE);
-                let top = u.get(j).copied().unwrap_or(R::ZERO);
-                Local {
-                    u: if s > R::ZERO { top } else { top * wall },
-                    scale: self.scale.get(j).copied().unwrap_or(R::ZERO),
-                    hindrance: self.hindrance.get(j).copied().unwrap_or(R::ONE),
-                    cell: j,
-                    frac: R::ZERO,
-                }
+        } else {
+            // Below the first centre, falling to 0 at the wall (s = −½).
+            let wall = R::min(R::max((s + R::HALF) * R::from_f64(2.0), R::ZERO), R::ONE);
+            Local {
+                u: if s > R::ZERO { v[0] } else { v[0] * wall },
+                scale: v[1],
+                hindrance: v[2],
+                place,
             }
         }
     }
 
-    /// Adds the streamwise drag `force` (N) a grain received where it read
-    /// `at` to the cells' sums with the weights of its interpolation: the
-    /// two centres around it by their distances, all of it to one cell
-    /// beyond the first or the last centre (the wall takes nothing), so the
-    /// sums take the whole force, to round-off.
+    /// Adds the streamwise drag `force` (N) a grain received at a place
+    /// ([`Coupling::place`]: `cell`, `frac`) to the cells' sums
+    /// ([`Cells::deposit`]).
     #[inline]
-    pub(crate) fn deposit(&mut self, at: &Local<R>, force: R) {
-        let upper = force * at.frac;
-        if let Some(sum) = self.drag_sum.get_mut(at.cell) {
-            *sum += force - upper;
-        }
-        if let (true, Some(sum)) = (at.frac != R::ZERO, self.drag_sum.get_mut(at.cell + 1)) {
-            *sum += upper;
+    pub(crate) fn deposit(&mut self, cell: usize, frac: R, force: R) {
+        self.cells().deposit(cell, frac, force);
+    }
+
+    /// The cells as a step reads and writes them ([`Cells`]).
+    #[inline]
+    pub(crate) fn cells(&mut self) -> Cells<'_, R> {
+        let grid = self.column.grid();
+        Cells {
+            bottom: grid.bottom,
+            inv_dy: grid.inv_dy,
+            count: grid.cells().min(C),
+            centres: &self.centres,
+            slopes: &self.slopes,
+            drag_sum: &mut self.drag_sum,
         }
     }
 
-    /// Recomputes the tables of each cell centre from the state: the
-    /// hindrance (1 − φ)^(−n) with exponent `config.hindrance` (f64
-    /// `libm::pow`), and the scale of the fluctuations u*_loc exp(−(y −
-    /// `bed_level`)/h) (`minus_inv_depth` = −1/h). After every update of
-    /// the column or of the bed level, and after a restore.
+    /// Recomputes the table of each cell centre from the state
+    /// ([`Coupling::centres`], [`Coupling::slopes`]): u_f, the scale of the
+    /// fluctuations u*_loc exp(−(y − `bed_level`)/h) (`minus_inv_depth` =
+    /// −1/h) and the hindrance (1 − φ)^(−n) with exponent
+    /// `config.hindrance` (f64 `libm::pow`). After every update of the
+    /// column or of the bed level, and after a restore.
     pub(crate) fn refresh(&mut self, config: &FluidConfig, minus_inv_depth: R, bed_level: R) {
         let n = config.hindrance;
         let grid = self.column.grid();
-        for (j, &phi) in self.column.solid_fractions().iter().enumerate().take(C) {
-            self.hindrance[j] = if n == 0.0 {
+        let velocities = self.column.velocities();
+        let cells = self.column.solid_fractions().iter().zip(velocities);
+        for (j, (&phi, &u)) in cells.enumerate().take(C) {
+            let hindrance = if n == 0.0 {
                 R::ONE
             } else {
                 R::from_f64(libm::pow(1.0 - phi.to_f64(), -n))
             };
             let y = grid.centre(j);
             let decay = R::exp((y - bed_level) * minus_inv_depth);
-            self.scale[j] = self.column.shear_velocity_at(y) * decay;
+            let scale = self.column.shear_velocity_at(y) * decay;
+            self.centres[j] = [u, scale, hindrance, R::ZERO];
+        }
+        let cells = grid.cells().min(C);
+        for j in 0..cells {
+            self.slopes[j] = match (self.centres.get(j), self.centres.get(j + 1)) {
+                (Some(lo), Some(hi)) if j + 1 < cells => core::array::from_fn(|k| hi[k] - lo[k]),
+                _ => [R::ZERO; 4],
+            };
         }
     }
 }

@@ -17,7 +17,7 @@
 //! | `mixing` | the mixing length (Li & Sawamoto 1995, free-surface factor) | docs/model.md (C3) |
 //! | `tridiagonal` | [`Tridiagonal`]: the Thomas solve in fixed-size arrays | docs/model.md (C6) |
 //! | `column` | [`Column`]: the state u_f, one implicit step, the queries | docs/model.md (C4)–(C6) |
-//! | `coupling` | `Coupling`: the column inside a `Sim`, its slabs, the hindrance per cell | docs/model.md §13, (C7) |
+//! | `coupling` | `Coupling`: the column inside a `Sim`, its slabs, the table the grains read per cell centre (u_f, the fluctuations' scale, the hindrance, their slopes), the grains' place between the centres | docs/model.md §13, (C7) |
 //!
 //! Like the rest of the kernel: no allocation (arrays of the capacity `C`,
 //! a const generic), never panics (every failure is an [`crate::Error`]),
@@ -35,6 +35,8 @@ mod tridiagonal;
 
 pub use column::Column;
 pub use config::FluidConfig;
+#[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+pub(crate) use coupling::Cells;
 pub(crate) use coupling::Coupling;
 pub use grid::Grid;
 pub use slabs::Slabs;

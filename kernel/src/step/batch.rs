@@ -1,4 +1,5 @@
-//! The batched step: the drag (docs/model.md (4)–(5), flow on) on every grain, every
+//! The batched step: the drag (docs/model.md (4)–(5), flow on; with the
+//! coupled flow from its column, docs/model.md §13) on every grain, every
 //! listed pair's contact force (docs/model.md §2 geometry, law (6)–(9)), then every
 //! grain's force sum and motion (docs/model.md (1)–(3)), all in vector lanes, with
 //! the bits of the scalar step ([`super::scalar`], which runs on every other
@@ -34,6 +35,7 @@ use crate::contact::ContactLaw;
 use crate::error::Error;
 use crate::events::Events;
 use crate::flow::Profile;
+use crate::fluid::{Cells, Coupling};
 use crate::grains::Grains;
 use crate::real::Real;
 use core::any::Any;
@@ -43,20 +45,29 @@ use core::arch::x86_64::{
     _mm256_unpacklo_ps,
 };
 
-/// What the batched step reads besides the grains and the pair index:
-/// the periodic width, the contact law, the integrator, and the drag
-/// (profile and mean bed level; flow on) or None.
+/// What the batched step reads besides the grains, the pair index and
+/// the coupled flow: the periodic width, the contact law, the integrator,
+/// and the flow.
 #[derive(Clone, Copy)]
 pub(crate) struct Params<R: Real> {
     pub(crate) width: R,
     pub(crate) law: ContactLaw<R>,
     pub(crate) mover: Mover<R>,
-    pub(crate) drag: Option<(Profile<R>, R)>,
-    /// The grains' force arrays hold forces found before the step (the
-    /// coupled flow's drag): each grain's sums start from them.
-    pub(crate) forces_added: bool,
+    pub(crate) flow: Flow<R>,
     /// Count the contacts made, broken and sliding ([`crate::Sim::count_events`]).
     pub(crate) count_events: bool,
+}
+
+/// The flow whose drag the batched step adds first.
+#[derive(Clone, Copy)]
+pub(crate) enum Flow<R: Real> {
+    /// No flow: no drag.
+    Off,
+    /// The clear-water flow: its profile and the mean bed level.
+    Clear(Profile<R>, R),
+    /// The coupled flow, from its column (the `Coupling` passed along);
+    /// the fluctuations (15) on or off (`Profile::turbulence`).
+    Coupled { turbulence: bool },
 }
 
 /// Runs the batched step if the pair index is ready: the largest squared
@@ -68,32 +79,40 @@ pub(crate) struct Params<R: Real> {
 /// index and parameters to each precision's types ([`Any`]): a comparison
 /// of two constant type ids, which each monomorphised copy folds away.
 #[inline]
-pub(crate) fn batched_step<R: Real, const N: usize, const K: usize>(
+pub(crate) fn batched_step<R: Real, const N: usize, const K: usize, const C: usize>(
     grains: &mut Grains<R, N>,
     index: &mut PairIndex<R, N, K>,
+    fluid: &mut Coupling<R, C>,
     params: &Params<R>,
     events: &mut Events,
 ) -> Option<Result<R, Error>> {
-    if !index.ready {
+    // Cell indices of the coupled flow are exact in f32 lanes below 2^24.
+    if !index.ready || C >= 1 << 24 {
         return None;
     }
-    if params.forces_added {
-        index.take_forces(grains);
-    }
-    let (grains, index, params): (&mut dyn Any, &mut dyn Any, &dyn Any) = (grains, index, params);
-    if let (Some(g), Some(b), Some(p)) = (
+    let (grains, index, fluid, params): (&mut dyn Any, &mut dyn Any, &mut dyn Any, &dyn Any) =
+        (grains, index, fluid, params);
+    if let (Some(g), Some(b), Some(f), Some(p)) = (
         grains.downcast_mut::<Grains<f64, N>>(),
         index.downcast_mut::<PairIndex<f64, N, K>>(),
+        fluid.downcast_mut::<Coupling<f64, C>>(),
         params.downcast_ref::<Params<f64>>(),
     ) {
+        if let Flow::Coupled { turbulence } = p.flow {
+            f64x4::coupled_drag(g, b, f.cells(), turbulence);
+        }
         let max_v2 = f64x4::batched_step(g, b, p, events);
         return Some(max_v2.map(R::from_f64));
     }
-    if let (Some(g), Some(b), Some(p)) = (
+    if let (Some(g), Some(b), Some(f), Some(p)) = (
         grains.downcast_mut::<Grains<f32, N>>(),
         index.downcast_mut::<PairIndex<f32, N, K>>(),
+        fluid.downcast_mut::<Coupling<f32, C>>(),
         params.downcast_ref::<Params<f32>>(),
     ) {
+        if let Flow::Coupled { turbulence } = p.flow {
+            f32x8::coupled_drag(g, b, f.cells(), turbulence);
+        }
         let max_v2 = f32x8::batched_step(g, b, p, events);
         // Exact: every f32 is an f64.
         return Some(max_v2.map(|v| R::from_f64(f64::from(v))));
@@ -117,7 +136,7 @@ struct BatchStep<'a, R: Real, const N: usize, const K: usize> {
     law: ContactLaw<R>,
     mover: Mover<R>,
     batch: &'a mut PairIndex<R, N, K>,
-    /// The flow's drag, added to the forces first (flow on), or None.
+    /// The clear-water flow's drag, added to the forces first, or None.
     drag: Option<Drag<'a, R, N>>,
     /// The contacts made, broken and sliding and the seam crossings.
     events: &'a mut Events,
@@ -145,13 +164,16 @@ impl<'a, R: Real, const N: usize, const K: usize> BatchStep<'a, R, N, K> {
             law: p.law,
             mover: p.mover,
             batch,
-            drag: p.drag.map(|(profile, bed_level)| Drag {
-                profile,
-                bed_level,
-                coef: &g.drag_coef,
-                z_u: &g.z_u,
-                z_v: &g.z_v,
-            }),
+            drag: match p.flow {
+                Flow::Clear(profile, bed_level) => Some(Drag {
+                    profile,
+                    bed_level,
+                    coef: &g.drag_coef,
+                    z_u: &g.z_u,
+                    z_v: &g.z_v,
+                }),
+                _ => None,
+            },
             events,
         }
     }
@@ -173,8 +195,11 @@ struct Drag<'a, R: Real, const N: usize> {
 /// precision `$R` (raw bits `$bits`), vector `$V` of `$lanes` lanes, and
 /// the precision's intrinsics; rows of a grain's four sums are `$Row`, and
 /// `$to_rows` and `$from_rows` transpose four vectors to a row per lane and
-/// back; `$to_mask` reads integer lanes as a lane mask. `unsafe` appears
-/// five times in the macro: the call of a `#[target_feature]` function,
+/// back; `$to_mask` reads integer lanes as a lane mask; `$round` rounds
+/// lanes (towards zero here) and `$to_index` truncates lanes to `i32`
+/// indices. `unsafe` appears six times in the macro: the two calls of a
+/// `#[target_feature]` function (the batched step's passes, the coupled
+/// flow's drag),
 /// sound because the build enables AVX2 (`cfg(target_feature = "avx2")`),
 /// and the loads and stores of a vector from and to a `[$R; $lanes]` and
 /// of a row from and to a `[$R; 4]`, sound because the array is exactly
@@ -188,11 +213,11 @@ macro_rules! lanes {
         $to_rows:expr, $from_rows:expr, $to_mask:ident,
         $add:ident, $sub:ident, $mul:ident, $div:ident, $sqrt:ident,
         $and:ident, $andnot:ident, $xor:ident, $blendv:ident, $cmp:ident,
-        $max:ident, $movemask:ident, $to_int:ident, $int_sub:ident
+        $max:ident, $min:ident, $round:ident, $to_index:expr, $movemask:ident, $to_int:ident, $int_sub:ident
     ) => {
         #[allow(unsafe_code)]
         mod $module {
-            use super::{BatchStep, Grains, PairIndex, Params, CHUNK, PAIRS};
+            use super::{BatchStep, Cells, Grains, PairIndex, Params, CHUNK, PAIRS};
             use crate::contact::Tension;
             use crate::error::Error;
             use crate::events::Events;
@@ -201,6 +226,9 @@ macro_rules! lanes {
 
             /// Lanes per vector.
             const L: usize = $lanes;
+            /// Groups of L grains whose cells the coupled flow's drag finds
+            /// ahead ([`coupled_pass`]).
+            const BLOCK: usize = 64 / L;
             /// Second grains from a window ([`super::second_window`]).
             const SECOND_WINDOW: bool = super::second_window(L) == 2 * L;
             const _: () = assert!(L == super::lanes::<$R>());
@@ -235,6 +263,23 @@ macro_rules! lanes {
                     }
                     grain_pass(step)
                 }
+            }
+
+            /// The coupled flow's drag on the grains `g` from its `cells`
+            /// into the sums of the pair index `b`, before
+            /// [`batched_step`] ([`coupled_pass`]; the fluctuations on if
+            /// `turbulence`). Never inlined, and apart from the batched
+            /// step: the clear-water step keeps its code.
+            #[inline(never)]
+            pub(super) fn coupled_drag<const N: usize, const K: usize>(
+                g: &Grains<$R, N>,
+                b: &mut PairIndex<$R, N, K>,
+                mut cells: Cells<'_, $R>,
+                turbulence: bool,
+            ) {
+                // SAFETY: this module is compiled only with AVX2 enabled for the
+                // whole build, so the CPU running it has AVX2.
+                unsafe { coupled_pass(g, b, &mut cells, turbulence) }
             }
 
             /// A vector from L values.
@@ -424,6 +469,112 @@ macro_rules! lanes {
                     if let Some(sums) = b.sums.as_chunks_mut::<L>().0.get_mut(grp) {
                         for (sum, row) in sums.iter_mut().zip(rows) {
                             add_row(sum, row);
+                        }
+                    }
+                }
+            }
+
+            /// Adds the coupled flow's drag to every mobile grain's force, L
+            /// grains at a time, lane by lane as
+            /// [`add_coupled_drag`](crate::step::scalar::add_coupled_drag):
+            /// each grain's place between the cell centres
+            /// ([`Coupling::place`]) in lanes, the two rows of its cell
+            /// ([`Coupling::centres`], [`Coupling::slopes`]) loaded and
+            /// transposed to lanes, the drag in lanes; then each grain's
+            /// streamwise drag to the cells' sums ([`Coupling::deposit`]) in
+            /// grain order. The cell indices are exact in f32: the caller
+            /// takes fewer than 2^24 cells ([`super::batched_step`]).
+            #[target_feature(enable = "avx2")]
+            fn coupled_pass<const N: usize, const K: usize>(
+                g: &Grains<$R, N>,
+                b: &mut PairIndex<$R, N, K>,
+                fluid: &mut Cells<'_, $R>,
+                turbulence: bool,
+            ) {
+                let splat = $set1;
+                let zero = $setzero();
+                let (add, sub, mul) = ($add, $sub, $mul);
+                let select = |no: $V, yes: $V, mask: $V| $blendv(no, yes, mask);
+                let (bottom, inv_dy) = (splat(fluid.bottom), splat(fluid.inv_dy));
+                let (half, one, two) = (splat(0.5), splat(1.0), splat(2.0));
+                let last = fluid.count.saturating_sub(1);
+                let last_cell = splat(last as $R);
+                let rms_u = splat(<$R as Real>::from_f64(2.30));
+                let rms_v = splat(<$R as Real>::from_f64(1.27));
+                let turbulence = splat(if turbulence {
+                    <$R>::from_bits(<$bits>::MAX)
+                } else {
+                    0.0
+                });
+                let no_row = [0.0; 4];
+                // Coupling::position and Coupling::place of group `grp`: the
+                // position, above the first centre, between two centres
+                // (i = ⌊position⌋ and i + 1, 0 < position < last), the
+                // fraction (0 beyond), the cell (i, else the end cell).
+                let place = |grp: usize| {
+                    let y = load(group(&g.y, grp));
+                    let position = sub(mul(sub(y, bottom), inv_dy), half);
+                    let above = $cmp(position, zero, _CMP_GT_OQ);
+                    let inside = $and(above, $cmp(position, last_cell, _CMP_LT_OQ));
+                    let floor = $round::<{ _MM_FROUND_TO_ZERO | _MM_FROUND_NO_EXC }>(position);
+                    let frac = $and(sub(position, floor), inside);
+                    let cell = select($and(last_cell, above), floor, inside);
+                    (position, above, inside, frac, cell)
+                };
+                let groups = g.len.min(N).div_ceil(L).min(N / L);
+                // Blocks of groups: first every cell of the block, so that
+                // the rows' loads do not wait on their addresses.
+                for first in (0..groups).step_by(BLOCK) {
+                    let block = first..(first + BLOCK).min(groups);
+                    let mut cells = [[0; L]; BLOCK];
+                    for (k, grp) in block.clone().enumerate() {
+                        if let Some(c) = cells.get_mut(k) {
+                            *c = $to_index(place(grp).4);
+                        }
+                    }
+                    for (grp, cells) in block.zip(cells) {
+                        let mobile = load(group(&b.mobile, grp));
+                        if $movemask(mobile) == 0 {
+                            continue;
+                        }
+                        let at = |a: &[$R; N]| load(group(a, grp));
+                        let (position, above, inside, frac, _) = place(grp);
+                        // Coupling::at: the value plus the slope times the
+                        // fraction inside; beyond, the end cell's values, u_f
+                        // falling to 0 at the wall below.
+                        let row = |t: &[[$R; 4]], l: usize| {
+                            load_row(t.get(cells[l] as usize).unwrap_or(&no_row))
+                        };
+                        let [u, scale, hindrance, _] =
+                            $from_rows(core::array::from_fn(|l| row(fluid.centres, l)));
+                        let [du, dscale, dhindrance, _] =
+                            $from_rows(core::array::from_fn(|l| row(fluid.slopes, l)));
+                        let lerp = |v: $V, dv: $V| select(v, add(v, mul(dv, frac)), inside);
+                        let wall = $min(one, $max(zero, mul(add(position, half), two)));
+                        let u_f = select(select(mul(u, wall), u, above), lerp(u, du), inside);
+                        let (scale, hindrance) = (lerp(scale, dscale), lerp(hindrance, dhindrance));
+                        // (15) with u*_loc, where u_f > 0; (4)–(5) with u_f and
+                        // the hindrance (C7).
+                        let fluctuates = $and($cmp(u_f, zero, _CMP_GT_OQ), turbulence);
+                        let fluct_u = $and(mul(at(&g.z_u), mul(rms_u, scale)), fluctuates);
+                        let fluct_v = $and(mul(at(&g.z_v), mul(rms_v, scale)), fluctuates);
+                        let wx = sub(add(u_f, fluct_u), at(&g.u));
+                        let wy = sub(fluct_v, at(&g.v));
+                        let speed = $sqrt(add(mul(wx, wx), mul(wy, wy)));
+                        let xi = mul(mul(at(&g.drag_coef), hindrance), speed);
+                        // The sums (+0) add the drag (+0 for fixed grains).
+                        let [fx, fy] = [mul(xi, wx), mul(xi, wy)].map(|f| $and(f, mobile));
+                        let rows = $to_rows([fx, fy, zero, zero]);
+                        if let Some(sums) = b.sums.as_chunks_mut::<L>().0.get_mut(grp) {
+                            for (sum, row) in sums.iter_mut().zip(rows) {
+                                add_row(sum, row);
+                            }
+                        }
+                        let (forces, fracs, moves) = (lanes(fx), lanes(frac), lanes(mobile));
+                        for l in 0..L {
+                            if moves[l].to_bits() != 0 {
+                                fluid.deposit(cells[l] as usize, fracs[l], forces[l]);
+                            }
                         }
                     }
                 }
@@ -845,6 +996,17 @@ lanes!(
     _mm256_blendv_pd,
     _mm256_cmp_pd,
     _mm256_max_pd,
+    _mm256_min_pd,
+    _mm256_round_pd,
+    |v: __m256d| {
+        let i = _mm256_cvttpd_epi32(v);
+        [
+            _mm_extract_epi32::<0>(i),
+            _mm_extract_epi32::<1>(i),
+            _mm_extract_epi32::<2>(i),
+            _mm_extract_epi32::<3>(i),
+        ]
+    },
     _mm256_movemask_pd,
     _mm256_castpd_si256,
     _mm256_sub_epi64
@@ -885,6 +1047,21 @@ lanes!(
     _mm256_blendv_ps,
     _mm256_cmp_ps,
     _mm256_max_ps,
+    _mm256_min_ps,
+    _mm256_round_ps,
+    |v: __m256| {
+        let i = _mm256_cvttps_epi32(v);
+        [
+            _mm256_extract_epi32::<0>(i),
+            _mm256_extract_epi32::<1>(i),
+            _mm256_extract_epi32::<2>(i),
+            _mm256_extract_epi32::<3>(i),
+            _mm256_extract_epi32::<4>(i),
+            _mm256_extract_epi32::<5>(i),
+            _mm256_extract_epi32::<6>(i),
+            _mm256_extract_epi32::<7>(i),
+        ]
+    },
     _mm256_movemask_ps,
     _mm256_castps_si256,
     _mm256_sub_epi32

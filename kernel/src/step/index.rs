@@ -129,23 +129,6 @@ pub(crate) struct PairIndex<R: Real, const N: usize, const K: usize> {
 }
 
 impl<R: Real, const N: usize, const K: usize> PairIndex<R, N, K> {
-    /// Moves the forces the grains' arrays hold (found before the step, the
-    /// coupled flow's drag) into the sums, which start at +0 as the scalar
-    /// step's arrays do, and zeroes the arrays: the sums then have the
-    /// scalar step's bits.
-    pub(crate) fn take_forces(&mut self, g: &mut Grains<R, N>) {
-        let n = g.len.min(N);
-        for ((sum, fx), fy) in self.sums[..n]
-            .iter_mut()
-            .zip(&mut g.fx[..n])
-            .zip(&mut g.fy[..n])
-        {
-            sum[0] += *fx;
-            sum[1] += *fy;
-            (*fx, *fy) = (R::ZERO, R::ZERO);
-        }
-    }
-
     /// Empty (all-zero bits).
     pub(crate) const fn new() -> Self {
         PairIndex {

@@ -12,9 +12,11 @@
 //! Both move grains with the same integrator ([`mover`]).
 //!
 //! With the coupled flow (docs/model.md §13) the column is first updated
-//! every M steps (`Sim::exchange`), and the drag of every mobile grain is
-//! found one grain at a time ([`scalar::add_coupled_drag`]) before either
-//! path, which then starts each grain's sums from it.
+//! every M steps (`Sim::exchange`); each path then finds the drag of every
+//! mobile grain from the column as it finds the clear-water drag, the
+//! batched step in lanes, the scalar step one grain at a time
+//! ([`scalar::add_coupled_drag`]), and adds each grain's streamwise drag to
+//! the cells' sums in grain order.
 
 #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
 mod batch;
@@ -93,21 +95,25 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
             }
         }
         let coupled = self.flow_on && self.fluid.on;
-        if coupled {
-            scalar::add_coupled_drag(&mut self.grains, &mut self.fluid, &self.profile);
-        }
         let mover = self.mover();
         #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
         let batched = if BATCHED {
+            let flow = match (self.flow_on, coupled) {
+                (false, _) => batch::Flow::Off,
+                (true, false) => batch::Flow::Clear(self.profile, self.bed_level),
+                (true, true) => batch::Flow::Coupled {
+                    turbulence: self.profile.turbulence,
+                },
+            };
             let params = batch::Params {
                 width: self.width,
                 law: self.law,
                 mover,
-                drag: (self.flow_on && !coupled).then_some((self.profile, self.bed_level)),
-                forces_added: coupled,
+                flow,
                 count_events: self.count_events,
             };
-            batch::batched_step(&mut self.grains, &mut self.index, &params, &mut events)
+            let (g, index, fluid) = (&mut self.grains, &mut self.index, &mut self.fluid);
+            batch::batched_step(g, index, fluid, &params, &mut events)
         } else {
             None
         };
@@ -116,7 +122,9 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
         let moved = match batched {
             Some(moved) => moved,
             None => {
-                if self.flow_on && !coupled {
+                if coupled {
+                    scalar::add_coupled_drag(&mut self.grains, &mut self.fluid, &self.profile);
+                } else if self.flow_on {
                     scalar::add_drag(&mut self.grains, &self.profile, self.bed_level);
                 }
                 self.index.history_to_slots(&mut self.nbrs.spring);
@@ -379,8 +387,9 @@ mod tests {
     }
 
     /// An empty 0.02 m wide box of the paper's constants and the `tension`
-    /// rule, floor at −0.01 m, room for 64 grains of up to 16 neighbours.
-    fn small_box<R: Real>(tension: Tension) -> Sim<R, 64, 16> {
+    /// rule, floor at −0.01 m, room for 64 grains of up to 16 neighbours
+    /// (and C cells of a coupled flow).
+    fn small_box<R: Real, const C: usize>(tension: Tension) -> Sim<R, 64, 16, C> {
         let mut sim = Sim::new();
         let mut config = Scenario::paper().sim_config().unwrap();
         (config.width, config.y_min, config.tension) = (0.02, -0.01, tension);
@@ -390,7 +399,10 @@ mod tests {
     }
 
     /// One step of a [`small_box`], batched or scalar (no buffer).
-    fn step_small_box<R: Real>(sim: &mut Sim<R, 64, 16>, batched: bool) -> Result<(), Error> {
+    fn step_small_box<R: Real, const C: usize>(
+        sim: &mut Sim<R, 64, 16, C>,
+        batched: bool,
+    ) -> Result<(), Error> {
         if batched {
             sim.step_with::<16, true>()
         } else {
@@ -399,7 +411,7 @@ mod tests {
     }
 
     fn ring_digest<R: Real>(big_first: bool, batched: bool) -> u64 {
-        let mut sim = small_box::<R>(Tension::Dashpot);
+        let mut sim = small_box::<R, 0>(Tension::Dashpot);
         let big = GrainSpec {
             x: 0.01,
             y: 0.005,
@@ -462,21 +474,63 @@ mod tests {
             no_tension: bool,
         ) {
             let t = if no_tension { Tension::None } else { Tension::Dashpot };
-            proptest::prop_assert_eq!(cluster::<f64>(&grains, flow, t, true), cluster::<f64>(&grains, flow, t, false));
-            proptest::prop_assert_eq!(cluster::<f32>(&grains, flow, t, true), cluster::<f32>(&grains, flow, t, false));
+            let flow = flow.then(|| Scenario::paper().flow(Scenario::PAPER_TAU_STAR));
+            let flow = flow.as_ref();
+            proptest::prop_assert_eq!(cluster::<f64, 0>(&grains, flow, t, true), cluster::<f64, 0>(&grains, flow, t, false));
+            proptest::prop_assert_eq!(cluster::<f32, 0>(&grains, flow, t, true), cluster::<f32, 0>(&grains, flow, t, false));
+        }
+
+        /// Random clusters under the coupled flow, its column from below
+        /// the grains or from among them, to among them or above them (so
+        /// that grains lie below the first cell centre, between the
+        /// centres and above the last), hindrance on or off, the
+        /// fluctuations on or off, an update every few steps: the batched
+        /// step gives the scalar step's bits step after step, or the same
+        /// error.
+        #[test]
+        fn random_clusters_under_the_coupled_flow_step_batched_as_scalar(
+            grains in proptest::collection::vec(
+                (
+                    0.0..0.02f64,
+                    0.0..0.0015f64,
+                    -0.05..0.05f64,
+                    -0.05..0.05f64,
+                    -50.0..50.0f64,
+                    0..3usize,
+                    proptest::bool::weighted(0.15),
+                ),
+                1..60,
+            ),
+            bottom in -0.002..0.001f64,
+            height in 0.0005..0.004f64,
+            cells in 2..16usize,
+            hindered: bool,
+            turbulence: bool,
+            update_steps in 1..8u32,
+        ) {
+            let mut flow = Scenario::paper().flow(Scenario::PAPER_TAU_STAR);
+            flow.turbulence = turbulence;
+            let mut fluid = crate::fluid::FluidConfig::new(cells, bottom, bottom + height, 0.02 * 0.5e-3);
+            fluid.driving = crate::fluid::FluidConfig::driving_for(flow.u_star, flow.depth);
+            fluid.hindrance = if hindered { 3.1 } else { 0.0 };
+            fluid.update_steps = update_steps;
+            (flow.model, flow.fluid) = (crate::FlowModel::Coupled, fluid);
+            let (flow, t) = (Some(&flow), Tension::Dashpot);
+            proptest::prop_assert_eq!(cluster::<f64, 16>(&grains, flow, t, true), cluster::<f64, 16>(&grains, flow, t, false));
+            proptest::prop_assert_eq!(cluster::<f32, 16>(&grains, flow, t, true), cluster::<f32, 16>(&grains, flow, t, false));
         }
     }
 
-    /// Steps a random cluster 40 times with the `tension` rule, batched or
-    /// scalar: each step's outcome, digest and events so far, up to the
-    /// first error.
-    fn cluster<R: Real>(
+    /// Steps a random cluster 40 times with the `tension` rule under
+    /// `flow` (or none), batched or scalar: each step's outcome, digest and
+    /// events so far, up to the first error.
+    fn cluster<R: Real, const C: usize>(
         grains: &[Loose],
-        flow: bool,
+        flow: Option<&crate::FlowConfig>,
         tension: Tension,
         batched: bool,
     ) -> std::vec::Vec<(Result<(), Error>, u64, Events)> {
-        let mut sim = small_box::<R>(tension);
+        let mut sim = small_box::<R, C>(tension);
         for &(x, y, u, v, spin, class, fixed) in grains {
             let spec = GrainSpec {
                 x,
@@ -490,9 +544,8 @@ mod tests {
             };
             sim.add_grain(&spec).unwrap();
         }
-        if flow {
-            sim.set_flow(Some(&Scenario::paper().flow(Scenario::PAPER_TAU_STAR)))
-                .unwrap();
+        if flow.is_some() {
+            sim.set_flow(flow).unwrap();
         }
         let mut outcomes = std::vec::Vec::new();
         for _ in 0..40 {

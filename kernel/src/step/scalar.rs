@@ -147,7 +147,8 @@ pub(crate) fn add_drag<R: Real, const N: usize>(
 /// local shear velocity of the column's Reynolds stress (C4) for u*, where
 /// u_f > 0 and the `profile`'s turbulence is on; each read linear between
 /// the cell centres ([`Coupling::at`]). The streamwise drag is also summed
-/// per cell for the column's next update ([`Coupling::deposit`]).
+/// per cell for the column's next update ([`Coupling::deposit`]), in grain
+/// order. The batched step does the same in lanes (`batch::coupled_pass`).
 pub(crate) fn add_coupled_drag<R: Real, const N: usize, const C: usize>(
     g: &mut Grains<R, N>,
     fluid: &mut Coupling<R, C>,
@@ -170,7 +171,7 @@ pub(crate) fn add_coupled_drag<R: Real, const N: usize, const C: usize>(
         let (fx, fy) = (xi * wx, xi * wy);
         g.fx[i] += fx;
         g.fy[i] += fy;
-        fluid.deposit(&at, fx);
+        fluid.deposit(at.place.cell, at.place.frac, fx);
     }
 }
 
