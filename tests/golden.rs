@@ -1,6 +1,7 @@
 //! Golden digests: the paper's scenario (settling bed, then the bed under
-//! flow at τ* = 0.2) must reproduce the committed digests bit for bit, in f32
-//! and f64, on every machine. Re-record on purpose, in a commit that says why:
+//! flow at τ* = 0.2), with clear water and with the coupled flow, must
+//! reproduce the committed digests bit for bit, in f32 and f64, on every
+//! machine. Re-record on purpose, in a commit that says why:
 //!
 //!     MBS_BLESS=1 cargo test --test golden
 
@@ -67,6 +68,51 @@ fn match_or_bless(path: &std::path::Path, header: &str, now: &[String]) {
         "{}: digests changed; if on purpose, re-record (see the file's header)",
         path.display()
     );
+}
+
+/// The coupled golden run: [`Scenario::paper_coupled`] (the paper's bed,
+/// the coupled flow in a column of 100 cells), the same phases as the
+/// paper's run, in a simulation of exactly the column's capacity (the
+/// host's, of 2048 cells, gives the same bits: `mbs digest`, host test
+/// `digest_matches_the_golden_file`).
+fn coupled_path() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/golden/coupled.txt")
+}
+
+fn run_coupled<R: Real>() -> (u64, u64) {
+    const C: usize = Scenario::PAPER_COUPLED_CELLS;
+    let mut sim = Box::new(Sim::<R, 64, 8, C>::new());
+    Scenario::paper_coupled()
+        .digests(
+            &mut *sim,
+            Scenario::PAPER_TAU_STAR,
+            SETTLE_STEPS,
+            FLOW_STEPS,
+        )
+        .expect("coupled golden scenario runs")
+}
+
+fn coupled_lines() -> Vec<String> {
+    let (a, b) = (run_coupled::<f32>(), run_coupled::<f64>());
+    vec![
+        format!("settling f32 {:#018x}", a.0),
+        format!("flow f32 {:#018x}", a.1),
+        format!("settling f64 {:#018x}", b.0),
+        format!("flow f64 {:#018x}", b.1),
+    ]
+}
+
+#[test]
+fn coupled_golden_digests_match() {
+    let header = format!(
+        "Digests of Scenario::paper_coupled() after {SETTLE_STEPS} settling steps and {FLOW_STEPS} flow steps."
+    );
+    let now = coupled_lines();
+    // Settling runs without flow: the paper's settled bed, bit for bit.
+    let paper = lines();
+    assert_eq!((&now[0], &now[2]), (&paper[0], &paper[2]));
+    assert_ne!((&now[1], &now[3]), (&paper[1], &paper[3]));
+    match_or_bless(&coupled_path(), &header, &now);
 }
 
 #[test]

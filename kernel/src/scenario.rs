@@ -197,6 +197,42 @@ impl Scenario {
         }
     }
 
+    /// Cells of [`Scenario::paper_coupled`]'s column: a coupled simulation of
+    /// it needs a fluid capacity `C` of at least this many.
+    pub const PAPER_COUPLED_CELLS: usize = 100;
+
+    /// The coupled golden scenario: [`Scenario::paper`] under the coupled
+    /// flow (docs/model.md §13) in a column of cells of 4 d, 100 cells from
+    /// the fixed grains' mean centre to the depth of 0.2 m, small enough
+    /// for the boards. The golden test (tests/golden/coupled.txt), the firmware and
+    /// `mbs digest --set flow.model=coupled --set fluid.cell_d=4` run it.
+    ///
+    /// ```
+    /// use mbs_kernel::{FlowModel, Scenario, Sim};
+    ///
+    /// let scenario = Scenario::paper_coupled();
+    /// assert_eq!(scenario.flow.model, FlowModel::Coupled);
+    /// assert_eq!(scenario.column().cells, Scenario::PAPER_COUPLED_CELLS);
+    /// // Only the flow differs from the paper's case.
+    /// assert_eq!(scenario.bed, Scenario::paper().bed);
+    /// // The coupled golden run in miniature: two runs, the same bits.
+    /// const C: usize = Scenario::PAPER_COUPLED_CELLS;
+    /// let tau_star = Scenario::PAPER_TAU_STAR;
+    /// let mut a = Box::new(Sim::<f32, 64, 8, C>::new());
+    /// let mut b = Box::new(Sim::<f32, 64, 8, C>::new());
+    /// assert_eq!(
+    ///     scenario.digests(&mut *a, tau_star, 100, 100)?,
+    ///     scenario.digests(&mut *b, tau_star, 100, 100)?
+    /// );
+    /// # Ok::<(), mbs_kernel::Error>(())
+    /// ```
+    pub fn paper_coupled() -> Self {
+        let mut scenario = Scenario::paper();
+        scenario.flow.model = FlowModel::Coupled;
+        scenario.flow.fluid.cell_height = 4.0 * scenario.bed.max_diameter();
+        scenario
+    }
+
     /// The contact constants: the explicit ones, else derived from Δt for the
     /// largest grain (docs/model.md §5).
     pub fn contact(&self) -> Result<ContactConstants, Error> {

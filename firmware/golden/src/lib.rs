@@ -112,16 +112,17 @@ pub mod stack {
 
 /// Builds `scenario`'s bed in `sim`, runs `steps` settling steps, switches
 /// the flow on at the paper's τ* and runs `steps` flow steps, metering each
-/// step.
-pub fn run<R: Real, const N: usize, const K: usize>(
-    sim: &mut Sim<R, N, K>,
+/// step. A coupled scenario ([`Scenario::paper_coupled`]) needs a fluid
+/// capacity `C` of at least its column's cells.
+pub fn run<R: Real, const N: usize, const K: usize, const C: usize>(
+    sim: &mut Sim<R, N, K, C>,
     scenario: &Scenario,
     steps: u64,
     meter: &mut impl Meter,
 ) -> Result<Report, Error> {
     scenario.build(sim)?;
     let mut cost = 0;
-    let mut phase = |sim: &mut Sim<R, N, K>| -> Result<u64, Error> {
+    let mut phase = |sim: &mut Sim<R, N, K, C>| -> Result<u64, Error> {
         for _ in 0..steps {
             let start = meter.now();
             sim.step()?;
@@ -210,8 +211,8 @@ impl fmt::Display for Record {
     }
 }
 
-fn record<R: Real, const N: usize, const K: usize>(
-    sim: &Sim<R, N, K>,
+fn record<R: Real, const N: usize, const K: usize, const C: usize>(
+    sim: &Sim<R, N, K, C>,
     phase: &'static str,
 ) -> Record {
     let mut groups = [0; 5];
@@ -232,8 +233,8 @@ fn record<R: Real, const N: usize, const K: usize>(
 /// returns the meter's count over the steps. The host's
 /// `mbs digest --steps 80000 --flow-steps STEPS --tau 0.5 --every EVERY
 /// --from 80000 --trace FILE` records the same.
-pub fn trace<R: Real, const N: usize, const K: usize>(
-    sim: &mut Sim<R, N, K>,
+pub fn trace<R: Real, const N: usize, const K: usize, const C: usize>(
+    sim: &mut Sim<R, N, K, C>,
     steps: u64,
     every: u64,
     meter: &mut impl Meter,

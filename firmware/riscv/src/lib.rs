@@ -50,8 +50,8 @@ fn paint_stack() {
 /// grain-step; with `living`, then the living bed's trace
 /// ([`golden::trace`]); then the peak stack use, and exits 0; exits 1 on
 /// any kernel error.
-pub fn run<R: Real, const N: usize, const K: usize>(
-    sim: &mut Sim<R, N, K>,
+pub fn run<R: Real, const N: usize, const K: usize, const C: usize>(
+    sim: &mut Sim<R, N, K, C>,
     scenario: &Scenario,
     steps: u64,
     living: bool,

@@ -224,25 +224,42 @@ fn snapshot_writes_pictures_and_particle_frames() {
 
 #[test]
 fn digest_matches_the_golden_file() {
-    let golden = std::fs::read_to_string(
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/golden/digests.txt"),
-    )
-    .unwrap();
-    for p in ["f32", "f64"] {
-        let out = mbs()
-            .args(["digest", "--steps", "2000", "--precision", p])
-            .assert()
-            .success()
-            .get_output()
-            .stdout
-            .clone();
-        let text = String::from_utf8(out).unwrap();
-        // The printed lines name the phases as the golden file does.
-        let phases: Vec<&str> = text.lines().map(|l| l.split(' ').next().unwrap()).collect();
-        assert_eq!(phases, ["settling", "flow"]);
-        for line in text.lines() {
-            let (phase, hex) = line.split_once(' ').unwrap();
-            assert!(golden.contains(&format!("{phase} {p} {hex}")), "{line}");
+    // The paper's run, and the coupled one (`Scenario::paper_coupled`) in
+    // the host's column capacity of 2048 cells: the digest covers the used
+    // cells only, as the golden test's and the boards' capacity of 100.
+    for (file, sets) in [
+        ("digests.txt", &[][..]),
+        (
+            "coupled.txt",
+            &["--set", "flow.model=coupled", "--set", "fluid.cell_d=4"][..],
+        ),
+    ] {
+        let golden = std::fs::read_to_string(
+            Path::new(env!("CARGO_MANIFEST_DIR"))
+                .join("../tests/golden")
+                .join(file),
+        )
+        .unwrap();
+        for p in ["f32", "f64"] {
+            let out = mbs()
+                .args(["digest", "--steps", "2000", "--precision", p])
+                .args(sets)
+                .assert()
+                .success()
+                .get_output()
+                .stdout
+                .clone();
+            let text = String::from_utf8(out).unwrap();
+            // The printed lines name the phases as the golden file does.
+            let phases: Vec<&str> = text.lines().map(|l| l.split(' ').next().unwrap()).collect();
+            assert_eq!(phases, ["settling", "flow"]);
+            for line in text.lines() {
+                let (phase, hex) = line.split_once(' ').unwrap();
+                assert!(
+                    golden.contains(&format!("{phase} {p} {hex}")),
+                    "{file}: {line}"
+                );
+            }
         }
     }
 }
