@@ -13,7 +13,7 @@ use crate::log::{Header, Log};
 use crate::output::{create_dir, write_json, write_text};
 use crate::pack::{packing, write_packing, Packing};
 use crate::plot::{save, TransportFigure};
-use crate::profiles::{profiles_figure, write_profiles};
+use crate::profile_report::{profiles_figure, write_profiles};
 use crate::progress::Progress;
 use crate::shard::Shard;
 use crate::sims::{with_sim, HostSim, SimJob};

@@ -694,9 +694,10 @@ impl Default for FlowSection {
     }
 }
 
-/// Cells of the column at most: the fluid capacity of every host
-/// simulation ([`crate::sims::FLUID_CELLS`]).
-pub const MAX_FLUID_CELLS: usize = crate::sims::FLUID_CELLS;
+/// Cells of the coupled flow's column at most: the fluid capacity `C` of
+/// every host simulation ([`crate::sims::HostSim`]), 0.2 m of water over
+/// 0.5 mm grains in cells of d/4.
+pub const FLUID_CELLS: usize = 2048;
 
 impl Default for FluidSection {
     fn default() -> Self {
@@ -1547,7 +1548,7 @@ fn fluid_spec(f: &FluidSection, d: f64, substeps: u32) -> Result<FluidSpec, Conf
 }
 
 /// The coupled flow of `scenario` at each τ* fits the host's column and is
-/// driven forward: its cells at most [`MAX_FLUID_CELLS`], and the bed slope
+/// driven forward: its cells at most [`FLUID_CELLS`], and the bed slope
 /// alone not a stronger flow than τ* (docs/model.md §13: the driving
 /// u*²/h − g sin θ ≥ 0).
 fn coupled_flow_fits(scenario: &Scenario, tau_stars: &[f64]) -> Result<(), ConfigError> {
@@ -1558,11 +1559,11 @@ fn coupled_flow_fits(scenario: &Scenario, tau_stars: &[f64]) -> Result<(), Confi
         let flow = scenario.flow(tau_star);
         let cells = flow.fluid.cells;
         need(
-            cells <= MAX_FLUID_CELLS,
+            cells <= FLUID_CELLS,
             "fluid.cell_d",
             scenario.flow.fluid.cell_height / scenario.bed.max_diameter(),
             &format!(
-                "large enough for at most {MAX_FLUID_CELLS} cells over the column's {:e} m \
+                "large enough for at most {FLUID_CELLS} cells over the column's {:e} m \
                  (here {cells} cells; or a smaller flow.depth)",
                 flow.fluid.surface - flow.fluid.bottom
             ),

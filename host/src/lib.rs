@@ -47,6 +47,7 @@ pub mod mixture;
 pub mod output;
 pub mod pack;
 pub mod plot;
+pub mod profile_report;
 pub mod profiles;
 pub mod progress;
 pub mod references;

@@ -2,16 +2,12 @@
 //! run time. The kernel's `Sim<R, N, K>` fixes them at compile time; the host
 //! is compiled for [`crate::config::CAPACITIES`] × {f32, f64}.
 
-use crate::config::Precision;
+use crate::config::{Precision, FLUID_CELLS};
 use indicatif::ProgressBar;
 use mbs_kernel::{FlowConfig, Real, Scenario, Sim, SimConfig};
 
 /// Neighbour slots per grain of every host simulation (the kernel's `K`).
 pub const NEIGHBOURS: usize = 8;
-
-/// Cells of the coupled flow's column every host simulation holds (the
-/// kernel's `C`): 0.2 m of water over 0.5 mm grains in cells of d/4.
-pub const FLUID_CELLS: usize = 2048;
 
 /// A host simulation: `N` grains in precision `R`.
 pub type HostSim<R, const N: usize> = Sim<R, N, NEIGHBOURS, FLUID_CELLS>;

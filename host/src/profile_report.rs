@@ -1,0 +1,183 @@
+//! The profiles of a run ([`crate::profiles`]) as files: `profiles.csv`
+//! and `profiles.png`/`.svg`, the mean over the seeds of each τ*.
+
+use crate::cell::CellResult;
+use crate::config::Config;
+use crate::error::HostError;
+use crate::output::{decimal, write_csv};
+use crate::plot::{LinesFigure, Panels};
+use crate::profiles::{CellProfile, ProfileGrid};
+use crate::text::number;
+use serde::Serialize;
+use std::path::Path;
+
+/// A line of `profiles.csv`.
+#[derive(Serialize)]
+struct Line {
+    #[serde(serialize_with = "decimal")]
+    tau_star: f64,
+    #[serde(serialize_with = "decimal")]
+    y_over_d: f64,
+    #[serde(serialize_with = "decimal")]
+    solid_fraction: f64,
+    /// Empty where no grain ever was.
+    grain_velocity_m_s: Option<String>,
+    #[serde(serialize_with = "decimal")]
+    fluid_velocity_m_s: f64,
+}
+
+/// The profiles of τ* `tau_star`: the mean of its seeds' (φ and u_f plain
+/// means, u_p weighted by φ), or `None` if no seed has one.
+fn mean_profile(results: &[CellResult], tau_star: f64) -> Option<CellProfile> {
+    let cells: Vec<&CellProfile> = results
+        .iter()
+        .filter(|r| r.tau_star == tau_star)
+        .filter_map(|r| r.profile.as_ref())
+        .collect();
+    let n = cells.first()?.solid_fraction.len();
+    if cells.iter().any(|c| c.solid_fraction.len() != n) {
+        return None;
+    }
+    let k = cells.len() as f64;
+    let sum = |f: &dyn Fn(&CellProfile, usize) -> f64| -> Vec<f64> {
+        (0..n)
+            .map(|j| cells.iter().map(|c| f(c, j)).sum())
+            .collect()
+    };
+    let solid = sum(&|c, j| c.solid_fraction[j]);
+    let momentum = sum(&|c, j| c.solid_fraction[j] * c.grain_velocity[j]);
+    Some(CellProfile {
+        solid_fraction: solid.iter().map(|s| s / k).collect(),
+        grain_velocity: (momentum.iter().zip(&solid))
+            .map(|(m, s)| if *s > 0.0 { m / s } else { 0.0 })
+            .collect(),
+        fluid_velocity: sum(&|c, j| c.fluid_velocity[j])
+            .iter()
+            .map(|u| u / k)
+            .collect(),
+    })
+}
+
+/// Heights of the cell centres over the largest diameter (y = 0: the fixed
+/// grains' mean centre height).
+fn heights(config: &Config) -> Vec<f64> {
+    let grid = ProfileGrid::of(config).grid;
+    let d = config.scenario.bed.max_diameter();
+    (0..grid.cells()).map(|j| grid.centre(j) / d).collect()
+}
+
+/// Writes `profiles.csv`: per τ* and cell of the column, bottom up, the
+/// height y/d of its centre, φ, u_p and u_f, each the mean over the seeds.
+pub fn write_profiles(
+    path: &Path,
+    config: &Config,
+    results: &[CellResult],
+) -> Result<(), HostError> {
+    let y = heights(config);
+    let mut lines = Vec::new();
+    for &tau_star in &config.tau_stars {
+        let Some(p) = mean_profile(results, tau_star) else {
+            continue;
+        };
+        for (j, &y_over_d) in y.iter().enumerate().take(p.solid_fraction.len()) {
+            let phi = p.solid_fraction[j];
+            lines.push(Line {
+                tau_star,
+                y_over_d,
+                solid_fraction: phi,
+                grain_velocity_m_s: (phi > 0.0).then(|| p.grain_velocity[j].to_string()),
+                fluid_velocity_m_s: p.fluid_velocity[j],
+            });
+        }
+    }
+    write_csv(path, None, &lines)
+}
+
+/// Heights drawn above the highest slab that ever held a grain, in d.
+const ABOVE_BED_D: f64 = 15.0;
+
+/// φ, u_p and u_f against y/d, side by side, a line per τ*: from the
+/// column's bottom to [`ABOVE_BED_D`] above the highest grain; the measured
+/// profile of `run.measured_profiles` as dots.
+pub fn profiles_figure(config: &Config, results: &[CellResult]) -> Panels {
+    let y = heights(config);
+    let profiles: Vec<(f64, CellProfile)> = config
+        .tau_stars
+        .iter()
+        .filter_map(|&t| mean_profile(results, t).map(|p| (t, p)))
+        .collect();
+    let top = profiles
+        .iter()
+        .filter_map(|(_, p)| p.solid_fraction.iter().rposition(|&s| s > 0.0))
+        .max()
+        .and_then(|j| y.get(j))
+        .map_or(ABOVE_BED_D, |&t| t + ABOVE_BED_D);
+    let shown = |values: &dyn Fn(&CellProfile) -> &Vec<f64>, grains_only: bool| {
+        profiles
+            .iter()
+            .map(|(t, p)| {
+                let points = (y.iter().zip(values(p)).zip(&p.solid_fraction))
+                    .filter(|((yj, _), phi)| **yj <= top && (!grains_only || **phi > 0.0))
+                    .map(|((&yj, &v), _)| (v, yj))
+                    .collect();
+                // Four significant digits: a τ* from a slope is long.
+                let tau = number(*t);
+                let tau = if tau.len() <= 6 {
+                    tau
+                } else {
+                    format!("{t:.4}")
+                };
+                (format!("τ* = {tau}"), points)
+            })
+            .collect::<Vec<_>>()
+    };
+    let model = match config.file.flow.model {
+        crate::config::FlowModelKey::ClearWater => "clear water",
+        crate::config::FlowModelKey::Coupled => "coupled flow",
+    };
+    // `run.measured_profiles` as dots on each panel (u_f where it has it).
+    let measured = config
+        .measured
+        .as_ref()
+        .map(|m| (m.label.clone(), m.points()));
+    let dots = |k: usize| match &measured {
+        Some((label, points)) if !points[k].is_empty() => {
+            vec![(label.clone(), points[k].clone())]
+        }
+        _ => Vec::new(),
+    };
+    let panel = |series, k: usize, title: &str, x_label: &str| LinesFigure {
+        series,
+        dots: dots(k),
+        title: title.into(),
+        x_label: x_label.into(),
+        y_label: "y/d".into(),
+        log_axes: false,
+        markers: false,
+        x_ticks: Vec::new(),
+        marks: Vec::new(),
+    };
+    Panels {
+        panels: vec![
+            panel(
+                shown(&|p| &p.solid_fraction, false),
+                0,
+                &format!("solid fraction ({model})"),
+                "φ",
+            ),
+            panel(
+                shown(&|p| &p.grain_velocity, true),
+                1,
+                "grain velocity",
+                "u_p (m/s)",
+            ),
+            panel(
+                shown(&|p| &p.fluid_velocity, false),
+                2,
+                "fluid velocity",
+                "u_f (m/s)",
+            ),
+        ],
+        side_by_side: true,
+    }
+}
