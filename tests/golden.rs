@@ -16,9 +16,10 @@ fn path() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/golden/digests.txt")
 }
 
-fn run<R: Real>() -> (u64, u64) {
-    let mut sim = Box::new(Sim::<R, 64, 8>::new());
-    Scenario::paper()
+/// The settled and flow digests of `scenario` in a simulation of `C` cells.
+fn run<R: Real, const C: usize>(scenario: &Scenario) -> (u64, u64) {
+    let mut sim = Box::new(Sim::<R, 64, 8, C>::new());
+    scenario
         .digests(
             &mut *sim,
             Scenario::PAPER_TAU_STAR,
@@ -28,14 +29,19 @@ fn run<R: Real>() -> (u64, u64) {
         .expect("golden scenario runs")
 }
 
-fn lines() -> Vec<String> {
-    let (a, b) = (run::<f32>(), run::<f64>());
+/// The golden file's lines of `scenario`, f32 then f64.
+fn lines_of<const C: usize>(scenario: &Scenario) -> Vec<String> {
+    let (a, b) = (run::<f32, C>(scenario), run::<f64, C>(scenario));
     vec![
         format!("settling f32 {:#018x}", a.0),
         format!("flow f32 {:#018x}", a.1),
         format!("settling f64 {:#018x}", b.0),
         format!("flow f64 {:#018x}", b.1),
     ]
+}
+
+fn lines() -> Vec<String> {
+    lines_of::<0>(&Scenario::paper())
 }
 
 #[test]
@@ -79,27 +85,8 @@ fn coupled_path() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/golden/coupled.txt")
 }
 
-fn run_coupled<R: Real>() -> (u64, u64) {
-    const C: usize = Scenario::PAPER_COUPLED_CELLS;
-    let mut sim = Box::new(Sim::<R, 64, 8, C>::new());
-    Scenario::paper_coupled()
-        .digests(
-            &mut *sim,
-            Scenario::PAPER_TAU_STAR,
-            SETTLE_STEPS,
-            FLOW_STEPS,
-        )
-        .expect("coupled golden scenario runs")
-}
-
 fn coupled_lines() -> Vec<String> {
-    let (a, b) = (run_coupled::<f32>(), run_coupled::<f64>());
-    vec![
-        format!("settling f32 {:#018x}", a.0),
-        format!("flow f32 {:#018x}", a.1),
-        format!("settling f64 {:#018x}", b.0),
-        format!("flow f64 {:#018x}", b.1),
-    ]
+    lines_of::<{ Scenario::PAPER_COUPLED_CELLS }>(&Scenario::paper_coupled())
 }
 
 #[test]

@@ -448,6 +448,25 @@ mod tests {
     /// size class (0.4, 0.5 or 0.7 mm) and whether it is fixed.
     type Loose = (f64, f64, f64, f64, f64, usize, bool);
 
+    /// Up to 60 random grains for `cluster`: (x, y, u, v, spin, size
+    /// class, fixed).
+    fn cluster_grains(
+    ) -> impl proptest::strategy::Strategy<Value = std::vec::Vec<(f64, f64, f64, f64, f64, usize, bool)>>
+    {
+        proptest::collection::vec(
+            (
+                0.0..0.02f64,
+                0.0..0.0015f64,
+                -0.05..0.05f64,
+                -0.05..0.05f64,
+                -50.0..50.0f64,
+                0..3usize,
+                proptest::bool::weighted(0.15),
+            ),
+            1..60,
+        )
+    }
+
     proptest::proptest! {
         #![proptest_config(proptest::prelude::ProptestConfig {
             cases: 48,
@@ -458,18 +477,7 @@ mod tests {
         /// step after step, or the same error.
         #[test]
         fn random_clusters_step_batched_as_scalar(
-            grains in proptest::collection::vec(
-                (
-                    0.0..0.02f64,
-                    0.0..0.0015f64,
-                    -0.05..0.05f64,
-                    -0.05..0.05f64,
-                    -50.0..50.0f64,
-                    0..3usize,
-                    proptest::bool::weighted(0.15),
-                ),
-                1..60,
-            ),
+            grains in cluster_grains(),
             flow: bool,
             no_tension: bool,
         ) {
@@ -489,18 +497,7 @@ mod tests {
         /// error.
         #[test]
         fn random_clusters_under_the_coupled_flow_step_batched_as_scalar(
-            grains in proptest::collection::vec(
-                (
-                    0.0..0.02f64,
-                    0.0..0.0015f64,
-                    -0.05..0.05f64,
-                    -0.05..0.05f64,
-                    -50.0..50.0f64,
-                    0..3usize,
-                    proptest::bool::weighted(0.15),
-                ),
-                1..60,
-            ),
+            grains in cluster_grains(),
             bottom in -0.002..0.001f64,
             height in 0.0005..0.004f64,
             cells in 2..16usize,
