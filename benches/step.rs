@@ -23,9 +23,9 @@ use criterion::{
     criterion_group, criterion_main, BenchmarkGroup, BenchmarkId, Criterion, Throughput,
 };
 use mbs::bench::{BenchBed, Case, Prepared};
-use mbs::sims::{with_sim, SimJob, NEIGHBOURS};
+use mbs::sims::{with_sim, HostSim, SimJob};
 use mbs::Precision;
-use mbs_kernel::{Real, Sim};
+use mbs_kernel::Real;
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
@@ -56,7 +56,7 @@ struct Measure<'g, 'c> {
 impl SimJob for Measure<'_, '_> {
     type Output = ();
 
-    fn run<R: Real, const N: usize>(self, sim: &mut Sim<R, N, NEIGHBOURS>) {
+    fn run<R: Real, const N: usize>(self, sim: &mut HostSim<R, N>) {
         let mut bed = Prepared::new(sim, &self.bed, self.case, Some(&beds())).expect("bench bed");
         let grains = bed.sim().len();
         self.group.throughput(Throughput::Elements(grains as u64));
