@@ -41,7 +41,8 @@ pub struct BetaStage {
     /// The misfit noise alone gives after the fit ([`Curve::misfit_noise`]).
     pub misfit_noise: f64,
     /// β's uncertainty: where the parabola lies within twice the noise
-    /// misfit of its minimum, or else [`beta_range`] of the precise curves.
+    /// misfit of its minimum if that holds β, or else [`beta_range`] of the
+    /// precise curves.
     pub beta_range: (f64, f64),
 }
 
@@ -68,6 +69,38 @@ pub fn beta_range(evaluations: &[(f64, f64)], noise: f64) -> (f64, f64) {
         .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), e| {
             (lo.min(e.0), hi.max(e.0))
         })
+}
+
+/// β's uncertainty ([`BetaStage::beta_range`]): where the misfit parabola
+/// in ln β lies within twice the `noise` misfit of its minimum, if that
+/// holds the chosen `beta`; else (no parabola, or one whose range leaves
+/// `beta` out: a search that ended on its budget away from the vertex)
+/// [`beta_range`] of the `evaluations` (β, misfit).
+///
+/// ```
+/// use mbs::calibrate::optimise::Parabola;
+/// use mbs::calibrate::stages::beta::beta_uncertainty;
+///
+/// let evaluations = [(2.0, 1.1), (4.0, 1.0), (8.0, 1.3)];
+/// let p = Parabola { x_min: 4f64.ln(), y_min: 1.0, curvature: 1.0 };
+/// let (lo, hi) = beta_uncertainty(Some(&p), 4.0, &evaluations, 0.005);
+/// assert!((lo - 4.0 * (-0.1f64).exp()).abs() < 1e-12 && (hi - 4.0 * 0.1f64.exp()).abs() < 1e-12);
+/// // β = 8 outside the parabola's range: the evaluations' range.
+/// assert_eq!(beta_uncertainty(Some(&p), 8.0, &evaluations, 0.005), (4.0, 4.0));
+/// ```
+pub fn beta_uncertainty(
+    parabola: Option<&Parabola>,
+    beta: f64,
+    evaluations: &[(f64, f64)],
+    noise: f64,
+) -> (f64, f64) {
+    parabola
+        .and_then(|p| p.within(2.0 * noise))
+        .filter(|&(lo, hi)| (lo..=hi).contains(&beta.ln()))
+        .map_or_else(
+            || beta_range(evaluations, noise),
+            |(lo, hi)| (lo.exp(), hi.exp()),
+        )
 }
 
 /// The best of `evaluations` (x, y) sorted by x, and the parabola through
@@ -210,12 +243,7 @@ pub fn run(ctx: &Context<'_>, alpha_m: f64, alpha_cn: f64) -> Result<Option<Beta
         .position(|e| e.0 == beta)
         .map_or_else(|| curves[0].clone(), |k| curves[k].clone());
     let misfit_noise = after.misfit_noise(reference, floor);
-    let beta_range = parabola
-        .and_then(|p| p.within(2.0 * misfit_noise))
-        .map_or_else(
-            || beta_range(&fine, misfit_noise),
-            |(lo, hi)| (lo.exp(), hi.exp()),
-        );
+    let beta_range = beta_uncertainty(parabola.as_ref(), beta, &fine, misfit_noise);
     let result = BetaStage {
         alpha_m,
         alpha_cn,
