@@ -15,6 +15,15 @@ use cortex_m::peripheral::SYST;
 use cortex_m_semihosting::{debug, hprintln};
 use mbs_kernel::{Real, Scenario, Sim};
 
+/// The working precision of the board binaries: f32, or f64 with
+/// `--features f64`.
+#[cfg(not(feature = "f64"))]
+pub type Float = f32;
+/// The working precision of the board binaries: f32, or f64 with
+/// `--features f64`.
+#[cfg(feature = "f64")]
+pub type Float = f64;
+
 /// SysTick, a free-running 24-bit down-counter, extended to a count that
 /// only grows: it must be read at least once every 2^24 ticks (every step
 /// of a bed is, by orders of magnitude).

@@ -8,13 +8,9 @@
 
 use cortex_m_rt::{entry, exception, ExceptionFrame};
 use cortex_m_semihosting::debug;
+use firmware::Float;
 use mbs_kernel::{Scenario, Sim};
 use panic_semihosting as _;
-
-#[cfg(not(feature = "f64"))]
-type Real = f32;
-#[cfg(feature = "f64")]
-type Real = f64;
 
 #[entry]
 fn main() -> ! {
@@ -22,8 +18,8 @@ fn main() -> ! {
     // as `&'static mut`, and its const initialiser (all zero bits) puts it
     // in .bss. (`cortex_m::singleton!` built the value on the stack first,
     // which overlaps .bss when the simulation is larger than the stack.)
-    static mut SIM: Sim<Real, 64, 8> = Sim::new();
-    let sim: &'static mut Sim<Real, 64, 8> = SIM;
+    static mut SIM: Sim<Float, 64, 8> = Sim::new();
+    let sim: &'static mut Sim<Float, 64, 8> = SIM;
     let peripherals = cortex_m::Peripherals::take().expect("first and only call");
     firmware::run(
         sim,

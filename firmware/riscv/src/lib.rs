@@ -10,6 +10,15 @@
 use mbs_kernel::{Real, Scenario, Sim};
 use riscv_semihosting::{debug, hprintln};
 
+/// The working precision of the board binaries: f32, or f64 with
+/// `--features f64`.
+#[cfg(not(feature = "f64"))]
+pub type Float = f32;
+/// The working precision of the board binaries: f32, or f64 with
+/// `--features f64`.
+#[cfg(feature = "f64")]
+pub type Float = f64;
+
 /// `minstret`, the instructions retired.
 struct Instret;
 

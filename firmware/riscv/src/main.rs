@@ -5,15 +5,11 @@
 #![no_std]
 #![no_main]
 
+use firmware_riscv::Float;
 use mbs_kernel::{Scenario, Sim};
 
-#[cfg(not(feature = "f64"))]
-type Real = f32;
-#[cfg(feature = "f64")]
-type Real = f64;
-
 /// The simulation, in `.bss` (all zero bits), never on the stack.
-static mut SIM: Sim<Real, 64, 8> = Sim::new();
+static mut SIM: Sim<Float, 64, 8> = Sim::new();
 
 #[riscv_rt::entry]
 fn main() -> ! {

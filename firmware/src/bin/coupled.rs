@@ -9,16 +9,12 @@
 
 use cortex_m_rt::{entry, exception, ExceptionFrame};
 use cortex_m_semihosting::debug;
+use firmware::Float;
 use mbs_kernel::{Scenario, Sim};
 use panic_semihosting as _;
 
-#[cfg(not(feature = "f64"))]
-type Real = f32;
-#[cfg(feature = "f64")]
-type Real = f64;
-
 /// The simulation: the paper's 55 grains and the column's cells.
-type CoupledSim = Sim<Real, 64, 8, { Scenario::PAPER_COUPLED_CELLS }>;
+type CoupledSim = Sim<Float, 64, 8, { Scenario::PAPER_COUPLED_CELLS }>;
 
 #[entry]
 fn main() -> ! {

@@ -6,16 +6,12 @@
 #![no_std]
 #![no_main]
 
+use firmware_riscv::Float;
 use mbs_kernel::{Scenario, Sim};
-
-#[cfg(not(feature = "f64"))]
-type Real = f32;
-#[cfg(feature = "f64")]
-type Real = f64;
 
 /// The simulation, in `.bss` (all zero bits), never on the stack: the
 /// paper's 55 grains and the column's cells.
-static mut SIM: Sim<Real, 64, 8, { Scenario::PAPER_COUPLED_CELLS }> = Sim::new();
+static mut SIM: Sim<Float, 64, 8, { Scenario::PAPER_COUPLED_CELLS }> = Sim::new();
 
 #[riscv_rt::entry]
 fn main() -> ! {
