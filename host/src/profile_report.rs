@@ -6,7 +6,7 @@ use crate::config::Config;
 use crate::error::HostError;
 use crate::output::{decimal, write_csv};
 use crate::plot::{LinesFigure, Panels};
-use crate::profiles::{CellProfile, ProfileGrid};
+use crate::profiles::{CellProfile, ProfileGrid, ProfileSums};
 use crate::text::number;
 use serde::Serialize;
 use std::path::Path;
@@ -35,27 +35,23 @@ fn mean_profile(results: &[CellResult], tau_star: f64) -> Option<CellProfile> {
         .filter_map(|r| r.profile.as_ref())
         .collect();
     let n = cells.first()?.solid_fraction.len();
-    if cells.iter().any(|c| c.solid_fraction.len() != n) {
+    let fits = |c: &CellProfile| {
+        [c.grain_velocity.len(), c.fluid_velocity.len()] == [n; 2] && c.solid_fraction.len() == n
+    };
+    if !cells.iter().all(|c| fits(c)) {
         return None;
     }
-    let k = cells.len() as f64;
-    let sum = |f: &dyn Fn(&CellProfile, usize) -> f64| -> Vec<f64> {
-        (0..n)
-            .map(|j| cells.iter().map(|c| f(c, j)).sum())
-            .collect()
-    };
-    let solid = sum(&|c, j| c.solid_fraction[j]);
-    let momentum = sum(&|c, j| c.solid_fraction[j] * c.grain_velocity[j]);
-    Some(CellProfile {
-        solid_fraction: solid.iter().map(|s| s / k).collect(),
-        grain_velocity: (momentum.iter().zip(&solid))
-            .map(|(m, s)| if *s > 0.0 { m / s } else { 0.0 })
-            .collect(),
-        fluid_velocity: sum(&|c, j| c.fluid_velocity[j])
-            .iter()
-            .map(|u| u / k)
-            .collect(),
-    })
+    // The seeds' profiles as samples of one: φ and u_f means, u_p by φ.
+    let mut sums = ProfileSums::new(n);
+    sums.samples = cells.len() as u64;
+    for c in &cells {
+        for j in 0..n {
+            sums.solid[j] += c.solid_fraction[j];
+            sums.momentum[j] += c.solid_fraction[j] * c.grain_velocity[j];
+            sums.fluid[j] += c.fluid_velocity[j];
+        }
+    }
+    Some(sums.means())
 }
 
 /// Heights of the cell centres over the largest diameter (y = 0: the fixed
