@@ -7,6 +7,12 @@ A module's imports are the `crate::a::b`, `crate::{a, b}` and `super::a`
 paths of its non-test code (everything before its first `#[cfg(test)]`),
 each taken to the deepest module file that exists. Prints every loop
 (strongly connected set of two or more files) and exits 1 if there is one.
+
+Also fails when a module imports from a higher layer: `LAYERS` ranks the
+top-level modules (folders) of each crate, and a module may import only
+from its own folder or from folders of the same or a lower rank (a loop
+between two folders of one rank is still a loop). A top-level module that
+`LAYERS` does not rank fails too, so a new folder must be placed.
 """
 import re
 import sys
@@ -36,6 +42,49 @@ def imports(name, path, mods):
         if hits and hits[-1] not in (name, ()):
             found.add(hits[-1])
     return found
+
+
+# Rank of each top-level module, lowest first (docs/architecture.md).
+LAYERS = {
+    "host/src": {
+        # 0 foundation: errors; files and terminals
+        "error": 0, "io": 0,
+        # 1 numbers from the literature and statistics
+        "science": 1,
+        # 2 the configuration; figures from plain series
+        "config": 2, "figures": 2,
+        # 3 heap simulations and what touches one
+        "sim": 3,
+        # 4 the units of work: beds, cells, the experiment, the store
+        "work": 4,
+        # 5 what a run writes from its outcome
+        "report": 5,
+        # 6 commands beside the main job; 7 the calibration
+        "tools": 6, "calibrate": 7,
+        # 8 the command line
+        "cli": 8,
+    },
+}
+
+
+def layer_faults(arg, mods, graph):
+    ranks = LAYERS.get(arg.rstrip("/"))
+    if ranks is None:
+        return []
+    out = []
+    for m, imps in sorted(graph.items()):
+        if not m:
+            continue
+        if m[0] not in ranks:
+            out.append(f"{arg}: {mods[m].relative_to(arg)}: top-level module `{m[0]}` has no layer in .ci/cycles.py")
+            continue
+        for i in sorted(imps):
+            if i[0] != m[0] and ranks.get(i[0], -1) > ranks[m[0]]:
+                out.append(
+                    f"{arg}: {mods[m].relative_to(arg)} (layer {ranks[m[0]]}, {m[0]}) imports "
+                    f"{'::'.join(i)} (layer {ranks[i[0]]}, {i[0]}): a lower layer never imports a higher one"
+                )
+    return out
 
 
 def loops(graph):
@@ -72,5 +121,8 @@ for arg in sys.argv[1:]:
     for comp in loops(graph):
         names = sorted(str(mods[m].relative_to(src)) for m in comp)
         print(f"{arg}: import loop of {len(comp)} files: {', '.join(names)}")
+        status = 1
+    for fault in layer_faults(arg, mods, graph):
+        print(fault)
         status = 1
 sys.exit(status)

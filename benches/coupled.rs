@@ -1,7 +1,7 @@
 //! Criterion benchmark of the coupled flow's step against the clear-water
 //! step (docs/model.md §13, issue 31: at most 15 % more at N = 16 k grains):
-//! the bed of `mbs::bench` of 16 368 grains, β = 15.8, after its warm-up
-//! under the clear-water flow at τ* = 0.2 (`mbs::bench::prepare`, beds kept
+//! the bed of `mbs::tools::bench` of 16 368 grains, β = 15.8, after its warm-up
+//! under the clear-water flow at τ* = 0.2 (`mbs::tools::bench::prepare`, beds kept
 //! in target/tmp/bench-beds), then stepped
 //!
 //! - `clear`: under the clear-water flow, in the host's `Sim<R, N, 8>`;
@@ -27,8 +27,8 @@
 //! benches/Cargo.toml --bench coupled`.
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
-use mbs::bench::{prepare, BenchBed, TAU_STAR};
-use mbs::sims::{boxed_sim, NEIGHBOURS};
+use mbs::tools::bench::{prepare, BenchBed, TAU_STAR};
+use mbs::sim::sims::{boxed_sim, NEIGHBOURS};
 use mbs_kernel::fluid::FluidConfig;
 use mbs_kernel::{Error, FlowModel, Real, Sim};
 use std::path::{Path, PathBuf};
@@ -48,7 +48,7 @@ fn beds() -> PathBuf {
 /// A coupled simulation allocated zeroed on the heap.
 fn boxed_coupled<R: Real>() -> Box<Sim<R, N, NEIGHBOURS, CELLS>> {
     let zeroed = Box::<Sim<R, N, NEIGHBOURS, CELLS>>::new_zeroed();
-    // SAFETY: as `mbs::sims::boxed_sim`: the all-zero bit pattern is a valid
+    // SAFETY: as `mbs::sim::sims::boxed_sim`: the all-zero bit pattern is a valid
     // `Sim` (kernel/src/sim.rs), whatever its capacities.
     unsafe { zeroed.assume_init() }
 }

@@ -1,4 +1,4 @@
-//! Criterion benchmarks of the hot loop in isolation (`mbs::bench`): settled
+//! Criterion benchmarks of the hot loop in isolation (`mbs::tools::bench`): settled
 //! beds of the paper's grains (d = 0.5 mm, α_m = 20, α_cn = 1.3, constants
 //! from constants_dt = 2.0e-5 s, integrated at constants_dt/8), 10 rows over a fixed row,
 //! periodic in x, of about 64, 1 024, 16 384 and 65 536 grains (f32: up to
@@ -22,8 +22,8 @@ use criterion::measurement::WallTime;
 use criterion::{
     criterion_group, criterion_main, BenchmarkGroup, BenchmarkId, Criterion, Throughput,
 };
-use mbs::bench::{BenchBed, Case, Prepared};
-use mbs::sims::{with_sim, HostSim, SimJob};
+use mbs::tools::bench::{BenchBed, Case, Prepared};
+use mbs::sim::sims::{with_sim, HostSim, SimJob};
 use mbs::Precision;
 use mbs_kernel::Real;
 use std::path::{Path, PathBuf};

@@ -3,7 +3,7 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use mbs::cell::CellCheckpoint;
+use mbs::work::cell::CellCheckpoint;
 
 fuzz_target!(|data: &[u8]| {
     if let Ok(ck) = CellCheckpoint::decode(data, 0x5eed) {

@@ -5,5 +5,5 @@
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {
-    let _ = mbs::store::parse_line(data);
+    let _ = mbs::work::store::parse_line(data);
 });

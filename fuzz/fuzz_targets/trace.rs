@@ -7,7 +7,7 @@ use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {
     if let Ok(text) = std::str::from_utf8(data) {
-        if let Ok(trace) = mbs::trace::parse(text) {
+        if let Ok(trace) = mbs::tools::trace::parse(text) {
             assert!(!trace.records.is_empty() && trace.every > 0);
         }
     }

@@ -1,6 +1,6 @@
 //! Every way the `mbs` command can fail, and its exit status.
 
-use crate::config::ConfigError;
+use crate::io::text::number;
 use std::fmt;
 use std::path::PathBuf;
 
@@ -126,5 +126,65 @@ impl std::error::Error for HostError {}
 impl From<ConfigError> for HostError {
     fn from(e: ConfigError) -> Self {
         HostError::Config(e)
+    }
+}
+
+/// A configuration that cannot be used. Nothing has been written when this
+/// is returned.
+#[derive(Debug)]
+pub enum ConfigError {
+    /// The file could not be read.
+    Read {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        source: std::io::Error,
+    },
+    /// Not TOML, an unknown key, or a value of the wrong type.
+    Parse(String),
+    /// A value outside its allowed range.
+    Invalid {
+        /// Dotted key, e.g. `grains.diameter_mm`.
+        key: String,
+        /// The value as given.
+        value: String,
+        /// The allowed range.
+        allowed: String,
+    },
+    /// A value the kernel's own validation refused.
+    Kernel {
+        /// The configuration key it came from, e.g. `flow.fluid_density`.
+        key: &'static str,
+        /// The kernel's error (value and allowed range).
+        source: mbs_kernel::Error,
+    },
+}
+
+impl fmt::Display for ConfigError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            ConfigError::Read { path, source } => write!(f, "{}: {source}", path.display()),
+            ConfigError::Parse(message) => write!(f, "{}", message.trim_end()),
+            ConfigError::Invalid {
+                key,
+                value,
+                allowed,
+            } => write!(f, "{key} = {value}: must be {allowed}"),
+            ConfigError::Kernel {
+                key,
+                source: mbs_kernel::Error::InvalidParameter { value, allowed, .. },
+            } => write!(f, "{key} = {}: must be {allowed}", number(*value)),
+            ConfigError::Kernel { key, source } => write!(f, "{key}: {source}"),
+        }
+    }
+}
+
+impl std::error::Error for ConfigError {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        match self {
+            ConfigError::Read { source, .. } => Some(source),
+            ConfigError::Kernel { source, .. } => Some(source),
+            _ => None,
+        }
     }
 }

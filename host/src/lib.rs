@@ -29,37 +29,18 @@
 //! | [`trace`] | digest traces: the digest run's field-group digests over time |
 //! | [`commands`] | the subcommands of `mbs` |
 
-pub mod beds;
-pub mod bench;
 pub mod calibrate;
-pub mod cell;
-pub mod commands;
+pub mod cli;
 pub mod config;
-pub mod control;
 pub mod error;
-pub mod experiment;
-pub mod frames;
-pub mod framing;
-pub mod input;
-pub mod log;
-pub mod measured;
-pub mod mixture;
-pub mod output;
-pub mod pack;
-pub mod plot;
-pub mod profile_report;
-pub mod profiles;
-pub mod progress;
-pub mod references;
-pub mod shard;
-pub mod sims;
-pub mod snapshot;
-pub mod stats;
-pub mod store;
-pub mod text;
-pub mod timeseries;
-pub mod trace;
+pub mod figures;
+pub mod io;
+pub mod report;
+pub mod science;
+pub mod sim;
+pub mod tools;
+pub mod work;
 
 pub use config::{Config, ConfigError, Precision};
 pub use error::HostError;
-pub use sims::boxed_sim;
+pub use sim::sims::boxed_sim;

@@ -1,11 +1,11 @@
 //! `mbs`: the DEM numerical movable bed (Gotoh, Harada & Sakai).
 
 use clap::{Args, Parser, Subcommand};
-use mbs::bench::{Bench, BenchBed, Case};
 use mbs::calibrate::{merge, Options, Progress};
-use mbs::commands::{self, Common};
-use mbs::references::Reference;
-use mbs::shard::Shard;
+use mbs::cli::{self, Common};
+use mbs::science::references::Reference;
+use mbs::tools::bench::{Bench, BenchBed, Case};
+use mbs::work::shard::Shard;
 use mbs::{Config, HostError, Precision};
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -183,7 +183,7 @@ enum Command {
         /// place after STEP integration steps (ULPS 1 if omitted; fields x, y,
         /// u, v, spin, draw_u, draw_v), to see how the check locates a difference.
         #[arg(long, value_name = "STEP:GRAIN:FIELD[:ULPS]", requires = "check")]
-        nudge: Option<mbs::trace::Nudge>,
+        nudge: Option<mbs::tools::trace::Nudge>,
     },
     /// The paper's parameter optimisation, automated: α_m, α_cn, β, constants_dt(d, nvd), mixed sizes → report.md.
     #[command(args_conflicts_with_subcommands = true)]
@@ -286,7 +286,7 @@ fn seconds_arg(key: &str, seconds: f64) -> Result<(), HostError> {
     } else {
         Err(mbs::ConfigError::Invalid {
             key: key.into(),
-            value: mbs::text::number(seconds),
+            value: mbs::io::text::number(seconds),
             allowed: format!("in (0, {max}] s of physical time"),
         }
         .into())
@@ -326,7 +326,7 @@ fn execute(cli: Cli) -> Result<(), HostError> {
         dump_every: None,
     });
     let shared = cli.shared.and(command.take_shared());
-    commands::check_threads(shared.threads)?;
+    cli::check_threads(shared.threads)?;
     let common = Common {
         quiet: shared.quiet,
         threads: shared.threads,
@@ -355,7 +355,7 @@ fn execute(cli: Cli) -> Result<(), HostError> {
                 }
                 .into());
             }
-            let options = commands::RunOptions {
+            let options = cli::RunOptions {
                 checkpoint_every,
                 stop_after_steps,
                 resuming: resume.is_some(),
@@ -371,15 +371,15 @@ fn execute(cli: Cli) -> Result<(), HostError> {
                             .into(),
                 }
                 .into()),
-                Some(dir) => (commands::resumed_config(&dir)?, Some(dir)),
+                Some(dir) => (cli::resumed_config(&dir)?, Some(dir)),
                 None => (load(&config)?, out),
             };
-            commands::run(&config, out.as_deref(), options, common)
+            cli::run(&config, out.as_deref(), options, common)
         }
-        Command::Config { .. } => commands::config(),
+        Command::Config { .. } => cli::config(),
         Command::Merge(MergeArgs { shards, out, .. }) => {
             let added = merge(&shards, &out)?;
-            commands::print(&format!(
+            cli::print(&format!(
                 "merged {added} new cells into {}; finish with the same command without --shard and with --out {}\n",
                 out.display(),
                 out.display()
@@ -394,7 +394,7 @@ fn execute(cli: Cli) -> Result<(), HostError> {
             if let Some(d) = duration {
                 seconds_arg("--duration", d)?;
             }
-            commands::pack(&load(&config)?, out.as_deref(), duration, common)
+            cli::pack(&load(&config)?, out.as_deref(), duration, common)
         }
         Command::Snapshot {
             config,
@@ -406,7 +406,7 @@ fn execute(cli: Cli) -> Result<(), HostError> {
         } => {
             let tau = tau_arg(tau)?;
             seconds_arg("--every", every)?;
-            commands::snapshot(&load(&config)?, out.as_deref(), tau, frames, every, common)
+            cli::snapshot(&load(&config)?, out.as_deref(), tau, frames, every, common)
         }
         Command::Digest {
             config,
@@ -433,7 +433,7 @@ fn execute(cli: Cli) -> Result<(), HostError> {
                     }
                     .into());
                 }
-                return commands::check_trace(&file, nudge);
+                return cli::check_trace(&file, nudge);
             }
             if every == 0 {
                 return Err(mbs::ConfigError::Invalid {
@@ -448,7 +448,7 @@ fn execute(cli: Cli) -> Result<(), HostError> {
                 Some(_) => load(&config)?,
                 None => mbs::Config::golden_with(&sets)?,
             };
-            let trace = trace.as_deref().map(|path| commands::TraceArgs {
+            let trace = trace.as_deref().map(|path| cli::TraceArgs {
                 path,
                 config: name,
                 overrides: sets.clone(),
@@ -458,14 +458,14 @@ fn execute(cli: Cli) -> Result<(), HostError> {
                 states,
             });
             let steps = (steps, flow_steps.unwrap_or(steps));
-            commands::digest(&config, steps, precision, tau_arg(tau)?, trace)
+            cli::digest(&config, steps, precision, tau_arg(tau)?, trace)
         }
         Command::Calibrate {
             action: Some(CalibrateAction::Merge(MergeArgs { shards, out, .. })),
             ..
         } => {
             let added = merge(&shards, &out)?;
-            commands::print(&format!(
+            cli::print(&format!(
                 "merged {added} new cells into {}; finish with `mbs calibrate [CONFIG] --out {}`\n",
                 out.display(),
                 out.display()
@@ -489,7 +489,7 @@ fn execute(cli: Cli) -> Result<(), HostError> {
                 reference,
                 quiet: common.quiet,
             };
-            let message = match commands::calibrate(base, &out, options, common.threads)? {
+            let message = match cli::calibrate(base, &out, options, common.threads)? {
                 Progress::Done { stages, calibrated } => {
                     let done = if stages == 5 {
                         format!("calibration done: {}/report.md\n", out.display())
@@ -509,7 +509,7 @@ fn execute(cli: Cli) -> Result<(), HostError> {
             if common.quiet {
                 Ok(())
             } else {
-                commands::print(&message)
+                cli::print(&message)
             }
         }
         Command::Bench {
@@ -531,7 +531,7 @@ fn execute(cli: Cli) -> Result<(), HostError> {
                 repetitions: steps,
                 beds: beds.as_deref(),
             };
-            commands::bench_command(precision, job, common)
+            cli::bench_command(precision, job, common)
         }
     }
 }
@@ -540,7 +540,7 @@ fn main() -> ExitCode {
     match execute(Cli::parse()) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            commands::print_err(&format!("error: {e}"));
+            cli::print_err(&format!("error: {e}"));
             ExitCode::from(e.exit_code())
         }
     }

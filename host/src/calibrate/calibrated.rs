@@ -6,8 +6,8 @@
 use super::stages::{beta::BetaStage, timestep::TimestepStage};
 use crate::config::ConfigFile;
 use crate::error::HostError;
-use crate::output::write_text;
-use crate::references::Reference;
+use crate::io::output::write_text;
+use crate::science::references::Reference;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 

@@ -3,15 +3,15 @@
 //! otherwise it is computed (in parallel with the other cells of the same
 //! request) if this shard owns it, and stored as soon as it finishes.
 
-use crate::beds::{BedKey, BedState, Beds};
-pub use crate::cell::TransportSpec;
-use crate::cell::{run_cell, CellResult};
 use crate::config::canonical;
 use crate::config::{Config, ConfigFile};
 use crate::error::HostError;
-use crate::log::Log;
-use crate::pack::{packing, Packing};
-use crate::store::Store;
+use crate::io::log::Log;
+use crate::tools::pack::{packing, Packing};
+use crate::work::beds::{BedKey, BedState, Beds};
+pub use crate::work::cell::TransportSpec;
+use crate::work::cell::{run_cell, CellResult};
+use crate::work::store::Store;
 use indicatif::ProgressBar;
 use rayon::prelude::*;
 use serde::{de::DeserializeOwned, Deserialize, Serialize};
@@ -19,7 +19,7 @@ use std::collections::BTreeMap;
 use std::path::PathBuf;
 use std::sync::atomic::AtomicBool;
 
-pub use crate::shard::Shard;
+pub use crate::work::shard::Shard;
 
 /// A packing cell: the bed of `config` settling for `duration`.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -137,7 +137,7 @@ impl Cells<'_> {
             stop: &NEVER,
             stop_after: None,
         };
-        crate::output::create_dir(&beds.dir)?;
+        crate::io::output::create_dir(&beds.dir)?;
         let settled: Vec<Result<Outcome<BedState>, HostError>> = needed
             .par_iter()
             .map(

@@ -22,12 +22,12 @@ pub mod stages;
 
 use crate::config::{Config, ConfigFile};
 use crate::error::HostError;
-use crate::log::Log;
-use crate::references::Reference;
+use crate::io::log::Log;
+use crate::science::references::Reference;
 use cells::{Cells, TransportSpec};
 use serde::{Deserialize, Serialize};
 
-use crate::store::STORE;
+use crate::work::store::STORE;
 
 /// How precisely the points of a curve are computed (docs/calibration.md,
 /// "Precision-driven points"). A cell averages from `window_min` on, in
@@ -517,7 +517,7 @@ impl Context<'_> {
         &self,
         config: &ConfigFile,
         tau_stars: &[f64],
-        chunks: &[&[Option<cells::Outcome<crate::cell::CellResult>>]],
+        chunks: &[&[Option<cells::Outcome<crate::work::cell::CellResult>>]],
     ) -> Curve {
         let n_classes = config.grains.classes.as_ref().map_or(1, Vec::len);
         let mut curve = Curve {
@@ -547,16 +547,16 @@ impl Context<'_> {
             }
             // One seed: the error of its window's blocks (as in `mbs run`).
             let (mean, err) = if q.len() == chunk.len() && q.len() == 1 {
-                (q[0], crate::stats::block_stderr(&blocks).1)
+                (q[0], crate::science::stats::block_stderr(&blocks).1)
             } else if q.len() == chunk.len() {
-                crate::stats::mean_stderr(&q)
+                crate::science::stats::mean_stderr(&q)
             } else {
                 (f64::NAN, f64::NAN)
             };
             curve.q_star.push(mean);
             curve.stderr.push(err);
             for (k, values) in per_class.iter().enumerate() {
-                curve.classes[k].push(crate::stats::mean_stderr(values).0);
+                curve.classes[k].push(crate::science::stats::mean_stderr(values).0);
             }
         }
         curve
@@ -617,11 +617,11 @@ pub fn calibrate(
         }
         None => base,
     };
-    let _lock = crate::output::lock_dir(dir)?;
-    crate::output::remove_temporaries(dir)?;
-    let store = crate::store::Store::open(&dir.join(STORE))?;
-    crate::output::write_json(&dir.join("plan.json"), &plan)?;
-    let progress = crate::progress::Progress::counter("cells computed", options.quiet);
+    let _lock = crate::io::output::lock_dir(dir)?;
+    crate::io::output::remove_temporaries(dir)?;
+    let store = crate::work::store::Store::open(&dir.join(STORE))?;
+    crate::io::output::write_json(&dir.join("plan.json"), &plan)?;
+    let progress = crate::io::progress::Progress::counter("cells computed", options.quiet);
     let stage = |name: &str| {
         progress.bar().set_message(name.to_string());
         log.event(name);
@@ -707,7 +707,7 @@ pub fn calibrate(
     })
 }
 
-pub use crate::shard::merge;
+pub use crate::work::shard::merge;
 
 #[cfg(test)]
 mod tests {
@@ -722,7 +722,7 @@ mod tests {
     }
 
     fn curve(factors: &[f64], relative: &[f64]) -> super::Curve {
-        let r = crate::references::Reference::MeyerPeterMuller;
+        let r = crate::science::references::Reference::MeyerPeterMuller;
         let tau_stars = vec![0.1, 0.2];
         let q_star: Vec<f64> = tau_stars
             .iter()
@@ -742,7 +742,7 @@ mod tests {
 
     #[test]
     fn the_misfit_weights_each_point_by_its_error() {
-        let r = crate::references::Reference::MeyerPeterMuller;
+        let r = crate::science::references::Reference::MeyerPeterMuller;
         let ln2 = 2f64.ln();
         let exact = curve(&[1.0, 1.0], &[0.0, 0.0]);
         assert_eq!(exact.misfit(r, 0.1), 0.0);

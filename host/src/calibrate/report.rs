@@ -11,8 +11,8 @@ use super::stages::{
 use super::Plan;
 use crate::config::Config;
 use crate::error::HostError;
-use crate::output::write_text;
-use crate::references::Reference;
+use crate::io::output::write_text;
+use crate::science::references::Reference;
 use std::fmt::Write;
 use std::path::Path;
 

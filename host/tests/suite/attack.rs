@@ -83,10 +83,10 @@ fn stopped_run(dir: &std::path::Path, name: &str, stops: &[u64]) -> std::path::P
 }
 
 /// Reads `cell`'s checkpoint in `out`, with the key the file holds.
-fn read_checkpoint(out: &std::path::Path, cell: &str) -> mbs::cell::CellCheckpoint {
+fn read_checkpoint(out: &std::path::Path, cell: &str) -> mbs::work::cell::CellCheckpoint {
     let bytes = std::fs::read(out.join("checkpoints").join(cell)).unwrap();
     let key = u64::from_le_bytes(bytes[6..14].try_into().unwrap());
-    mbs::cell::CellCheckpoint::decode(&bytes, key).unwrap()
+    mbs::work::cell::CellCheckpoint::decode(&bytes, key).unwrap()
 }
 
 /// Edits `cell`'s checkpoint with `edit` (its checksum recomputed), resumes,
@@ -94,7 +94,7 @@ fn read_checkpoint(out: &std::path::Path, cell: &str) -> mbs::cell::CellCheckpoi
 fn crafted_is_refused(
     steps: &[u64],
     cell: &str,
-    edit: impl FnOnce(&mut mbs::cell::CellCheckpoint, &std::path::Path),
+    edit: impl FnOnce(&mut mbs::work::cell::CellCheckpoint, &std::path::Path),
 ) {
     let dir = tempfile::tempdir().unwrap();
     let out = stopped_run(dir.path(), "out", steps);
@@ -118,7 +118,7 @@ const IN_WINDOW: &[u64] = &[20_000];
 #[test]
 fn crafted_window_samples_in_spin_up_are_refused_not_a_panic() {
     crafted_is_refused(IN_WINDOW, "tau0.3_seed1.ckpt", |ck, _| {
-        ck.state.phase = mbs::cell::Phase::SpinUp;
+        ck.state.phase = mbs::work::cell::Phase::SpinUp;
         ck.state.done = 0;
     });
 }

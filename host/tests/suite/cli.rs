@@ -99,7 +99,8 @@ fn run_writes_table_plots_and_summary() {
         "{:?}",
         lines[9]
     );
-    let texts = mbs::plot::svg_texts(&std::fs::read_to_string(out.join("timeseries.svg")).unwrap());
+    let texts =
+        mbs::figures::svg_texts(&std::fs::read_to_string(out.join("timeseries.svg")).unwrap());
     for title in [
         "τ* = 0.1: q* over blocks of 0.005 s",
         "τ* = 0.3: q* over blocks of 0.005 s",

@@ -4,8 +4,8 @@
 //! flow profile and periodic edges. (How they look is checked by eye.)
 
 use crate::common::*;
-use mbs::plot::{Q_STAR_AXIS, TAU_STAR_AXIS};
-use mbs::references::Reference;
+use mbs::figures::{Q_STAR_AXIS, TAU_STAR_AXIS};
+use mbs::science::references::Reference;
 use std::path::Path;
 
 /// The text of every `<text>` element of `dir/name`, after checking that
@@ -14,7 +14,7 @@ fn svg_texts(dir: &Path, stem: &str) -> Vec<String> {
     let png = std::fs::read(dir.join(format!("{stem}.png"))).unwrap();
     assert_eq!(&png[1..4], b"PNG", "{stem}.png");
     let svg = std::fs::read_to_string(dir.join(format!("{stem}.svg"))).unwrap();
-    mbs::plot::svg_texts(&svg)
+    mbs::figures::svg_texts(&svg)
 }
 
 fn assert_has(texts: &[String], wanted: &[&str]) {

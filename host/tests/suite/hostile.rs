@@ -3,8 +3,8 @@
 //! never panic on arbitrary or mutated bytes; a refused kernel checkpoint
 //! changes nothing. (Longer runs: the cargo-fuzz targets in `fuzz/`.)
 
-use mbs::cell::CellCheckpoint;
 use mbs::config::{Config, DEFAULT_TOML};
+use mbs::work::cell::CellCheckpoint;
 use mbs_kernel::{Scenario, Sim};
 use proptest::prelude::*;
 

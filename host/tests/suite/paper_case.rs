@@ -4,7 +4,7 @@
 //! numbers change only when the model does.
 
 use indicatif::ProgressBar;
-use mbs::experiment::{aggregate, run_all, RunControl, TransportRow};
+use mbs::work::experiment::{aggregate, run_all, RunControl, TransportRow};
 use mbs::Config;
 use std::path::Path;
 use std::sync::atomic::AtomicBool;
@@ -20,8 +20,8 @@ fn transport(mut config: Config) -> Vec<TransportRow> {
         every: None,
         stop: &never,
         stop_after: None,
-        shard: mbs::shard::Shard::ALL,
-        log: &mbs::log::Log::discard(),
+        shard: mbs::work::shard::Shard::ALL,
+        log: &mbs::io::log::Log::discard(),
         dump_every: None,
     };
     let outcome = run_all(&config, &ProgressBar::hidden(), &control).expect("the case runs");

@@ -10,8 +10,8 @@ use super::save_stage;
 use crate::calibrate::optimise::{next_root_guess, Parabola};
 use crate::calibrate::{Context, Curve, Slots};
 use crate::error::HostError;
-use crate::output::{decimal, write_csv};
-use crate::plot::{save, LinesFigure, TransportFigure, Q_STAR_AXIS, TAU_STAR_AXIS};
+use crate::figures::{save, LinesFigure, TransportFigure, Q_STAR_AXIS, TAU_STAR_AXIS};
+use crate::io::output::{decimal, write_csv};
 use serde::{Deserialize, Serialize};
 
 /// The outcome of stage 3.

@@ -10,9 +10,9 @@ use super::save_stage;
 use crate::calibrate::{Context, Curve, Slots, Q_FLOOR};
 use crate::config::{ClassEntry, Config, Substeps};
 use crate::error::HostError;
-use crate::mixture::{geometric_mean, wilcock_crowe};
-use crate::output::{decimal, write_csv};
-use crate::plot::{save, TransportFigure};
+use crate::figures::{save, TransportFigure};
+use crate::io::output::{decimal, write_csv};
+use crate::science::mixture::{geometric_mean, wilcock_crowe};
 use serde::{Deserialize, Serialize};
 
 /// One size class at one τ*.

@@ -9,7 +9,7 @@ pub mod settling;
 pub mod timestep;
 
 use crate::error::HostError;
-use crate::output::write_json;
+use crate::io::output::write_json;
 use serde::Serialize;
 use std::path::Path;
 

@@ -7,8 +7,8 @@ use crate::calibrate::cells::{PackCurve, PackSpec};
 use crate::calibrate::Context;
 use crate::config::ConfigFile;
 use crate::error::HostError;
-use crate::output::{decimal, write_csv};
-use crate::plot::{save, LinesFigure};
+use crate::figures::{save, LinesFigure};
+use crate::io::output::{decimal, write_csv};
 use serde::{Deserialize, Serialize};
 
 /// One value of the swept parameter.

@@ -3,13 +3,13 @@
 //! (`timeseries.png`/`.svg`), and the warnings of the τ*s whose windows are
 //! not steady or did not reach their target.
 
-use crate::cell::CellResult;
 use crate::config::Config;
 use crate::error::HostError;
-use crate::experiment::TransportRow;
-use crate::output::{decimal, write_csv};
-use crate::plot::{LinesFigure, Panels};
-use crate::text::number;
+use crate::figures::{LinesFigure, Panels};
+use crate::io::output::{decimal, write_csv};
+use crate::io::text::number;
+use crate::work::cell::CellResult;
+use crate::work::experiment::TransportRow;
 use serde::Serialize;
 use std::path::Path;
 

@@ -8,19 +8,19 @@
 //! A settled bed is kept in `DIR/beds/<key>.bed`, a settling bed's
 //! checkpoint in `DIR/checkpoints/bed_<key>.ckpt`, both in one format
 //! (version 1, framed by
-//! [`crate::framing`]): magic `MBSB`, the bed's key (FNV-1a of its
+//! [`crate::io::framing`]): magic `MBSB`, the bed's key (FNV-1a of its
 //! specification) u64, status u8 (0 settling, 1 at rest, 2 settled for
 //! the whole `time.settle` without rest), steps u64, the rest criterion's
 //! y_gc (f64 bits) and checks passed u32, the last check's speed and drift
 //! (f64 bits), the largest overlap (f64 bits), the kernel checkpoint.
 
 use crate::config::{Config, ConfigFile, SettleUntil};
-use crate::control::{Checkpoints, Control};
 use crate::error::HostError;
-use crate::framing::{CheckpointError, Reader, Writer};
-use crate::input::{read_bounded, Bound};
-use crate::output::{remove_if_present, write_atomic};
-use crate::sims::{check_restored, max_checkpoint_len, with_sim, HostSim, SimJob};
+use crate::io::framing::{CheckpointError, Reader, Writer};
+use crate::io::input::{read_bounded, Bound};
+use crate::io::output::{remove_if_present, write_atomic};
+use crate::sim::control::{Checkpoints, Control};
+use crate::sim::sims::{check_restored, max_checkpoint_len, with_sim, HostSim, SimJob};
 use indicatif::ProgressBar;
 use mbs_kernel::{Fnv1a, Real, Rest, RestWatch, G};
 use serde::{Deserialize, Serialize};
@@ -32,7 +32,7 @@ const MAGIC: [u8; 4] = *b"MBSB";
 const VERSION: u16 = 1;
 
 /// Steps run between checks for stopping and checkpointing.
-const CHUNK: u64 = crate::control::MIN_CHECKPOINT_STEPS;
+const CHUNK: u64 = crate::sim::control::MIN_CHECKPOINT_STEPS;
 
 /// What determines a settled bed: the configuration without what only
 /// matters under the flow (τ*, spin-up, window, sampling), and the seed.

@@ -1,13 +1,13 @@
-//! The profiles of a run ([`crate::profiles`]) as files: `profiles.csv`
+//! The profiles of a run ([`crate::work::profiles`]) as files: `profiles.csv`
 //! and `profiles.png`/`.svg`, the mean over the seeds of each τ*.
 
-use crate::cell::CellResult;
 use crate::config::Config;
 use crate::error::HostError;
-use crate::output::{decimal, write_csv};
-use crate::plot::{LinesFigure, Panels};
-use crate::profiles::{CellProfile, ProfileGrid, ProfileSums};
-use crate::text::number;
+use crate::figures::{LinesFigure, Panels};
+use crate::io::output::{decimal, write_csv};
+use crate::io::text::number;
+use crate::work::cell::CellResult;
+use crate::work::profiles::{CellProfile, ProfileGrid, ProfileSums};
 use serde::Serialize;
 use std::path::Path;
 

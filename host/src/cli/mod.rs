@@ -1,27 +1,25 @@
 //! The subcommands of `mbs`, each a function from parsed arguments to files
 //! and a short report on standard output.
 
-use crate::bench::bench;
-use crate::cell::CellResult;
 use crate::config::{long_run_warning, warnings, Config, ConfigError, Precision, DEFAULT_TOML};
-use crate::control::MIN_CHECKPOINT_STEPS;
 use crate::error::HostError;
-use crate::experiment::RunControl;
-use crate::experiment::{aggregate, run_all, write_transport, TransportRow};
-use crate::input::read_text_bounded;
-use crate::log::{Header, Log};
-use crate::output::{create_dir, write_json, write_text};
-use crate::pack::{packing, write_packing, Packing};
-use crate::plot::{save, TransportFigure};
-use crate::profile_report::{profiles_figure, write_profiles};
-use crate::progress::Progress;
-use crate::shard::Shard;
-use crate::sims::{with_sim, HostSim, SimJob};
-use crate::snapshot::{snapshots, write_picture, Snapshots};
-use crate::timeseries::{timeseries_figure, window_warnings, write_timeseries};
-use crate::trace::TRACE_BOUND;
+use crate::io::input::read_text_bounded;
+use crate::io::log::{Header, Log};
+use crate::io::output::{create_dir, write_json, write_text};
+use crate::io::progress::Progress;
+use crate::report::timeseries::window_warnings;
+use crate::report::RunFacts;
+use crate::sim::control::MIN_CHECKPOINT_STEPS;
+use crate::sim::sims::{with_sim, HostSim, SimJob};
+use crate::tools::bench::bench;
+use crate::tools::pack::{packing, write_packing, Packing};
+use crate::tools::snapshot::{snapshots, write_picture, Snapshots};
+use crate::tools::trace::TRACE_BOUND;
+use crate::work::experiment::RunControl;
+use crate::work::experiment::{aggregate, run_all};
+use crate::work::shard::Shard;
 use indicatif::ProgressBar;
-use mbs_kernel::{explicit_damping_number, Real, Scenario};
+use mbs_kernel::{Real, Scenario};
 use serde::Serialize;
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -47,7 +45,7 @@ pub fn print(text: &str) -> Result<(), HostError> {
     }
 }
 
-pub use crate::text::print_err;
+pub use crate::io::text::print_err;
 
 /// The configuration's warnings ([`warnings`]) into `log`: printed even
 /// when quiet, logged, kept for `summary.json`.
@@ -150,84 +148,6 @@ pub fn config() -> Result<(), HostError> {
     print(DEFAULT_TOML)
 }
 
-/// Contact constants and time steps derived from the configuration.
-#[derive(Debug, Clone, Serialize)]
-pub struct Derived {
-    /// k_n (N/m).
-    pub k_n: f64,
-    /// k_s (N/m).
-    pub k_s: f64,
-    /// η_n (N s/m).
-    pub eta_n: f64,
-    /// η_s (N s/m).
-    pub eta_s: f64,
-    /// The constants' time step constants_dt (s).
-    pub constants_dt_s: f64,
-    /// The integration step step_dt = constants_dt/substeps (s).
-    pub step_dt_s: f64,
-    /// Explicit damping number of the largest grains (stable below 2).
-    pub explicit_damping_number: f64,
-    /// Periodic width L (m).
-    pub width: f64,
-    /// Largest number of grains in the bed (fixed + lattice sites).
-    pub max_grains: usize,
-}
-
-impl Derived {
-    /// From a validated configuration.
-    pub fn of(config: &Config) -> Derived {
-        let sc = &config.scenario;
-        let c = config.contact;
-        Derived {
-            k_n: c.k_n,
-            k_s: c.k_s,
-            eta_n: c.eta_n,
-            eta_s: c.eta_s,
-            constants_dt_s: sc.rule.constants_dt,
-            step_dt_s: sc.step_dt(),
-            explicit_damping_number: explicit_damping_number(
-                &c,
-                &sc.material,
-                sc.bed.max_diameter(),
-                sc.step_dt(),
-            ),
-            width: sc.bed.width(),
-            max_grains: sc.bed.columns as usize
-                * (sc.bed.fixed_per_column() + sc.bed.rows as usize),
-        }
-    }
-}
-
-#[derive(Serialize)]
-struct Summary<'a> {
-    program: &'static str,
-    version: &'static str,
-    command: &'static str,
-    config: &'a crate::config::ConfigFile,
-    derived: Derived,
-    threads: usize,
-    /// Cells computed by this invocation (resumed ones included).
-    cells_computed: usize,
-    /// Cells taken from `cells.jsonl` as they were.
-    cells_reused: usize,
-    cells_resumed: usize,
-    beds_settled: usize,
-    beds_resumed: usize,
-    /// Wall time of this invocation.
-    wall_time_s: f64,
-    /// Grain-steps of every cell.
-    grain_steps: u64,
-    /// Grain-steps of the cells computed by this invocation (a resumed
-    /// cell counts whole).
-    grain_steps_computed: u64,
-    /// `grain_steps_computed / wall_time_s`; `null` when every cell was reused.
-    grain_steps_per_s: Option<f64>,
-    /// The warnings of the run (also on standard error and in `mbs.log`).
-    warnings: Vec<String>,
-    transport: &'a [TransportRow],
-    cells: &'a [crate::cell::CellResult],
-}
-
 /// Set by Ctrl-C: running cells checkpoint and stop.
 static STOP: AtomicBool = AtomicBool::new(false);
 
@@ -260,11 +180,11 @@ pub fn dump_steps(config: &Config, seconds: f64) -> Result<u64, HostError> {
     }
     Err(ConfigError::Invalid {
         key: "--dump-every".into(),
-        value: crate::text::number(seconds),
+        value: crate::io::text::number(seconds),
         allowed: format!(
             "from one integration step (step_dt = constants_dt/substeps = {} s) to time.window ({} s) of simulated time",
-            crate::text::number(step_dt),
-            crate::text::number(most as f64 * step_dt)
+            crate::io::text::number(step_dt),
+            crate::io::text::number(most as f64 * step_dt)
         ),
     }
     .into())
@@ -305,7 +225,7 @@ pub fn run(
         dump_steps(config, seconds)?;
     }
     let dir = output_dir(config, out)?;
-    let _lock = crate::output::lock_dir(&dir)?;
+    let _lock = crate::io::output::lock_dir(&dir)?;
     logged(config, &dir, "run", options.resuming, |log, text| {
         run_logged(config, &dir, text, options, common, log)
     })
@@ -332,7 +252,7 @@ fn run_logged(
         log.warn(&format!(
             "--checkpoint-every {} s: each cell writes a checkpoint at most once per \
              {MIN_CHECKPOINT_STEPS} integration steps",
-            crate::text::number(every)
+            crate::io::text::number(every)
         ));
     }
     let started = std::fs::read_to_string(dir.join(RUN_CONFIG)).ok();
@@ -401,8 +321,8 @@ fn run_logged(
         }
         other => other?,
     };
-    let results = outcome.results;
-    let rows = aggregate(config, &results);
+    let results = &outcome.results;
+    let rows = aggregate(config, results);
     if options.shard.is_all() {
         for w in window_warnings(config, &rows) {
             log.warn(&w);
@@ -417,96 +337,14 @@ fn run_logged(
             dir.display()
         ));
     }
-    let wall = start.elapsed().as_secs_f64();
-    write_transport(&dir.join("transport.csv"), config, &rows)?;
-    let class_labels = if config.scenario.bed.classes.len() > 1 {
-        config
-            .scenario
-            .bed
-            .classes
-            .iter()
-            .map(|c| format!("d = {} mm", c.diameter * 1e3))
-            .collect()
-    } else {
-        Vec::new()
+    let facts = RunFacts {
+        threads,
+        wall_time_s: start.elapsed().as_secs_f64(),
+        warnings: log.warnings(),
     };
-    let sc = &config.scenario;
-    let figure = TransportFigure::of_rows(
-        &rows,
-        &class_labels,
-        format!(
-            "q* against τ*: d = {} mm, {}×{} bed, β = {}, {} seed(s)",
-            sc.bed
-                .classes
-                .iter()
-                .map(|c| (c.diameter * 1e3).to_string())
-                .collect::<Vec<_>>()
-                .join(", "),
-            sc.bed.columns,
-            sc.bed.rows,
-            sc.rule.beta,
-            config.seeds.len()
-        ),
-    );
-    save(&figure, dir, "transport")?;
-    write_timeseries(&dir.join("timeseries.csv"), config, &results)?;
-    save(&timeseries_figure(config, &results), dir, "timeseries")?;
-    write_profiles(&dir.join("profiles.csv"), config, &results)?;
-    save(&profiles_figure(config, &results), dir, "profiles")?;
-    let grain_steps: u64 =
-        results.iter().map(|r| r.grain_steps).sum::<u64>() + outcome.bed_grain_steps;
-    let computed = results.len() - outcome.reused;
-    // Only the cells computed now took this wall time: no rate without them.
-    let rate = (computed > 0)
-        .then(|| (outcome.computed_grain_steps + outcome.bed_grain_steps) as f64 / wall);
-    write_json(
-        &dir.join("summary.json"),
-        &Summary {
-            program: "mbs",
-            version: env!("CARGO_PKG_VERSION"),
-            command: "run",
-            config: &config.file,
-            derived: Derived::of(config),
-            threads,
-            cells_computed: computed,
-            cells_reused: outcome.reused,
-            cells_resumed: outcome.resumed,
-            beds_settled: outcome.beds_settled,
-            beds_resumed: outcome.beds_resumed,
-            wall_time_s: wall,
-            grain_steps,
-            grain_steps_computed: outcome.computed_grain_steps + outcome.bed_grain_steps,
-            grain_steps_per_s: rate,
-            warnings: log.warnings(),
-            transport: &rows,
-            // The profiles are in profiles.csv.
-            cells: &results
-                .iter()
-                .map(|r| CellResult {
-                    profile: None,
-                    ..r.clone()
-                })
-                .collect::<Vec<_>>(),
-        },
-    )?;
+    let console = crate::report::write_run(dir, config, &outcome, &rows, &facts)?;
     if !common.quiet {
-        let mut text = String::from("tau_star  q_star    stderr    MPM       Wong-Parker\n");
-        for r in &rows {
-            text += &format!(
-                "{:<9} {:<9.4} {:<9.4} {:<9.4} {:<9.4}\n",
-                r.tau_star, r.q_star, r.q_star_stderr, r.mpm, r.wong_parker
-            );
-        }
-        let speed = match rate {
-            Some(rate) => format!("{computed} computed in {wall:.1} s ({rate:.3e} grain-steps/s)"),
-            None => format!("all reused from {}", crate::store::STORE),
-        };
-        text += &format!(
-            "{} cells, {speed}; wrote {}/transport.csv, transport.png, transport.svg, timeseries.csv, timeseries.png, timeseries.svg, profiles.csv, profiles.png, profiles.svg, summary.json\n",
-            results.len(),
-            dir.display()
-        );
-        print(&text)?;
+        print(&console)?;
     }
     Ok(())
 }
@@ -663,7 +501,7 @@ pub struct TraceArgs<'a> {
 
 /// `mbs digest`: state digests after `steps.0` settling steps and
 /// `steps.1` flow steps at τ* — what a board run is compared with; with
-/// `trace`, also writes the trace of that run ([`crate::trace`]).
+/// `trace`, also writes the trace of that run ([`crate::tools::trace`]).
 pub fn digest(
     config: &Config,
     steps: (u64, u64),
@@ -672,10 +510,10 @@ pub fn digest(
     trace: Option<TraceArgs<'_>>,
 ) -> Result<(), HostError> {
     if let Some(t) = trace {
-        let run = crate::trace::TraceRun {
+        let run = crate::tools::trace::TraceRun {
             scenario: config.scenario_at(config.seeds[0]),
             capacity: config.capacity,
-            spec: crate::trace::TraceSpec {
+            spec: crate::tools::trace::TraceSpec {
                 config: t.config,
                 overrides: t.overrides,
                 tau_star,
@@ -697,7 +535,7 @@ pub fn digest(
             .into());
         }
         let trace = run.run().map_err(trace_error("digest trace"))?;
-        let text = crate::trace::to_text(&trace).map_err(|e| HostError::Io {
+        let text = crate::tools::trace::to_text(&trace).map_err(|e| HostError::Io {
             path: t.path.to_path_buf(),
             error: e.into(),
         })?;
@@ -716,10 +554,10 @@ pub fn digest(
 /// A trace run's error as the command's: the kernel's (exit 1), a nudge
 /// that cannot be applied (exit 2, `--nudge`), a trace whose state cannot
 /// start the run (exit 2, refused).
-fn trace_error(what: &'static str) -> impl Fn(crate::trace::RunError) -> HostError {
+fn trace_error(what: &'static str) -> impl Fn(crate::tools::trace::RunError) -> HostError {
     move |e| match e {
-        crate::trace::RunError::Kernel(e) => HostError::kernel(what.to_string())(e),
-        crate::trace::RunError::Nudge(nudge, e) => crate::ConfigError::Invalid {
+        crate::tools::trace::RunError::Kernel(e) => HostError::kernel(what.to_string())(e),
+        crate::tools::trace::RunError::Nudge(nudge, e) => crate::ConfigError::Invalid {
             key: "--nudge".into(),
             value: nudge.to_string(),
             allowed: format!(
@@ -727,7 +565,7 @@ fn trace_error(what: &'static str) -> impl Fn(crate::trace::RunError) -> HostErr
             ),
         }
         .into(),
-        crate::trace::RunError::State(message) => HostError::Trace {
+        crate::tools::trace::RunError::State(message) => HostError::Trace {
             path: what.into(),
             message,
         },
@@ -736,11 +574,14 @@ fn trace_error(what: &'static str) -> impl Fn(crate::trace::RunError) -> HostErr
 
 /// `mbs digest --check FILE [--nudge N]`: re-runs the trace's scenario
 /// (changing one value by `nudge`, if given) and compares every record; a
-/// mismatch is located ([`crate::trace::check`]) and reported as
+/// mismatch is located ([`crate::tools::trace::check`]) and reported as
 /// [`HostError::Mismatch`] (exit 1); a damaged, edited, truncated or
 /// foreign trace, or one whose configuration no longer gives its scenario,
 /// is refused ([`HostError::Trace`], exit 2).
-pub fn check_trace(path: &Path, nudge: Option<crate::trace::Nudge>) -> Result<(), HostError> {
+pub fn check_trace(
+    path: &Path,
+    nudge: Option<crate::tools::trace::Nudge>,
+) -> Result<(), HostError> {
     let refuse = |message: String| HostError::Trace {
         path: path.to_path_buf(),
         message,
@@ -749,16 +590,16 @@ pub fn check_trace(path: &Path, nudge: Option<crate::trace::Nudge>) -> Result<()
         std::io::ErrorKind::InvalidData => refuse(e.to_string()),
         _ => HostError::io(path)(e),
     })?;
-    let recorded = crate::trace::parse(&text).map_err(refuse)?;
+    let recorded = crate::tools::trace::parse(&text).map_err(refuse)?;
     let config = match &recorded.spec.config {
         Some(file) => Config::load_with(Some(Path::new(file)), &recorded.spec.overrides)?,
         None => Config::golden_with(&recorded.spec.overrides)?,
     };
-    let run = crate::trace::TraceRun {
+    let run = crate::tools::trace::TraceRun {
         scenario: config.scenario_at(config.seeds[0]),
         capacity: config.capacity,
         // The check compares digests; it keeps no states of its own.
-        spec: crate::trace::TraceSpec {
+        spec: crate::tools::trace::TraceSpec {
             states: false,
             ..recorded.spec.clone()
         },
@@ -770,13 +611,13 @@ pub fn check_trace(path: &Path, nudge: Option<crate::trace::Nudge>) -> Result<()
             recorded.scenario_hash
         )));
     }
-    let verdict = crate::trace::check(&run, &recorded, nudge).map_err(|e| match e {
-        crate::trace::RunError::State(message) => refuse(message),
+    let verdict = crate::tools::trace::check(&run, &recorded, nudge).map_err(|e| match e {
+        crate::tools::trace::RunError::State(message) => refuse(message),
         e => trace_error("digest --check")(e),
     })?;
     match verdict {
-        crate::trace::Verdict::Mismatch(message) => Err(HostError::Mismatch(message)),
-        crate::trace::Verdict::Matches(records, last) => print(&format!(
+        crate::tools::trace::Verdict::Mismatch(message) => Err(HostError::Mismatch(message)),
+        crate::tools::trace::Verdict::Matches(records, last) => print(&format!(
             "trace matches: {records} records, steps {} to {last}\n",
             recorded.spec.from
         )),
@@ -845,7 +686,7 @@ struct CalibrationSummary {
 /// `mbs bench`: ns per grain-step of one case on a prepared bed.
 pub fn bench_command(
     precision: Precision,
-    job: crate::bench::Bench<'_>,
+    job: crate::tools::bench::Bench<'_>,
     common: Common,
 ) -> Result<(), HostError> {
     let spinner = if common.quiet {

@@ -82,7 +82,7 @@ impl Log {
     /// A warning: printed on standard error (even with `--quiet`), logged
     /// and kept for [`Log::warnings`].
     pub fn warn(&self, text: &str) {
-        crate::text::print_err(&format!("warning: {text}"));
+        crate::io::text::print_err(&format!("warning: {text}"));
         self.event(&format!("warning {text}"));
         if let Ok(mut w) = self.warnings.lock() {
             w.push(text.to_string());

@@ -46,7 +46,7 @@ impl std::fmt::Display for CheckpointError {
 /// appends the CRC.
 ///
 /// ```
-/// use mbs::framing::{Reader, Writer};
+/// use mbs::io::framing::{Reader, Writer};
 ///
 /// let mut w = Writer::new(*b"TEST", 1);
 /// w.u64(7);
@@ -57,7 +57,7 @@ impl std::fmt::Display for CheckpointError {
 /// assert_eq!((r.u64()?, r.f64()?, r.bytes()?), (7, 0.5, &[1u8, 2, 3][..]));
 /// r.finish()?;
 /// assert!(Reader::open(&file[..file.len() - 1], *b"TEST", 1, "test file").is_err());
-/// # Ok::<(), mbs::framing::CheckpointError>(())
+/// # Ok::<(), mbs::io::framing::CheckpointError>(())
 /// ```
 pub struct Writer(Vec<u8>);
 

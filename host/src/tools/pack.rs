@@ -4,9 +4,9 @@
 
 use crate::config::Config;
 use crate::error::HostError;
-use crate::output::{decimal, write_csv};
-use crate::plot::{save, LinesFigure};
-use crate::sims::{run_steps, with_sim, HostSim, SimJob};
+use crate::figures::{save, LinesFigure};
+use crate::io::output::{decimal, write_csv};
+use crate::sim::sims::{run_steps, with_sim, HostSim, SimJob};
 use indicatif::ProgressBar;
 use mbs_kernel::Real;
 use serde::Serialize;

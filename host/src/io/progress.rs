@@ -4,7 +4,7 @@
 //! `--quiet`. Work reports to the [`ProgressBar`] ([`Progress::bar`]); the
 //! plain lines are written by a thread that reads it.
 
-use crate::text::print_err;
+use crate::io::text::print_err;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::io::IsTerminal;
 use std::sync::mpsc::{channel, RecvTimeoutError, Sender};

@@ -30,8 +30,8 @@
 //! collection afresh. Frames are an output: nothing is computed from them.
 
 use crate::error::HostError;
-use crate::input::{read_bounded, Bound};
-use crate::output::{create_dir, remove_if_present, write_json, write_text};
+use crate::io::input::{read_bounded, Bound};
+use crate::io::output::{create_dir, remove_if_present, write_json, write_text};
 use base64::Engine;
 use indicatif::ProgressBar;
 use mbs_kernel::{GrainSpec, Real, Sim};
@@ -161,7 +161,7 @@ impl FrameWriter {
     }
 }
 
-/// Runs `steps` steps like [`crate::sims::run_steps`], letting `frames`
+/// Runs `steps` steps like [`crate::sim::sims::run_steps`], letting `frames`
 /// [`FrameWriter::track`] the grains every [`TRACK_SECONDS`].
 pub fn run_steps<R: Real, const N: usize, const K: usize, const C: usize>(
     sim: &mut Sim<R, N, K, C>,
@@ -488,7 +488,7 @@ pub fn vtu(grains: &[GrainSpec], x_unwrapped: &[f64], width: f64, time: f64) -> 
 /// 0.030000000000000002.
 ///
 /// ```
-/// use mbs::frames::frame_time;
+/// use mbs::sim::frames::frame_time;
 ///
 /// assert_eq!(frame_time(12_000, 2.5e-6), 0.03);
 /// assert_eq!(frame_time(0, 2.5e-6), 0.0);

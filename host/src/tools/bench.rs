@@ -12,10 +12,10 @@
 //! as kernel checkpoints in a directory and reused.
 
 use crate::error::HostError;
-use crate::input::{read_bounded, Bound};
-use crate::output::{create_dir, write_atomic};
-use crate::sims::{with_sim, HostSim, SimJob};
-use crate::text::number;
+use crate::io::input::{read_bounded, Bound};
+use crate::io::output::{create_dir, write_atomic};
+use crate::io::text::number;
+use crate::sim::sims::{with_sim, HostSim, SimJob};
 use mbs_kernel::contact::{ContactLaw, Spring};
 use mbs_kernel::{BedSpec, Error, Fnv1a, GrainSpec, Real, Scenario, Sim};
 use std::path::{Path, PathBuf};

@@ -3,14 +3,14 @@
 //! command run again finds every cell and writes the whole result.
 
 use crate::error::HostError;
-use crate::store::{Store, STORE};
+use crate::work::store::{Store, STORE};
 use std::path::{Path, PathBuf};
 
 /// One slice of a run's or a stage's cells: `index` of `count`
 /// (`--shard I/N`, I = index + 1); cell k belongs to slice k mod count.
 ///
 /// ```
-/// use mbs::shard::Shard;
+/// use mbs::work::shard::Shard;
 ///
 /// let s: Shard = "2/3".parse().unwrap();
 /// assert_eq!((s.index, s.count), (1, 3));
@@ -71,7 +71,7 @@ impl std::str::FromStr for Shard {
 /// Adds the cells of the shard directories `shards` to `dir`'s cell store
 /// (`mbs merge`, `mbs calibrate merge`); returns how many were new.
 pub fn merge(shards: &[PathBuf], dir: &Path) -> Result<usize, HostError> {
-    let _lock = crate::output::lock_dir(dir)?;
+    let _lock = crate::io::output::lock_dir(dir)?;
     let store = Store::open(&dir.join(STORE))?;
     let mut added = 0;
     for shard in shards {

@@ -6,11 +6,11 @@
 //! included at rest) and the mean fluid velocity u_f: the column's with the
 //! coupled flow, the log law (14) above the mean bed level with clear
 //! water. Sampled every [`PROFILE_SAMPLES`] q* samples;
-//! [`crate::profile_report`] writes them.
+//! [`crate::report::profiles`] writes them.
 
 use crate::config::Config;
 use crate::config::FLUID_CELLS;
-use crate::sims::HostSim;
+use crate::sim::sims::HostSim;
 use mbs_kernel::flow::Profile as LogLaw;
 use mbs_kernel::fluid::{Grid, Slabs};
 use mbs_kernel::Real;

@@ -6,8 +6,8 @@
 //! locating procedure are in docs/determinism.md ("Traces").
 
 use crate::config::Precision;
-use crate::input::Bound;
-use crate::sims::{
+use crate::io::input::Bound;
+use crate::sim::sims::{
     boxed_sim, check_restored, checkpoint_len, with_sim, HostSim, SimJob, NEIGHBOURS,
 };
 use base64::Engine;
@@ -55,7 +55,7 @@ impl std::str::FromStr for Nudge {
     /// `STEP:GRAIN:FIELD[:ULPS]`, ULPS 1 when omitted.
     ///
     /// ```
-    /// use mbs::trace::Nudge;
+    /// use mbs::tools::trace::Nudge;
     /// use mbs_kernel::GrainField;
     ///
     /// let n: Nudge = "120:7:y".parse().unwrap();

@@ -9,9 +9,8 @@
 //! plotting library fall on a quarter pixel and curves are smooth when zoomed.
 
 use crate::error::HostError;
-use crate::experiment::TransportRow;
-use crate::output::{write_atomic_with, write_text};
-use crate::references::Reference;
+use crate::io::output::{write_atomic_with, write_text};
+use crate::science::references::Reference;
 use plotters::coord::ranged1d::ValueFormatter;
 use plotters::coord::Shift;
 use plotters::element::ComposedElement;
@@ -22,7 +21,7 @@ use std::sync::Once;
 
 /// The embedded font (DejaVu Sans, see `assets/DejaVuSans-LICENSE.txt`):
 /// the PNG backend needs one and a fresh machine may have none.
-static FONT: &[u8] = include_bytes!("../assets/DejaVuSans.ttf");
+static FONT: &[u8] = include_bytes!("../../assets/DejaVuSans.ttf");
 
 /// Scale at which a PNG is drawn before it is averaged down to its size.
 const PNG_SUPERSAMPLE: u32 = 3;
@@ -83,7 +82,7 @@ pub trait Figure {
 ///
 /// ```
 /// let svg = r#"<svg><text x="1">0.01</text><text y="2">q* &amp; τ*</text></svg>"#;
-/// assert_eq!(mbs::plot::svg_texts(svg), ["0.01", "q* & τ*"]);
+/// assert_eq!(mbs::figures::svg_texts(svg), ["0.01", "q* & τ*"]);
 /// ```
 pub fn svg_texts(svg: &str) -> Vec<String> {
     svg.split("<text")
@@ -444,21 +443,19 @@ pub struct TransportFigure {
 }
 
 impl TransportFigure {
-    /// The figure of `transport.csv`: all classes together, then each class.
-    pub fn of_rows(rows: &[TransportRow], class_labels: &[String], title: String) -> Self {
-        let mut series = vec![(
-            "mbs (mean ± standard error)".to_string(),
-            rows.iter()
-                .map(|r| (r.tau_star, r.q_star, r.q_star_stderr))
-                .collect(),
-        )];
-        for (k, label) in class_labels.iter().enumerate() {
-            let points = rows
-                .iter()
-                .filter_map(|r| r.classes.get(k).map(|&(q, e)| (r.tau_star, q, e)))
-                .collect();
-            series.push((format!("mbs, class {label}"), points));
-        }
+    /// q*(τ*) of all classes together (`all`, the mean ± standard error
+    /// of the seeds), then of each labelled size class.
+    pub fn new(
+        title: String,
+        all: Vec<ErrorPoint>,
+        classes: Vec<(String, Vec<ErrorPoint>)>,
+    ) -> Self {
+        let mut series = vec![("mbs (mean ± standard error)".to_string(), all)];
+        series.extend(
+            classes
+                .into_iter()
+                .map(|(label, points)| (format!("mbs, class {label}"), points)),
+        );
         TransportFigure {
             series,
             references: Reference::ALL.to_vec(),
@@ -1133,34 +1130,35 @@ impl Figure for Panels {
 mod tests {
     use super::*;
 
-    fn row(tau_star: f64, q_star: f64, classes: Vec<(f64, f64)>) -> TransportRow {
-        TransportRow {
-            tau_star,
-            q_star,
-            q_star_stderr: 0.1 * q_star.abs(),
-            seeds: 2,
-            window_s: 2.0,
-            capped: 0,
-            steadiness: None,
-            mpm: Reference::MeyerPeterMuller.q_star(tau_star),
-            wong_parker: Reference::WongParker.q_star(tau_star),
-            classes,
-        }
-    }
-
-    /// A mixed bed's rows: zero and negative means, a failed point.
-    fn mixed_rows() -> Vec<TransportRow> {
-        vec![
-            row(0.03, 0.0, vec![(0.0, 0.0), (-1e-5, 1e-5)]),
-            row(0.06, 0.005, vec![(0.004, 0.001), (0.006, 0.001)]),
-            row(0.1, 0.05, vec![(0.04, 0.003), (0.06, 0.004)]),
-            row(0.2, 0.4, vec![(0.35, 0.03), (0.45, 0.03)]),
-            row(
-                0.4,
-                f64::NAN,
-                vec![(f64::NAN, f64::NAN), (f64::NAN, f64::NAN)],
-            ),
-        ]
+    /// A mixed bed's series (all, then two classes): zero and negative
+    /// means, a failed point.
+    fn mixed_series() -> (Vec<ErrorPoint>, Vec<(String, Vec<ErrorPoint>)>) {
+        let taus = [0.03, 0.06, 0.1, 0.2, 0.4];
+        let all = [0.0, 0.005, 0.05, 0.4, f64::NAN];
+        let a = [
+            (0.0, 0.0),
+            (0.004, 0.001),
+            (0.04, 0.003),
+            (0.35, 0.03),
+            (f64::NAN, f64::NAN),
+        ];
+        let b = [
+            (-1e-5, 1e-5),
+            (0.006, 0.001),
+            (0.06, 0.004),
+            (0.45, 0.03),
+            (f64::NAN, f64::NAN),
+        ];
+        let points =
+            |qe: &[(f64, f64)]| taus.iter().zip(qe).map(|(&t, &(q, e))| (t, q, e)).collect();
+        let all: Vec<(f64, f64)> = all.iter().map(|&q| (q, 0.1 * f64::abs(q))).collect();
+        (
+            points(&all),
+            vec![
+                ("d = 1 mm".to_string(), points(&a)),
+                ("d = 0.7 mm".to_string(), points(&b)),
+            ],
+        )
     }
 
     fn bed_discs() -> Vec<Disc> {
@@ -1248,9 +1246,8 @@ mod tests {
 
     #[test]
     fn figures_render() {
-        let rows = vec![row(0.2, 0.3, vec![])];
         let svg = svg_of(
-            &TransportFigure::of_rows(&rows, &[], "test".into()),
+            &TransportFigure::new("test".into(), vec![(0.2, 0.3, 0.03)], vec![]),
             "transport",
         );
         assert!(svg.starts_with(r#"<svg width="900" height="680" viewBox="0 0 3600 2720""#));
@@ -1297,8 +1294,8 @@ mod tests {
 
     #[test]
     fn transport_figure_labels_decades_thresholds_floor_and_classes() {
-        let labels = ["d = 1 mm".to_string(), "d = 0.7 mm".to_string()];
-        let figure = TransportFigure::of_rows(&mixed_rows(), &labels, "mixed".into());
+        let (all, classes) = mixed_series();
+        let figure = TransportFigure::new("mixed".into(), all, classes);
         let text = svg_texts(&svg_of(&figure, "transport"));
         assert_texts(
             &text,

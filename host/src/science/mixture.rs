@@ -7,7 +7,7 @@
 /// fractions are those of the bed surface.
 ///
 /// ```
-/// use mbs::mixture::geometric_mean;
+/// use mbs::science::mixture::geometric_mean;
 ///
 /// assert!((geometric_mean(&[1.0, 4.0], &[0.5, 0.5]) - 2.0).abs() < 1e-15);
 /// ```
@@ -43,7 +43,7 @@ pub fn wilcock_crowe_w(phi: f64) -> f64 {
 /// d_max), `d_k` and `d_sm` in the same unit.
 ///
 /// ```
-/// use mbs::mixture::{wilcock_crowe, wilcock_crowe_w};
+/// use mbs::science::mixture::{wilcock_crowe, wilcock_crowe_w};
 ///
 /// // A uniform sand (d_k = D_sm, F_s = 1) at twice its reference stress:
 /// let tau_r = 0.021 + 0.015 * (-20.0f64).exp();

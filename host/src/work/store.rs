@@ -6,7 +6,7 @@
 //! and its cell is simply computed again.
 
 use crate::error::HostError;
-use crate::input::{read_line_bounded, Bound};
+use crate::io::input::{read_line_bounded, Bound};
 use serde::{de::DeserializeOwned, Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::fs::{File, OpenOptions};

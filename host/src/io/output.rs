@@ -3,7 +3,7 @@
 //! a half-written file and never damages an earlier one.
 
 use crate::error::HostError;
-use crate::input::{read_text_bounded, Bound};
+use crate::io::input::{read_text_bounded, Bound};
 use std::io::Write;
 use std::path::Path;
 

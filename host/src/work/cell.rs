@@ -1,5 +1,5 @@
 //! One transport cell — a (τ*, seed) run of the main job — as a resumable
-//! state machine: restore the seed's settled bed ([`crate::beds`]), switch
+//! state machine: restore the seed's settled bed ([`crate::work::beds`]), switch
 //! the flow on, spin up, average over the window. Between chunks
 //! of steps the cell can write a checkpoint (its progress and accumulated
 //! sums plus the kernel's checkpoint) and stop; restoring it continues bit
@@ -7,13 +7,13 @@
 //! stopped. With a [`FramePlan`] the cell also writes particle frames
 //! ([`Dumps`]), which change none of its numbers.
 //!
-//! Checkpoint file (version 4, framed by [`crate::framing`]): magic `MBSC`,
+//! Checkpoint file (version 4, framed by [`crate::io::framing`]): magic `MBSC`,
 //! the cell's key (FNV-1a of its specification) u64, phase u8 (1 spin-up,
 //! 2 window), steps done in the phase u64, samples u64, Σq* (f64 bits), the
 //! class count u32 and Σq* per class, Σq* of the current block, the
 //! finished blocks (count u64, then q* and bed level of each, f64 bits),
 //! the profile sums (samples u64, cell count u32, then Σφ, Σφ u_p and Σu_f
-//! of each cell, f64 bits; [`crate::profiles`]), the kernel checkpoint (u64
+//! of each cell, f64 bits; [`crate::work::profiles`]), the kernel checkpoint (u64
 //! length, bytes). The CRC detects
 //! damage, not deliberate edits: a loaded state is
 //! checked field by field against the configuration ([`CellState::check`])
@@ -21,17 +21,17 @@
 //! refused or, if consistent, gives a cell this configuration could have
 //! produced (docs/guarantees.md).
 
-use crate::beds::{BedRecord, BedState};
 use crate::config::{canonical, Config, ConfigFile, Durations};
-use crate::control::{Checkpoints, Control};
 use crate::error::HostError;
-use crate::frames::Dumps;
-pub use crate::framing::CheckpointError;
-use crate::framing::{Reader, Writer};
-use crate::profiles::{CellProfile, ProfileSums, Sampler, PROFILE_SAMPLES};
-use crate::sims::{check_restored, with_sim, HostSim, SimJob};
-use crate::stats::Target;
-use crate::text::number;
+pub use crate::io::framing::CheckpointError;
+use crate::io::framing::{Reader, Writer};
+use crate::io::text::number;
+use crate::science::stats::Target;
+use crate::sim::control::{Checkpoints, Control};
+use crate::sim::frames::Dumps;
+use crate::sim::sims::{check_restored, with_sim, HostSim, SimJob};
+use crate::work::beds::{BedRecord, BedState};
+use crate::work::profiles::{CellProfile, ProfileSums, Sampler, PROFILE_SAMPLES};
 use indicatif::ProgressBar;
 use mbs_kernel::{Fnv1a, Real, G};
 use serde::{Deserialize, Serialize};
@@ -39,7 +39,7 @@ use std::path::PathBuf;
 use std::sync::atomic::AtomicBool;
 
 /// Steps run between checks for stopping and checkpointing.
-const CHUNK: u64 = crate::control::MIN_CHECKPOINT_STEPS;
+const CHUNK: u64 = crate::sim::control::MIN_CHECKPOINT_STEPS;
 
 const MAGIC: [u8; 4] = *b"MBSC";
 const VERSION: u16 = 4;
@@ -126,7 +126,7 @@ pub struct WindowRule {
     pub durations: Durations,
     /// The standard error aimed at.
     pub target: Target,
-    /// Cells of the profiles ([`crate::profiles`]).
+    /// Cells of the profiles ([`crate::work::profiles`]).
     pub cells: usize,
 }
 
@@ -139,7 +139,7 @@ impl WindowRule {
                 relative: config.file.target.stderr_relative,
                 absolute: config.file.target.stderr_absolute,
             },
-            cells: crate::profiles::ProfileGrid::of(config).grid.cells(),
+            cells: crate::work::profiles::ProfileGrid::of(config).grid.cells(),
         }
     }
 

@@ -1,32 +1,29 @@
 //! The transport-rate experiment (docs/model.md §8, §9 step 3): the bed
-//! of every seed is built and settled once ([`crate::beds`]); every
+//! of every seed is built and settled once ([`crate::work::beds`]); every
 //! (τ*, seed) cell restores its seed's bed, switches the flow on, spins up
 //! and averages q* over a window. Beds, then cells, run in parallel
 //! (rayon); each is computed alone from its own seed and the results are
 //! combined in a fixed order, so the output does not depend on the number
 //! of threads.
 
-use crate::beds::{bed_warnings, BedState, Beds};
-use crate::cell::{
+use crate::config::Config;
+use crate::error::HostError;
+use crate::io::input::{read_bounded, Bound};
+use crate::io::log::Log;
+use crate::io::output::{create_dir, remove_if_present, remove_temporaries};
+use crate::io::text::number;
+use crate::science::references::Reference;
+use crate::science::stats::{block_stderr, mean_stderr, Steadiness};
+use crate::sim::control::Control;
+use crate::sim::sims::{compiled_capacity, max_checkpoint_len};
+use crate::work::beds::{bed_warnings, BedState, Beds};
+use crate::work::cell::{
     cell_key, run_cell_job, CellCheckpoint, CellJob, CellOutcome, CellResult, FramePlan,
     TransportSpec,
 };
-use crate::config::Config;
-use crate::control::Control;
-use crate::error::HostError;
-use crate::input::{read_bounded, Bound};
-use crate::log::Log;
-use crate::output::{
-    create_dir, decimal, decimals, remove_if_present, remove_temporaries, write_csv,
-};
-use crate::references::Reference;
-use crate::shard::Shard;
-use crate::sims::{compiled_capacity, max_checkpoint_len};
-use crate::stats::{block_stderr, mean_stderr, Steadiness};
-use crate::store::{Store, STORE};
-use crate::text::number;
+use crate::work::shard::Shard;
+use crate::work::store::{Store, STORE};
 use indicatif::ProgressBar;
-use mbs_kernel::{shear_velocity, G};
 use rayon::prelude::*;
 use serde::Serialize;
 use std::collections::BTreeMap;
@@ -105,7 +102,7 @@ pub fn run_all(
     let max_len = CellCheckpoint::max_len(
         config.scenario.bed.classes.len(),
         config.durations.max_blocks,
-        crate::profiles::ProfileGrid::of(config).grid.cells(),
+        crate::work::profiles::ProfileGrid::of(config).grid.cells(),
         max_checkpoint_len(config.precision, config.capacity),
     );
     let reason = format!(
@@ -369,89 +366,4 @@ pub fn aggregate(config: &Config, results: &[CellResult]) -> Vec<TransportRow> {
             }
         })
         .collect()
-}
-
-/// A line of `transport.csv`: a [`TransportRow`] with its classes' (mean,
-/// stderr) side by side.
-#[derive(Serialize)]
-struct TransportLine {
-    #[serde(serialize_with = "decimal")]
-    tau_star: f64,
-    #[serde(serialize_with = "decimal")]
-    q_star: f64,
-    #[serde(serialize_with = "decimal")]
-    q_star_stderr: f64,
-    seeds: usize,
-    #[serde(serialize_with = "decimal")]
-    mpm: f64,
-    #[serde(serialize_with = "decimal")]
-    wong_parker: f64,
-    #[serde(serialize_with = "decimal")]
-    u_star_m_s: f64,
-    #[serde(serialize_with = "decimal")]
-    q_b_m2_s: f64,
-    #[serde(serialize_with = "decimal")]
-    q_b_stderr_m2_s: f64,
-    #[serde(serialize_with = "decimal")]
-    window_s: f64,
-    capped: usize,
-    #[serde(serialize_with = "decimals")]
-    classes: Vec<f64>,
-}
-
-/// Writes `transport.csv`: a line per τ* (q* with its standard error, the
-/// seeds, two reference relations, u* in m/s and q_B with its standard
-/// error in m²/s), and two columns per size class of a mixed bed.
-pub fn write_transport(
-    path: &Path,
-    config: &Config,
-    rows: &[TransportRow],
-) -> Result<(), HostError> {
-    let mut header: Vec<String> = [
-        "tau_star",
-        "q_star",
-        "q_star_stderr",
-        "seeds",
-        "mpm",
-        "wong_parker",
-        "u_star_m_s",
-        "q_b_m2_s",
-        "q_b_stderr_m2_s",
-        "window_s",
-        "capped",
-    ]
-    .map(String::from)
-    .to_vec();
-    if rows.first().is_some_and(|r| !r.classes.is_empty()) {
-        for c in &config.scenario.bed.classes {
-            let d = c.diameter * 1e3;
-            header.push(format!("q_star_{d}mm"));
-            header.push(format!("q_star_{d}mm_stderr"));
-        }
-    }
-    // Dimensional forms on the largest diameter (docs/model.md §6, §8):
-    // u* = √(τ* (s − 1) g d), q_B = q* √((s − 1) g d³).
-    let (d, s) = (
-        config.scenario.bed.max_diameter(),
-        config.scenario.material.s,
-    );
-    let q_scale = ((s - 1.0) * G * d * d * d).sqrt();
-    let lines: Vec<TransportLine> = rows
-        .iter()
-        .map(|r| TransportLine {
-            tau_star: r.tau_star,
-            q_star: r.q_star,
-            q_star_stderr: r.q_star_stderr,
-            seeds: r.seeds,
-            mpm: r.mpm,
-            wong_parker: r.wong_parker,
-            u_star_m_s: shear_velocity(r.tau_star, s, G, d),
-            q_b_m2_s: r.q_star * q_scale,
-            q_b_stderr_m2_s: r.q_star_stderr * q_scale,
-            window_s: r.window_s,
-            capped: r.capped,
-            classes: r.classes.iter().flat_map(|&(q, e)| [q, e]).collect(),
-        })
-        .collect();
-    write_csv(path, Some(&header), &lines)
 }

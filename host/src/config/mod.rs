@@ -2,9 +2,10 @@
 //! missing key taken from the paper's case, then validated into typed
 //! parameters. Every invalid value is reported as `key = value: must be …`.
 
-use crate::input::{read_text_bounded, Bound};
-use crate::measured::MeasuredProfile;
-use crate::text::{excerpt, number, shown, QUOTE};
+pub use crate::error::ConfigError;
+use crate::io::input::{read_text_bounded, Bound};
+use crate::io::text::{excerpt, shown, QUOTE};
+use crate::science::measured::MeasuredProfile;
 use mbs_kernel::{
     contact_constants, explicit_damping_number, BedSpec, ContactConstants, FlowConfig, FlowModel,
     FlowSpec, FluidSpec, Material, Scenario, SizeClass, Tension, TimeStepRule, G, MAX_CLASSES,
@@ -14,7 +15,7 @@ use std::fmt;
 use std::path::{Path, PathBuf};
 
 /// The embedded default configuration (the paper's case), commented.
-pub const DEFAULT_TOML: &str = include_str!("../default.toml");
+pub const DEFAULT_TOML: &str = include_str!("../../default.toml");
 
 /// The longest configuration file read: its longest lists (1000 τ*, 1000
 /// seeds, the size classes) take well under 100 kB, even with comments.
@@ -26,37 +27,6 @@ pub const CONFIG_BOUND: Bound = Bound {
 
 /// Grain capacities the host is compiled for (the kernel's `N`).
 pub const CAPACITIES: [usize; 3] = [256, 4096, 65536];
-
-/// A configuration that cannot be used. Nothing has been written when this
-/// is returned.
-#[derive(Debug)]
-pub enum ConfigError {
-    /// The file could not be read.
-    Read {
-        /// The file.
-        path: PathBuf,
-        /// Why.
-        source: std::io::Error,
-    },
-    /// Not TOML, an unknown key, or a value of the wrong type.
-    Parse(String),
-    /// A value outside its allowed range.
-    Invalid {
-        /// Dotted key, e.g. `grains.diameter_mm`.
-        key: String,
-        /// The value as given.
-        value: String,
-        /// The allowed range.
-        allowed: String,
-    },
-    /// A value the kernel's own validation refused.
-    Kernel {
-        /// The configuration key it came from, e.g. `flow.fluid_density`.
-        key: &'static str,
-        /// The kernel's error (value and allowed range).
-        source: mbs_kernel::Error,
-    },
-}
 
 impl ConfigError {
     /// A kernel error under the configuration key of the parameter it names.
@@ -87,35 +57,6 @@ fn config_key(name: &'static str) -> &'static str {
         "fluid.kappa" => "flow.kappa",
         "fluid.driving" => "flow.tau_star",
         other => other,
-    }
-}
-
-impl fmt::Display for ConfigError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            ConfigError::Read { path, source } => write!(f, "{}: {source}", path.display()),
-            ConfigError::Parse(message) => write!(f, "{}", message.trim_end()),
-            ConfigError::Invalid {
-                key,
-                value,
-                allowed,
-            } => write!(f, "{key} = {value}: must be {allowed}"),
-            ConfigError::Kernel {
-                key,
-                source: mbs_kernel::Error::InvalidParameter { value, allowed, .. },
-            } => write!(f, "{key} = {}: must be {allowed}", number(*value)),
-            ConfigError::Kernel { key, source } => write!(f, "{key}: {source}"),
-        }
-    }
-}
-
-impl std::error::Error for ConfigError {
-    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
-        match self {
-            ConfigError::Read { source, .. } => Some(source),
-            ConfigError::Kernel { source, .. } => Some(source),
-            _ => None,
-        }
     }
 }
 
@@ -695,7 +636,7 @@ impl Default for FlowSection {
 }
 
 /// Cells of the coupled flow's column at most: the fluid capacity `C` of
-/// every host simulation ([`crate::sims::HostSim`]), 0.2 m of water over
+/// every host simulation ([`crate::sim::sims::HostSim`]), 0.2 m of water over
 /// 0.5 mm grains in cells of d/4.
 pub const FLUID_CELLS: usize = 2048;
 
@@ -794,7 +735,7 @@ impl Durations {
     }
 
     /// A cell under the flow: spin-up and window (its bed settles once
-    /// per seed, [`crate::beds`]).
+    /// per seed, [`crate::work::beds`]).
     pub fn cell(&self) -> u64 {
         self.spin_up + self.window()
     }

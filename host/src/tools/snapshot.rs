@@ -1,13 +1,13 @@
 //! Pictures of the bed: PNG/SVG drawn to scale, and particle frames over
-//! time for ParaView and Python ([`crate::frames`]).
+//! time for ParaView and Python ([`crate::sim::frames`]).
 
-use crate::beds::BedJob;
 use crate::config::Config;
-use crate::control::Control;
 use crate::error::HostError;
-use crate::frames::{self, FrameWriter};
-use crate::plot::{save, BedFigure, Disc};
-use crate::sims::{with_sim, HostSim, SimJob};
+use crate::figures::{save, BedFigure, Disc};
+use crate::sim::control::Control;
+use crate::sim::frames::{self, FrameWriter};
+use crate::sim::sims::{with_sim, HostSim, SimJob};
+use crate::work::beds::BedJob;
 use indicatif::ProgressBar;
 use mbs_kernel::flow::Profile;
 use mbs_kernel::{FlowConfig, GrainSpec, Real};
@@ -68,7 +68,7 @@ impl SimJob for Snapshots<'_> {
                 self.tau_star, self.seed
             ))
         };
-        // Settled as a cell's bed is ([`crate::beds`]), not kept.
+        // Settled as a cell's bed is ([`crate::work::beds`]), not kept.
         let never = AtomicBool::new(false);
         let bed = BedJob {
             config,

@@ -3,7 +3,7 @@
 //! checkpoints, each written atomically to the job's file.
 
 use crate::error::HostError;
-use crate::output::write_atomic;
+use crate::io::output::write_atomic;
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};

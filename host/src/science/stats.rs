@@ -17,7 +17,7 @@ use serde::Serialize;
 /// for none).
 ///
 /// ```
-/// use mbs::stats::mean_stderr;
+/// use mbs::science::stats::mean_stderr;
 ///
 /// let (m, e) = mean_stderr(&[1.0, 2.0, 3.0, 4.0]);
 /// assert_eq!(m, 2.5);
@@ -43,7 +43,7 @@ pub fn mean_stderr(values: &[f64]) -> (f64, f64) {
 /// to [0, 0.9] (0 with fewer than three blocks).
 ///
 /// ```
-/// use mbs::stats::{block_stderr, mean_stderr};
+/// use mbs::science::stats::{block_stderr, mean_stderr};
 ///
 /// // Alternating blocks: negatively correlated, no widening.
 /// let alternating = [1.0, 2.0, 1.0, 2.0, 1.0, 2.0];
@@ -79,7 +79,7 @@ pub fn block_stderr(blocks: &[f64]) -> (f64, f64) {
 /// windows do (the reported error is measured between the seeds).
 ///
 /// ```
-/// use mbs::stats::Target;
+/// use mbs::science::stats::Target;
 ///
 /// let t = Target { relative: 0.04, absolute: 4e-4 };
 /// // q* = 1 ± 0.0245 (uncorrelated block means): within 0.04 × 1.
@@ -128,7 +128,7 @@ impl Steadiness {
     /// cell has fewer than three blocks (no thirds to compare).
     ///
     /// ```
-    /// use mbs::stats::Steadiness;
+    /// use mbs::science::stats::Steadiness;
     ///
     /// let flat = [vec![1.0, 1.1, 0.9, 1.0, 1.1, 0.9]];
     /// assert!(Steadiness::of(&flat).unwrap().steady);

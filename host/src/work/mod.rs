@@ -1,0 +1,8 @@
+//! The main job's units of work: settled beds, resumable cells, their profiles, the store of finished cells, shards, and the experiment over them.
+
+pub mod beds;
+pub mod cell;
+pub mod experiment;
+pub mod profiles;
+pub mod shard;
+pub mod store;
