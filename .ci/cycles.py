@@ -113,16 +113,21 @@ def loops(graph):
     return out
 
 
-status = 0
-for arg in sys.argv[1:]:
-    src = Path(arg)
-    mods = modules(src)
-    graph = {m: imports(m, p, mods) for m, p in mods.items()}
-    for comp in loops(graph):
-        names = sorted(str(mods[m].relative_to(src)) for m in comp)
-        print(f"{arg}: import loop of {len(comp)} files: {', '.join(names)}")
-        status = 1
-    for fault in layer_faults(arg, mods, graph):
-        print(fault)
-        status = 1
-sys.exit(status)
+def main(args):
+    status = 0
+    for arg in args:
+        src = Path(arg)
+        mods = modules(src)
+        graph = {m: imports(m, p, mods) for m, p in mods.items()}
+        for comp in loops(graph):
+            names = sorted(str(mods[m].relative_to(src)) for m in comp)
+            print(f"{arg}: import loop of {len(comp)} files: {', '.join(names)}")
+            status = 1
+        for fault in layer_faults(arg, mods, graph):
+            print(fault)
+            status = 1
+    return status
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
