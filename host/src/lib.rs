@@ -1,33 +1,29 @@
 //! Host side of mbs: configuration, the transport-rate experiment, output
-//! files and figures, on top of the `no_std` kernel `mbs-kernel`.
+//! files and figures, on top of the `no_std` kernel `mbs-kernel`. The
+//! command line ([`cli`]) is a thin layer over this library, which is what
+//! a Python package wraps.
 //!
-//! | module | concept |
-//! |---|---|
-//! | [`config`] | TOML configuration, defaults, validation into the run plan |
-//! | [`sims`] | heap simulations of a run-time precision and capacity, run with progress |
-//! | [`control`] | stopping and checkpointing a resumable job |
-//! | [`framing`] | checkpoint files' framing: magic, version, fields, CRC |
-//! | [`beds`] | the settled bed of a (configuration, seed), settled once to rest |
-//! | [`cell`] | one resumable (τ*, seed) run: its result and its checkpoint file |
-//! | [`experiment`] | q*(τ*) over seeds, in parallel, thread-count independent |
-//! | [`stats`] | mean and standard error, the precision target, steadiness |
-//! | [`store`] | append-only file of finished cells |
-//! | [`shard`] | a slice of the cells (`--shard I/N`) and the merge of slices |
-//! | [`references`] | bed-load relations of docs/model.md §10 |
-//! | [`mixture`] | fractional transport of a mixture with hiding (Wilcock & Crowe 2003) |
-//! | [`pack`] | packing test (docs/model.md §9 step 1) |
-//! | [`frames`] | particle frames for ParaView and meshio (`.vtu`, `.pvd`) |
-//! | [`snapshot`] | bed pictures and particle frames of a bed under the flow |
-//! | [`bench`] | hot-loop benchmark shared with criterion |
-//! | [`plot`] | figures (PNG + SVG) |
-//! | [`output`] | atomic file writes |
-//! | [`log`] | `DIR/mbs.log` and the warnings of a command |
-//! | [`progress`] | progress: a bar on a terminal, plain lines elsewhere |
-//! | [`input`] | bounded reads: files refused unread beyond the largest valid one |
-//! | [`text`] | excerpts of long lines for messages, numbers that stay short (file names) |
-//! | [`timeseries`] | q*(t) and bed level per cell, per-τ* figure, steadiness and target warnings |
-//! | [`trace`] | digest traces: the digest run's field-group digests over time |
-//! | [`commands`] | the subcommands of `mbs` |
+//! ## Layers
+//!
+//! Each folder is a layer; a module imports only from its own folder and
+//! from folders of the same or a lower layer, never from a higher one, and
+//! no files import each other in a loop (`.ci/cycles.py` checks both in CI).
+//!
+//! | layer | folder | what |
+//! |---|---|---|
+//! | 0 | [`error`] | every way mbs fails ([`HostError`], [`ConfigError`]) and its exit status |
+//! | 0 | [`io`] | files and terminals: bounded reads, atomic writes, checkpoint framing, the log, progress, short text |
+//! | 1 | [`science`] | bed-load relations, hiding in mixtures, measured profiles, means and their errors |
+//! | 2 | [`config`] | the TOML configuration: format, defaults, overrides, validation into the run plan |
+//! | 2 | [`figures`] | figures (PNG + SVG) from plain series |
+//! | 3 | [`sim`] | heap simulations of a run-time precision and capacity; stopping and checkpointing; particle frames |
+//! | 4 | [`work`] | settled beds, resumable (τ*, seed) cells, their profiles, the store of finished cells, shards, the experiment |
+//! | 5 | [`report`] | what a run writes, as a function of its outcome |
+//! | 6 | [`tools`] | beside the main job: the packing test, snapshots, the benchmark, digest traces |
+//! | 7 | [`calibrate`] | the paper's parameter optimisation, automated |
+//! | 8 | [`cli`] | the command line: one file per subcommand |
+//!
+//! docs/architecture.md lists every module with its imports.
 
 pub mod calibrate;
 pub mod cli;

@@ -9,7 +9,7 @@
 //! | 4 | constants_dt for other grain sizes d and layer thicknesses nvd | 9.0e-6 s at d = 0.1 mm |
 //! | 5 | a mixed bed: fractional transport per size class | — |
 //!
-//! Every simulation is a cell ([`cells`]) stored as it finishes ([`store`]);
+//! Every simulation is a cell ([`cells`]) stored as it finishes ([`crate::work::store`]);
 //! a stage is recomputed from the store on every invocation, so an
 //! interrupted calibration resumes where it stopped and a sharded one is
 //! completed by merging the shards' stores.

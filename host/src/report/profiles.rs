@@ -90,7 +90,7 @@ pub fn write_profiles(
 }
 
 /// Heights drawn above the highest slab that ever held a grain, in d.
-const ABOVE_BED_D: f64 = 15.0;
+pub const ABOVE_BED_D: f64 = 15.0;
 
 /// φ, u_p and u_f against y/d, side by side, a line per τ*: from the
 /// column's bottom to [`ABOVE_BED_D`] above the highest grain; the measured
