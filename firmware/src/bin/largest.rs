@@ -4,8 +4,8 @@
 //! - Cortex-M4F, 128 KiB (top-level memory.x): 64 × 12, 832 grains,
 //!   `Sim<f32, 832, 6>`. Host side:
 //!   `mbs digest firmware/largest.toml --steps 1000 --precision f32`.
-//! - Cortex-M0, 16 KiB (memory-thumbv6m.x): 8 × 10, 88 grains,
-//!   `Sim<f32, 88, 6>`. Host side:
+//! - Cortex-M0, 16 KiB (memory-thumbv6m.x): 7 × 11, 84 grains,
+//!   `Sim<f32, 84, 6>`. Host side:
 //!   `mbs digest firmware/largest-thumbv6m.toml --steps 1000 --precision f32`.
 #![no_std]
 #![no_main]

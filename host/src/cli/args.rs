@@ -49,7 +49,7 @@ pub enum Command {
     /// Packing test (docs/model.md §9 step 1): packing.csv and a plot of y_gc(t).
     #[command(mut_arg("threads", |a| a.hide(true)))]
     Pack(PackArgs),
-    /// Pictures of the bed (PNG/SVG) and particle frames over time for ParaView and meshio (.vtu, .pvd).
+    /// Pictures of the bed (PNG/SVG) and particle frames over time for ParaView (.pvd, .vtu) and meshio (.vtu).
     #[command(mut_arg("threads", |a| a.hide(true)))]
     Snapshot(SnapshotArgs),
     /// Prints the state digests after N settling and N flow steps (compare a board run).
