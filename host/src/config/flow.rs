@@ -1,0 +1,270 @@
+//! Kernel specifications of the flow: `[flow]` and `[fluid]` into the
+//! kernel's [`FlowSpec`] and [`FluidSpec`] (the flow given as shear
+//! velocities or slopes turned into τ* first, [`flow_forms`]), and the
+//! coupled flow's column checked against the host's at each τ*.
+
+use super::errors::need;
+use super::file::{ConfigFile, FlowSection, FluidSection};
+use super::limits::FLUID_CELLS;
+use crate::error::ConfigError;
+use mbs_kernel::{FlowModel, FlowSpec, FluidSpec, Scenario, G};
+
+/// The flow given as shear velocities or slopes (docs/model.md §6), into
+/// `flow.tau_star` on the largest diameter d_max:
+/// τ* = u*²/((s − 1) g d_max) from `flow.u_star_m_s`, and from `flow.slope`
+/// the uniform flow's bed shear τ = ρ g h S, u*² = g h S, so
+/// τ* = h S/((s − 1) d_max). Only the driving shear follows the slope:
+/// gravity on the grains stays vertical (small slopes). `tau_star`, if
+/// also given, must be those values (the saved configuration holds both).
+///
+/// ```
+/// let c = mbs::Config::from_toml("[flow]\nu_star_m_s = [0.03]\n")?;
+/// let tau = 0.03f64 * 0.03 / (1.65 * 9.81 * 0.5e-3);
+/// assert!((c.tau_stars[0] - tau).abs() < 1e-15);
+/// let c = mbs::Config::from_toml("[flow]\nslope = [0.001]\ndepth = 0.05\n")?;
+/// assert!((c.tau_stars[0] - 0.05 * 0.001 / (1.65 * 0.5e-3)).abs() < 1e-15);
+/// assert!(mbs::Config::from_toml("[flow]\nslope = [0.001]\nu_star_m_s = [0.03]\n").is_err());
+/// # Ok::<(), mbs::ConfigError>(())
+/// ```
+pub fn flow_forms(file: &mut ConfigFile, s: f64, d: f64) -> Result<(), ConfigError> {
+    let f = &file.flow;
+    let h = f.depth;
+    let (key, given, tau_of): (&str, &Vec<f64>, &dyn Fn(f64) -> f64) =
+        match (&f.u_star_m_s, &f.slope) {
+            (None, None) => return Ok(()),
+            (Some(_), Some(slope)) => return need(
+                false,
+                "flow.slope",
+                format!("{slope:?}"),
+                "not given with flow.u_star_m_s: give the flow as one of tau_star, u_star_m_s or \
+                 slope",
+            ),
+            (Some(u), None) => ("flow.u_star_m_s", u, &|u: f64| u * u / ((s - 1.0) * G * d)),
+            (None, Some(slope)) => ("flow.slope", slope, &|sl: f64| h * sl / ((s - 1.0) * d)),
+        };
+    need(
+        !given.is_empty() && given.len() <= 1000,
+        key,
+        format!("{given:?}"),
+        "a list of 1 to 1000 values",
+    )?;
+    let mut taus = Vec::with_capacity(given.len());
+    for (k, &v) in given.iter().enumerate() {
+        let tau = tau_of(v);
+        need(
+            v.is_finite() && v > 0.0 && tau > 0.0 && tau <= 5.0,
+            &format!("{key}[{k}]"),
+            v,
+            &format!(
+                "> 0 and giving tau* in (0, 5] (here tau* = {tau:e}, on d_max = {d:e} m, s = {s})"
+            ),
+        )?;
+        taus.push(tau);
+    }
+    need(
+        f.tau_star == FlowSection::default().tau_star || f.tau_star == taus,
+        "flow.tau_star",
+        format!("{:?}", f.tau_star),
+        &format!("not given with {key} (or equal to its values {taus:?})"),
+    )?;
+    file.flow.tau_star = taus;
+    Ok(())
+}
+
+/// `[flow]` except τ* into the kernel's flow specification, its intervals
+/// converted to integration steps (`substeps` per constants_dt); κ, ε0 and the
+/// intervals are checked by the kernel with the flow at each τ*.
+pub(super) fn flow_spec(file: &ConfigFile, d: f64, substeps: u32) -> Result<FlowSpec, ConfigError> {
+    let f = &file.flow;
+    need(
+        !f.tau_star.is_empty() && f.tau_star.len() <= 1000,
+        "flow.tau_star",
+        format!("{:?}", f.tau_star),
+        "a list of 1 to 1000 values",
+    )?;
+    for (k, &t) in f.tau_star.iter().enumerate() {
+        need(
+            t.is_finite() && t > 0.0 && t <= 5.0,
+            &format!("flow.tau_star[{k}]"),
+            t,
+            "in (0, 5]",
+        )?;
+    }
+    let mut sorted = f.tau_star.clone();
+    sorted.sort_by(f64::total_cmp);
+    sorted.dedup();
+    need(
+        sorted.len() == f.tau_star.len(),
+        "flow.tau_star",
+        format!("{:?}", f.tau_star),
+        "distinct values",
+    )?;
+    need(
+        f.depth.is_finite() && f.depth > 0.0 && f.depth <= 100.0,
+        "flow.depth",
+        f.depth,
+        "in (0, 100] m",
+    )?;
+    need(
+        f.roughness_d.is_finite() && f.roughness_d > 0.0 && f.roughness_d <= 100.0,
+        "flow.roughness_d",
+        f.roughness_d,
+        "in (0, 100]",
+    )?;
+    need(
+        f.bed_level_window.is_finite() && (1.0..=1e6).contains(&f.bed_level_window),
+        "flow.bed_level_window",
+        f.bed_level_window,
+        "in [1, 1e6] largest diameters",
+    )?;
+    Ok(FlowSpec {
+        kappa: f.kappa,
+        depth: f.depth,
+        eps0: f.eps0,
+        roughness: f.roughness_d * d,
+        reference_diameter: d,
+        turbulence: f.turbulence,
+        hold_steps: f.hold_steps.saturating_mul(substeps),
+        bed_level_interval: f.bed_level_interval.saturating_mul(substeps),
+        bed_level_window: f.bed_level_window,
+        model: f.model.kernel(),
+        fluid: fluid_spec(&file.fluid, d, substeps)?,
+    })
+}
+
+/// `[fluid]` into the kernel's [`FluidSpec`], its update interval converted
+/// to integration steps; checked whatever the model, so that a bad value
+/// is an error before it is used.
+fn fluid_spec(f: &FluidSection, d: f64, substeps: u32) -> Result<FluidSpec, ConfigError> {
+    need(
+        f.cell_d.is_finite() && f.cell_d > 0.0 && f.cell_d <= 10.0,
+        "fluid.cell_d",
+        f.cell_d,
+        "in (0, 10] largest diameters",
+    )?;
+    need(
+        f.viscosity_m2_s.is_finite() && f.viscosity_m2_s > 0.0 && f.viscosity_m2_s <= 1.0,
+        "fluid.viscosity_m2_s",
+        f.viscosity_m2_s,
+        "in (0, 1] m^2/s (water: 1.0e-6)",
+    )?;
+    need(
+        f.phi_max.is_finite() && f.phi_max > 0.0 && f.phi_max < 1.0,
+        "fluid.phi_max",
+        f.phi_max,
+        "in (0, 1)",
+    )?;
+    need(
+        (1..=1_000_000).contains(&f.update_steps),
+        "fluid.update_steps",
+        f.update_steps,
+        "in [1, 1000000] steps of constants_dt",
+    )?;
+    need(
+        f.hindrance.is_finite() && (0.0..=10.0).contains(&f.hindrance),
+        "fluid.hindrance",
+        f.hindrance,
+        "in [0, 10] (Richardson-Zaki: 3.1; 0: off)",
+    )?;
+    Ok(FluidSpec {
+        cell_height: f.cell_d * d,
+        viscosity: f.viscosity_m2_s,
+        phi_max: f.phi_max,
+        update_steps: f.update_steps.saturating_mul(substeps),
+        hindrance: f.hindrance,
+    })
+}
+
+/// The coupled flow of `scenario` at each τ* fits the host's column and is
+/// driven forward: its cells at most [`FLUID_CELLS`], and the bed slope
+/// alone not a stronger flow than τ* (docs/model.md §13: the driving
+/// u*²/h − g sin θ ≥ 0).
+pub(super) fn coupled_flow_fits(scenario: &Scenario, tau_stars: &[f64]) -> Result<(), ConfigError> {
+    if scenario.flow.model != FlowModel::Coupled {
+        return Ok(());
+    }
+    for (k, &tau_star) in tau_stars.iter().enumerate() {
+        let flow = scenario.flow(tau_star);
+        let cells = flow.fluid.cells;
+        need(
+            cells <= FLUID_CELLS,
+            "fluid.cell_d",
+            scenario.flow.fluid.cell_height / scenario.bed.max_diameter(),
+            &format!(
+                "large enough for at most {FLUID_CELLS} cells over the column's {:e} m \
+                 (here {cells} cells; or a smaller flow.depth)",
+                flow.fluid.surface - flow.fluid.bottom
+            ),
+        )?;
+        let s = scenario.material.s;
+        let h = scenario.flow.depth;
+        let least = h * scenario.slope.sin() / (s - 1.0) / scenario.bed.max_diameter();
+        need(
+            flow.fluid.driving >= 0.0,
+            &format!("flow.tau_star[{k}]"),
+            tau_star,
+            &format!(
+                ">= h sin(theta)/((s - 1) d_max) = {least:e}, the Shields number the bed slope \
+                 bed.slope_rad = {} alone drives over flow.depth = {h} m (a uniform flow: \
+                 flow.slope = [sin(theta)])",
+                scenario.slope
+            ),
+        )?;
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::{canonical, Config};
+
+    #[test]
+    fn the_flow_may_be_given_as_shear_velocities_or_slopes() {
+        let (s, d) = (1.65, 0.5e-3);
+        let by_u = Config::from_toml("[flow]\nu_star_m_s = [0.02, 0.04]\n").unwrap();
+        let by_tau = Config::from_toml(&format!(
+            "[flow]\ntau_star = [{}, {}]\n",
+            0.02f64 * 0.02 / (s * G * d),
+            0.04f64 * 0.04 / (s * G * d)
+        ))
+        .unwrap();
+        assert_eq!(by_u.tau_stars, by_tau.tau_stars);
+        // The same cells whichever form gave them.
+        assert_eq!(canonical(&by_u.file), canonical(&by_tau.file));
+        // τ = ρ g h S on a 5 cm deep flow.
+        let by_slope = Config::from_toml("[flow]\ndepth = 0.05\nslope = [0.002]\n").unwrap();
+        assert_eq!(by_slope.tau_stars, [0.05 * 0.002 / (s * d)]);
+        // The saved configuration (both forms) loads back to the same run.
+        for c in [&by_u, &by_slope] {
+            let saved = toml::to_string(&c.file).unwrap();
+            assert!(saved.contains("tau_star = ["), "{saved}");
+            assert_eq!(Config::from_toml(&saved).unwrap().file, c.file);
+        }
+        for (text, message) in [
+            (
+                "[flow]\nu_star_m_s = [0.03]\nslope = [0.001]",
+                "flow.slope = [0.001]: must be not given with flow.u_star_m_s",
+            ),
+            (
+                "[flow]\nu_star_m_s = [0.03]\ntau_star = [0.2]",
+                "flow.tau_star = [0.2]: must be not given with flow.u_star_m_s",
+            ),
+            (
+                "[flow]\nu_star_m_s = [0.03, -0.01]",
+                "flow.u_star_m_s[1] = -0.01: must be > 0 and giving tau* in (0, 5]",
+            ),
+            (
+                "[flow]\nslope = [0.5]",
+                "flow.slope[0] = 0.5: must be > 0 and giving tau* in (0, 5] (here tau* = 1.2121",
+            ),
+            (
+                "[flow]\nu_star_m_s = []",
+                "flow.u_star_m_s = []: must be a list of 1 to 1000",
+            ),
+        ] {
+            let e = Config::from_toml(text).unwrap_err().to_string();
+            assert!(e.contains(message), "{text}: {e}");
+        }
+    }
+}

@@ -1,0 +1,70 @@
+//! Limits: the bounds a configuration's values are checked against that
+//! are not the kernel's (capacities, the longest file, the longest phase
+//! and cell, the smallest step and grain, the column's cells, the damping
+//! number of automatic substeps) and the step speed estimates use.
+
+use crate::io::input::Bound;
+
+/// The longest configuration file read: its longest lists (1000 τ*, 1000
+/// seeds, the size classes) take well under 100 kB, even with comments.
+pub const CONFIG_BOUND: Bound = Bound {
+    bytes: 1 << 20,
+    reason: "the largest configuration mbs reads (its longest lists, 1000 tau* and 1000 seeds, \
+             take under 100 kB)",
+};
+
+/// Grain capacities the host is compiled for (the kernel's `N`).
+pub const CAPACITIES: [usize; 3] = [256, 4096, 65536];
+
+/// The longest settling, spin-up or window (s of physical time).
+pub const MAX_PHASE_S: f64 = 1000.0;
+
+/// Why [`MAX_PHASE_S`].
+pub(super) const PHASE_REASON: &str =
+    " of physical time: beds settle and q* converges within seconds, \
+     a longer phase is a mistake (milliseconds meant?)";
+
+/// The most integration steps of a cell (settling, spin-up and window).
+pub const MAX_CELL_STEPS: u64 = 100_000_000_000;
+
+/// The smallest constants' time step constants_dt (s).
+pub const MIN_CONSTANTS_DT: f64 = 1e-8;
+
+/// The smallest grain diameter (mm).
+pub const MIN_DIAMETER_MM: f64 = 1e-3;
+
+/// A rough speed of the step for wall-time estimates: the main job runs
+/// 5–6e7 grain-steps per second on 2 cores (docs/performance.md).
+pub const GRAIN_STEPS_PER_S_PER_CORE: f64 = 2.5e7;
+
+/// The explicit damping number `time.substeps = "auto"` stays at or below:
+/// the default constants (α_cn = 1.3) reach 0.356 at 8 substeps, where q*
+/// agrees with 16 (docs/findings/explicit-damping-limit.md).
+pub const SUBSTEP_DAMPING_NUMBER: f64 = 0.36;
+
+/// Cells of the coupled flow's column at most: the fluid capacity `C` of
+/// every host simulation ([`crate::sim::sims::HostSim`]), 0.2 m of water over
+/// 0.5 mm grains in cells of d/4.
+pub const FLUID_CELLS: usize = 2048;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use mbs_kernel::{Material, Scenario};
+
+    #[test]
+    fn the_density_and_diameter_limits_keep_inverse_inertias_finite_in_f32() {
+        let paper = Scenario::paper().material;
+        for rho in [1e-3, 1e5] {
+            for s in [1.0 + 1e-9, 20.0] {
+                for d in [MIN_DIAMETER_MM * 1e-3, 0.1] {
+                    let m = Material { rho, s, ..paper };
+                    for x in [m.translational_mass(d), m.moment_of_inertia(d)] {
+                        let inverse = (1.0 / x) as f32;
+                        assert!(inverse.is_normal(), "rho {rho}, s {s}, d {d}: {x}");
+                    }
+                }
+            }
+        }
+    }
+}
