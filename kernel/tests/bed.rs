@@ -1,7 +1,7 @@
 //! The initial bed (docs/model.md §7), settling, the mean bed level (docs/model.md §6),
 //! transport under flow (docs/model.md §8) and determinism of whole runs.
 
-mod common;
+pub mod common;
 
 use mbs_kernel::{BedSpec, Real, Rest, RestWatch, Scenario, Sim, SizeClass, G};
 

@@ -3,7 +3,7 @@
 //! batched step where it has lanes, the scalar step: `both_paths!`) in f32
 //! and f64.
 
-mod common;
+pub mod common;
 
 use common::*;
 use mbs_kernel::{contact_constants, Material, Real, Sim, Tension, TimeStepRule};

@@ -1,6 +1,6 @@
 //! Every failure is a returned, named error; no input makes the kernel panic.
 
-mod common;
+pub mod common;
 
 use common::*;
 use mbs_kernel::{
@@ -218,7 +218,8 @@ proptest! {
     #![proptest_config(ProptestConfig { cases: 256, ..ProptestConfig::default() })]
 
     /// Arbitrary configurations, grains and flows never panic: each call
-    /// returns Ok or a named error.
+    /// returns Ok or a named error; a refused flow changes nothing, a
+    /// failed step keeps the step count and a good one adds one.
     #[test]
     fn no_input_panics(
         dt in any_f64(), k_n in any_f64(), eta in any_f64(), mu in any_f64(), width in any_f64(),
@@ -238,11 +239,19 @@ proptest! {
         let mut flow = FlowConfig::new(u_star, D);
         flow.eps0 = eps0;
         flow.hold_steps = hold;
-        let _ = s.set_flow(Some(&flow));
-        for _ in 0..steps {
-            if s.step().is_err() { break; }
+        let before = s.digest();
+        if s.set_flow(Some(&flow)).is_err() {
+            prop_assert_eq!(s.digest(), before, "a refused flow changes nothing");
         }
-        let _ = (s.observe(), s.digest(), s.max_speed());
+        for _ in 0..steps {
+            let n = s.step_count();
+            if s.step().is_err() {
+                prop_assert_eq!(s.step_count(), n, "a failed step keeps the step count");
+                break;
+            }
+            prop_assert_eq!(s.step_count(), n + 1);
+        }
+        let _ = (s.observe(), s.max_speed());
     }
 }
 

@@ -1,7 +1,7 @@
 //! The exact checks of docs/model.md §11, each for f32 and f64 (the argument of each
 //! body is a precision-appropriate relative tolerance for exact identities).
 
-mod common;
+pub mod common;
 
 use common::*;
 use mbs_kernel::{FlowConfig, Real, Sim};

@@ -1,5 +1,4 @@
 //! Helpers shared by the command-line tests.
-#![allow(dead_code)]
 
 use assert_cmd::Command;
 use std::path::{Path, PathBuf};

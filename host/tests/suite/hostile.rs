@@ -36,12 +36,29 @@ fn mutate(base: &[u8], edits: &[(usize, u8)], cut: Option<usize>) -> Vec<u8> {
     out
 }
 
+/// A text is a configuration whose plan holds (τ* and seeds to run, a
+/// positive time step), or a named error of exit status 2.
+fn check_outcome(text: &str) -> Result<(), TestCaseError> {
+    match Config::from_toml(text) {
+        Ok(c) => {
+            prop_assert!(!c.tau_stars.is_empty() && !c.seeds.is_empty());
+            prop_assert!(c.tau_stars.iter().all(|t| t.is_finite() && *t > 0.0));
+            prop_assert!(c.scenario.step_dt() > 0.0);
+        }
+        Err(e) => {
+            prop_assert!(!e.to_string().trim().is_empty());
+            prop_assert_eq!(mbs::HostError::from(e).exit_code(), 2);
+        }
+    }
+    Ok(())
+}
+
 proptest! {
     #![proptest_config(ProptestConfig { cases: 400, ..ProptestConfig::default() })]
 
     #[test]
     fn any_text_is_a_configuration_or_an_error(text in "\\PC{0,400}") {
-        let _ = Config::from_toml(&text);
+        check_outcome(&text)?;
     }
 
     #[test]
@@ -51,7 +68,7 @@ proptest! {
     ) {
         let bytes = mutate(DEFAULT_TOML.as_bytes(), &edits, cut);
         if let Ok(text) = std::str::from_utf8(&bytes) {
-            let _ = Config::from_toml(text);
+            check_outcome(text)?;
         }
     }
 

@@ -1,5 +1,6 @@
-//! Helpers shared by the kernel's integration tests.
-#![allow(dead_code)]
+//! Helpers shared by the kernel's integration tests. Each test binary
+//! declares it `pub mod common`: its items are this suite's shared API, used
+//! by some binaries and not others.
 
 use mbs_kernel::{ContactConstants, GrainSpec, Material, Real, Sim, SimConfig, Tension};
 
@@ -94,19 +95,19 @@ macro_rules! both_paths {
         mod $name {
             #[test]
             fn f64_batched() {
-                super::$body::<f64, 8>(1e-9);
+                super::$body::<f64, { crate::common::BATCHED }>(1e-9);
             }
             #[test]
             fn f64_scalar() {
-                super::$body::<f64, 6>(1e-9);
+                super::$body::<f64, { crate::common::SCALAR }>(1e-9);
             }
             #[test]
             fn f32_batched() {
-                super::$body::<f32, 8>(1e-4);
+                super::$body::<f32, { crate::common::BATCHED }>(1e-4);
             }
             #[test]
             fn f32_scalar() {
-                super::$body::<f32, 6>(1e-4);
+                super::$body::<f32, { crate::common::SCALAR }>(1e-4);
             }
         }
     };
