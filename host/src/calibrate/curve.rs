@@ -1,0 +1,185 @@
+//! q*(τ*) of one configuration over seeds, and its misfit to a reference
+//! relation (docs/calibration.md).
+
+use crate::science::references::Reference;
+use serde::{Deserialize, Serialize};
+
+/// q*(τ*) of one configuration, averaged over seeds.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Curve {
+    /// Shields numbers.
+    pub tau_stars: Vec<f64>,
+    /// Mean q* over seeds (NaN where a cell failed).
+    pub q_star: Vec<f64>,
+    /// Standard error between seeds.
+    pub stderr: Vec<f64>,
+    /// Per size class: mean q* per τ*.
+    pub classes: Vec<Vec<f64>>,
+    /// Kernel failures (cell message), if any.
+    pub failures: Vec<String>,
+    /// Seeds averaged per τ*.
+    #[serde(default)]
+    pub seeds: Vec<usize>,
+    /// Per τ*: whether the point's standard error reached the target (or
+    /// its verdict was clear) before the seed cap.
+    #[serde(default)]
+    pub reached: Vec<bool>,
+}
+
+/// Misfit of a failed or non-positive point: a large but finite penalty so
+/// the search moves away from it.
+pub const FAILED_MISFIT: f64 = 100.0;
+
+/// Smallest q* used in a logarithm.
+pub const Q_FLOOR: f64 = 1e-4;
+
+/// In the misfit a q* below this fraction of the reference counts as this
+/// fraction: one point with (nearly) no transport near the threshold adds
+/// ln²(10) ≈ 5.3 instead of dominating the sum with an arbitrary floor.
+pub const MISFIT_FLOOR: f64 = 0.1;
+
+impl Curve {
+    /// (τ*, q*, stderr) of every point, for error bars.
+    pub fn points(&self) -> Vec<(f64, f64, f64)> {
+        self.tau_stars
+            .iter()
+            .zip(self.q_star.iter().zip(&self.stderr))
+            .map(|(&t, (&q, &e))| (t, q, e))
+            .collect()
+    }
+
+    /// The log-ratio ln(q*/q*_ref) of every point, q* floored at
+    /// [`MISFIT_FLOOR`] × reference, with its relative standard error.
+    pub fn log_ratios(&self, reference: Reference) -> Vec<(f64, f64)> {
+        self.tau_stars
+            .iter()
+            .zip(self.q_star.iter().zip(&self.stderr))
+            .map(|(&t, (&q, &e))| {
+                let q_ref = reference.q_star(t).max(Q_FLOOR);
+                let q = q.max(MISFIT_FLOOR * q_ref);
+                let relative = e / q;
+                (
+                    (q / q_ref).ln(),
+                    if relative.is_finite() { relative } else { 0.0 },
+                )
+            })
+            .collect()
+    }
+
+    /// The weight of a point with relative standard error `relative`:
+    /// 1/(relative² + floor²). A point resolved to the `floor` (the target's
+    /// relative error) weighs about fully, a noisier one less.
+    fn weight(relative: f64, floor: f64) -> f64 {
+        1.0 / (relative * relative + floor * floor)
+    }
+
+    /// The misfit (the objective of stage 3): the mean squared log-ratio of
+    /// q* to `reference`, each point weighted by its error ([`Self::log_ratios`],
+    /// weights 1/(σ_r² + floor²), `floor` the target's relative error);
+    /// [`FAILED_MISFIT`] if any cell failed.
+    pub fn misfit(&self, reference: Reference, floor: f64) -> f64 {
+        if !self.failures.is_empty() {
+            return FAILED_MISFIT;
+        }
+        self.weighted(reference, floor, |r, _| r * r)
+    }
+
+    /// The misfit that noise alone gives: the weighted mean of the squared
+    /// relative standard errors σ_r², the expected misfit of a curve that
+    /// matches the reference and scatters by its errors.
+    pub fn misfit_noise(&self, reference: Reference, floor: f64) -> f64 {
+        self.weighted(reference, floor, |_, e| e * e)
+    }
+
+    /// The weighted mean log-ratio (the root stage 4 searches) and its
+    /// standard error.
+    pub fn mean_log_ratio(&self, reference: Reference, floor: f64) -> (f64, f64) {
+        let ratios = self.log_ratios(reference);
+        let weights: Vec<f64> = ratios
+            .iter()
+            .map(|&(_, e)| Self::weight(e, floor))
+            .collect();
+        let total: f64 = weights.iter().sum();
+        let mean = ratios
+            .iter()
+            .zip(&weights)
+            .map(|(p, w)| w * p.0)
+            .sum::<f64>()
+            / total;
+        let variance: f64 = ratios
+            .iter()
+            .zip(&weights)
+            .map(|(p, w)| (w / total * p.1).powi(2))
+            .sum();
+        (mean, variance.sqrt())
+    }
+
+    fn weighted(&self, reference: Reference, floor: f64, f: impl Fn(f64, f64) -> f64) -> f64 {
+        let ratios = self.log_ratios(reference);
+        let (sum, total) = ratios.iter().fold((0.0, 0.0), |(s, w), &(r, e)| {
+            let weight = Self::weight(e, floor);
+            (s + weight * f(r, e), w + weight)
+        });
+        if total > 0.0 {
+            sum / total
+        } else {
+            FAILED_MISFIT
+        }
+    }
+
+    /// Largest factor between q* and `reference` (either way) over the curve.
+    pub fn worst_factor(&self, reference: Reference) -> f64 {
+        self.tau_stars
+            .iter()
+            .zip(&self.q_star)
+            .map(|(&t, &q)| {
+                let r = q.max(Q_FLOOR) / reference.q_star(t).max(Q_FLOOR);
+                r.max(1.0 / r)
+            })
+            .fold(1.0, f64::max)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    fn curve(factors: &[f64], relative: &[f64]) -> super::Curve {
+        let r = crate::science::references::Reference::MeyerPeterMuller;
+        let tau_stars = vec![0.1, 0.2];
+        let q_star: Vec<f64> = tau_stars
+            .iter()
+            .zip(factors)
+            .map(|(&t, f)| f * r.q_star(t))
+            .collect();
+        super::Curve {
+            stderr: q_star.iter().zip(relative).map(|(q, e)| q * e).collect(),
+            q_star,
+            tau_stars,
+            classes: vec![],
+            failures: vec![],
+            seeds: vec![4, 4],
+            reached: vec![true, true],
+        }
+    }
+
+    #[test]
+    fn the_misfit_weights_each_point_by_its_error() {
+        let r = crate::science::references::Reference::MeyerPeterMuller;
+        let ln2 = 2f64.ln();
+        let exact = curve(&[1.0, 1.0], &[0.0, 0.0]);
+        assert_eq!(exact.misfit(r, 0.1), 0.0);
+        assert_eq!(exact.mean_log_ratio(r, 0.1), (0.0, 0.0));
+        let double = curve(&[2.0, 2.0], &[0.0, 0.3]);
+        assert!((double.misfit(r, 0.1) - ln2 * ln2).abs() < 1e-12);
+        // A precise point off by 2 (weight 100) and a noisy exact one (σ_r
+        // 0.3: weight 10): the precise one dominates.
+        let mixed = curve(&[2.0, 1.0], &[0.0, 0.3]);
+        assert!((mixed.misfit(r, 0.1) - ln2 * ln2 * 100.0 / 110.0).abs() < 1e-12);
+        let (mean, sigma) = mixed.mean_log_ratio(r, 0.1);
+        assert!((mean - ln2 * 100.0 / 110.0).abs() < 1e-12);
+        assert!((sigma - 0.3 * 10.0 / 110.0).abs() < 1e-12);
+        assert!((mixed.misfit_noise(r, 0.1) - 0.09 * 10.0 / 110.0).abs() < 1e-12);
+        let mut failed = mixed.clone();
+        failed.failures.push("lost".into());
+        assert_eq!(failed.misfit(r, 0.1), super::FAILED_MISFIT);
+    }
+}
