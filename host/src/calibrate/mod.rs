@@ -251,7 +251,7 @@ pub struct Options {
 
 /// How far a calibration got.
 #[derive(Debug, Clone, PartialEq)]
-pub enum Progress {
+pub enum Reached {
     /// Every requested stage finished (the report is written after stage 5).
     Done {
         /// Stages finished.
@@ -273,7 +273,7 @@ pub fn calibrate(
     dir: &std::path::Path,
     options: Options,
     log: &Log,
-) -> Result<Progress, HostError> {
+) -> Result<Reached, HostError> {
     use stages::{beta, mixed, settling, timestep};
     let plan = if options.quick {
         Plan::quick()
@@ -310,13 +310,13 @@ pub fn calibrate(
         },
         dir: dir.to_path_buf(),
     };
-    let waiting = |stage| Ok(Progress::Waiting { stage });
+    let waiting = |stage| Ok(Reached::Waiting { stage });
     stage("stage 1 (α_m)");
     let Some(s1) = settling::run(&ctx, 1, ctx.base.scenario.rule.alpha_m)? else {
         return waiting(1);
     };
     if options.last_stage < 2 {
-        return Ok(Progress::Done {
+        return Ok(Reached::Done {
             stages: 1,
             calibrated: None,
         });
@@ -326,7 +326,7 @@ pub fn calibrate(
         return waiting(2);
     };
     if options.last_stage < 3 {
-        return Ok(Progress::Done {
+        return Ok(Reached::Done {
             stages: 2,
             calibrated: None,
         });
@@ -340,7 +340,7 @@ pub fn calibrate(
         calibrated::write(dir, &file, &s3, timestep, options.reference)
     };
     if options.last_stage < 4 {
-        return Ok(Progress::Done {
+        return Ok(Reached::Done {
             stages: 3,
             calibrated: Some(write_calibrated(None)?),
         });
@@ -350,7 +350,7 @@ pub fn calibrate(
         return waiting(4);
     };
     if options.last_stage < 5 {
-        return Ok(Progress::Done {
+        return Ok(Reached::Done {
             stages: 4,
             calibrated: Some(write_calibrated(Some(&s4))?),
         });
@@ -372,7 +372,7 @@ pub fn calibrate(
             mixed: &s5,
         },
     )?;
-    Ok(Progress::Done {
+    Ok(Reached::Done {
         stages: 5,
         calibrated: Some(write_calibrated(Some(&s4))?),
     })

@@ -19,7 +19,7 @@ use std::path::Path;
 use std::time::Instant;
 
 use super::merge::MergeArgs;
-use crate::calibrate::{Options, Progress};
+use crate::calibrate::{Options, Reached};
 use crate::science::references::Reference;
 use clap::Args;
 use clap::Subcommand;
@@ -89,7 +89,7 @@ impl CalibrateArgs {
         };
         let out = &self.out;
         let message = match calibrate(base, out, options, how.common.threads)? {
-            Progress::Done { stages, calibrated } => {
+            Reached::Done { stages, calibrated } => {
                 let done = if stages == 5 {
                     format!("calibration done: {}/report.md\n", out.display())
                 } else {
@@ -100,7 +100,7 @@ impl CalibrateArgs {
                     None => done,
                 }
             }
-            Progress::Waiting { stage } => format!(
+            Reached::Waiting { stage } => format!(
                 "stage {stage}: this shard's cells are done; merge the shards \
                  (`mbs calibrate merge DIRS --out DIR`) and run again\n"
             ),
@@ -121,7 +121,7 @@ pub fn calibrate(
     dir: &Path,
     options: crate::calibrate::Options,
     threads: usize,
-) -> Result<crate::calibrate::Progress, HostError> {
+) -> Result<crate::calibrate::Reached, HostError> {
     let dir = directory("--out", dir)?;
     create_dir(&dir)?;
     let mut reached = None;
@@ -136,8 +136,8 @@ pub fn calibrate(
             crate::calibrate::calibrate(base, &dir, options, log)
         })??;
         let stages = match &progress {
-            crate::calibrate::Progress::Done { stages, .. } => *stages,
-            crate::calibrate::Progress::Waiting { stage } => stage - 1,
+            crate::calibrate::Reached::Done { stages, .. } => *stages,
+            crate::calibrate::Reached::Waiting { stage } => stage - 1,
         };
         log.event(&format!("stages 1-{stages} done"));
         write_json(

@@ -18,7 +18,7 @@
 //! counts each grain's crossings of the periodic seam itself from the x it
 //! sees at every [`FrameWriter::track`]: `x_unwrapped = x + images L`, with
 //! the images counted from the writer's first look. That is right while no
-//! grain moves half the width between two looks; [`run_steps`] and
+//! grain moves half the width between two looks; [`run_tracking_frames`] and
 //! [`Dumps`] look every [`TRACK_SECONDS`] of simulated time.
 //!
 //! [`Dumps`] writes the frames of a cell of `mbs run --dump-every`: every
@@ -39,7 +39,7 @@ use serde::{Deserialize, Serialize};
 use std::fmt::Write;
 use std::path::{Path, PathBuf};
 
-/// Simulated time (s) between two looks at the grains in [`run_steps`]: a
+/// Simulated time (s) between two looks at the grains in [`run_tracking_frames`]: a
 /// grain is unwrapped wrongly only if it moves half the periodic width in
 /// this time, at L/(2 × 0.25 ms): 42 m/s on the default 21 mm bed, 3 m/s
 /// on the narrowest allowed (3 columns of 0.5 mm).
@@ -110,7 +110,7 @@ impl FrameWriter {
 
     /// Looks at the grains' x to count their crossings of the periodic seam;
     /// call it at least every [`TRACK_SECONDS`] between frames (as
-    /// [`run_steps`] does).
+    /// [`run_tracking_frames`] does).
     pub fn track<R: Real, const N: usize, const K: usize, const C: usize>(
         &mut self,
         sim: &Sim<R, N, K, C>,
@@ -161,9 +161,9 @@ impl FrameWriter {
     }
 }
 
-/// Runs `steps` steps like [`crate::sim::sims::run_steps`], letting `frames`
+/// Runs `steps` steps like [`crate::sim::sims::run_with_progress`], letting `frames`
 /// [`FrameWriter::track`] the grains every [`TRACK_SECONDS`].
-pub fn run_steps<R: Real, const N: usize, const K: usize, const C: usize>(
+pub fn run_tracking_frames<R: Real, const N: usize, const K: usize, const C: usize>(
     sim: &mut Sim<R, N, K, C>,
     steps: u64,
     progress: &ProgressBar,

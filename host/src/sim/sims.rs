@@ -108,7 +108,7 @@ pub fn max_checkpoint_len(precision: Precision, capacity: usize) -> usize {
 }
 
 /// Runs `steps` steps in chunks, reporting progress.
-pub fn run_steps<R: Real, const N: usize>(
+pub fn run_with_progress<R: Real, const N: usize>(
     sim: &mut HostSim<R, N>,
     steps: u64,
     progress: &ProgressBar,

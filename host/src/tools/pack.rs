@@ -6,7 +6,7 @@ use crate::config::Config;
 use crate::error::HostError;
 use crate::figures::{save, LinesFigure};
 use crate::io::output::{decimal, write_csv};
-use crate::sim::sims::{run_steps, with_sim, HostSim, SimJob};
+use crate::sim::sims::{run_with_progress, with_sim, HostSim, SimJob};
 use indicatif::ProgressBar;
 use mbs_kernel::Real;
 use serde::Serialize;
@@ -70,7 +70,7 @@ impl SimJob for Packing<'_> {
         };
         let mut out = vec![sample(sim)];
         for _ in 0..samples {
-            run_steps(sim, every, self.progress).map_err(fail())?;
+            run_with_progress(sim, every, self.progress).map_err(fail())?;
             out.push(sample(sim));
         }
         Ok(out)

@@ -90,7 +90,8 @@ impl SimJob for Snapshots<'_> {
         let mut writer = FrameWriter::new(self.dir, "bed")?;
         writer.write(sim, sim.time())?;
         for _ in 0..self.frames {
-            frames::run_steps(sim, self.every, self.progress, &mut writer).map_err(fail())?;
+            frames::run_tracking_frames(sim, self.every, self.progress, &mut writer)
+                .map_err(fail())?;
             writer.write(sim, sim.time())?;
         }
         Ok(Snapshot {
