@@ -104,10 +104,8 @@
 extern crate std;
 
 mod bed;
-mod checkpoint;
 mod constants;
 pub mod contact;
-mod coupled;
 mod digest;
 mod error;
 mod events;
@@ -124,8 +122,7 @@ mod scenario;
 mod sim;
 mod step;
 
-pub use bed::{BedInfo, BedSpec, Rest, RestWatch, Settled, SizeClass};
-pub use checkpoint::CHECKPOINT_VERSION;
+pub use bed::{BedInfo, BedSpec, Rest, Settled, SizeClass};
 pub use constants::{
     contact_constants, explicit_damping_number, ContactConstants, Material, TimeStepRule, A2, A3,
 };
@@ -139,4 +136,4 @@ pub use grains::{GrainSpec, MAX_CLASSES};
 pub use observe::{q_star, Observation};
 pub use real::Real;
 pub use scenario::{FlowSpec, FluidSpec, Scenario, G};
-pub use sim::{Sim, SimConfig};
+pub use sim::{RestWatch, Sim, SimConfig, CHECKPOINT_VERSION};
