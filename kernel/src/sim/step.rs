@@ -14,7 +14,8 @@ use crate::sim::Sim;
 #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
 use crate::step::batch;
 use crate::step::mover::Mover;
-use crate::step::{scalar, GEOMETRY_AHEAD};
+use crate::step::scalar;
+use crate::step::GEOMETRY_AHEAD;
 
 impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
     /// Advances `steps` steps.
