@@ -9,7 +9,8 @@
 //! Each pair's force and torques are then added to its two grains' sums
 //! lane by lane, in pair order: one row (f_x, f_y, torque) per grain, one
 //! vector add per side, the second grain's force negated (s + (−f) is
-//! s − f, bit for bit). Pairs are listed by first grain, so grain i
+//! s − f, bit for bit; each torque adds its own −r f_s, the product the
+//! scalar step forms). Pairs are listed by first grain, so grain i
 //! receives the pairs (m, i), m ascending, then its own pairs (i, j) in
 //! slot order: exactly the scalar step's order, so the sums have its bits.
 //! A pair that exerts no force adds +0 or −0, which changes no sum.
