@@ -46,6 +46,20 @@ def imports(name, path, mods):
 
 # Rank of each top-level module, lowest first (docs/architecture.md).
 LAYERS = {
+    "kernel/src": {
+        # 0 numbers: leaves
+        "real": 0, "error": 0, "events": 0, "random": 0, "periodic": 0, "digest": 0,
+        # 1 model laws
+        "constants": 1, "contact": 1, "flow": 1, "fluid": 1,
+        # 2 storage and records
+        "grains": 2, "neighbours": 2, "bed": 2, "observe": 2, "fields": 2,
+        # 3 the step's two paths, on the data they are handed
+        "step": 3,
+        # 4 the simulation: `Sim` and its topics
+        "sim": 4,
+        # 5 a complete run set-up
+        "scenario": 5,
+    },
     "host/src": {
         # 0 foundation: errors; files and terminals
         "error": 0, "io": 0,

@@ -49,7 +49,7 @@ fn beds() -> PathBuf {
 fn boxed_coupled<R: Real>() -> Box<Sim<R, N, NEIGHBOURS, CELLS>> {
     let zeroed = Box::<Sim<R, N, NEIGHBOURS, CELLS>>::new_zeroed();
     // SAFETY: as `mbs::sim::sims::boxed_sim`: the all-zero bit pattern is a valid
-    // `Sim` (kernel/src/sim.rs), whatever its capacities.
+    // `Sim` (kernel/src/sim/mod.rs), whatever its capacities.
     unsafe { zeroed.assume_init() }
 }
 

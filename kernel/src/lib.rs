@@ -37,8 +37,12 @@
 //! - `#![no_std]`, no allocator: storage is inline with compile-time
 //!   capacities (`N` grains, `K` neighbour slots per grain), and an all-zero
 //!   [`Sim`] is a valid empty one ([`Sim::new`]). No `unsafe` outside the
-//!   x86-64 vector lanes: five audited `unsafe` blocks, in the one macro
-//!   that writes the batched step for both precisions (`step/batch.rs`).
+//!   x86-64 vector lanes of the batched step: four audited `unsafe`
+//!   blocks, two in `step/batch/lanes.rs` (`read` and `write`: a vector or
+//!   row from and to an array of exactly its size) and two in the `lanes!`
+//!   macro of `step/batch/mod.rs` (its entry points' calls of the
+//!   `#[target_feature(enable = "avx2")]` passes, compiled only where the
+//!   build enables AVX2; the macro writes them once per precision).
 //! - Never panics: every failure is an [`Error`].
 //! - Bit-reproducible: fixed iteration orders, `libm` for every
 //!   transcendental, no fused multiply-add, keyed random streams, canonical
@@ -56,39 +60,51 @@
 //! | §6 | mean bed level | [`Sim::bed_level`] |
 //! | §7 | initial bed | [`Sim::build_bed`], [`Sim::settle`] |
 //! | §8 | observables | [`Sim::observe`] |
-//! | (C1)–(C6) | the coupled flow's column (not yet in the step) | [`fluid::Column`] |
+//! | (C1)–(C7), §13 | the coupled flow: its column, updated every M steps; the grains' drag from it in the step | [`fluid::Column`], [`FlowModel::Coupled`] |
 //!
 //! ## Layers
 //!
-//! Each module uses only modules of the layers above it and leaves of its
-//! own layer: there is no import cycle.
+//! Each module uses only modules of the layers above it, leaves of its own
+//! layer and files of its own folder: there is no import loop
+//! (`.ci/cycles.py`). docs/architecture.md lists each file's imports.
 //!
 //! 1. **Numbers** (leaves): `real` ([`Real`]: `f32` or `f64`, numbers
 //!    only), `error` ([`Error`]), `events` ([`Events`]: event counters),
-//!    [`random`] (keyed random streams),
-//!    `periodic` (the minimum image across the periodic boundary).
+//!    [`random`] (keyed random streams), `periodic` (the minimum image
+//!    across the periodic boundary), `digest` ([`Fnv1a`], the digest's
+//!    hash, and [`FieldGroup`]).
 //! 2. **Model laws**: `constants` (material, and the contact constants from
 //!    Δt: [`contact_constants`]), [`contact`] (the contact law (6)–(9) and
-//!    its spring history), [`flow`] (the flow profile (14)–(16) and the
-//!    drag (4)–(5)), [`fluid`] (the coupled flow's 1-D column, §13: not
-//!    yet used by the step).
-//! 3. **Storage**: `grains` (the grains, a structure of arrays),
-//!    `neighbours` (each grain's neighbour slots with their spring history,
-//!    and the cell-list search that fills them).
-//! 4. **Step**: `step::mover` (symplectic Euler (1)–(3) with the domain
-//!    checks, shared by both paths), `step::scalar` (the **scalar step**:
-//!    portable, one grain at a time), `step::batch` and `step::index` (the
-//!    **batched step** in x86-64 AVX2 vector lanes, and its pair index;
-//!    `step::no_lanes` stands in for the index elsewhere). Both paths give
-//!    the same bits.
+//!    its spring history), [`flow`] (the flow profile (14)–(16), the drag
+//!    (4)–(5), and the choice of clear water or the coupled flow,
+//!    [`FlowModel`]), [`fluid`] (the coupled flow's 1-D column, §13:
+//!    (C1)–(C7)).
+//! 3. **Storage and records**: `grains` (the grains, a structure of
+//!    arrays), `neighbours` (each grain's neighbour slots with their spring
+//!    history, and the cell-list search that fills them), and the records
+//!    a simulation takes or gives that need no [`Sim`]: `bed` ([`BedSpec`]
+//!    and what building and settling a bed made, §7), `observe`
+//!    ([`Observation`], [`q_star`], §8), `fields` ([`GrainField`]).
+//! 4. **Step** (`step`): the two paths, on the data they are handed; they
+//!    know nothing of [`Sim`]. `step::mover` (symplectic Euler (1)–(3)
+//!    with the domain checks, shared by both paths), `step::scalar` (the
+//!    **scalar step**: portable, one grain at a time), `step::batch` (the
+//!    **batched step** in x86-64 AVX2 vector lanes: `lanes`, the lane types
+//!    of both precisions and their operations; its passes `drag` (4)–(5)
+//!    and §13, `pairs` (6)–(9) and `grains` (1)–(3); `params`, what they
+//!    read) and `step::index` (its pair index; `step::no_lanes` stands in
+//!    for it elsewhere). Both paths give the same bits.
 //! 5. **Sim** (`sim`): [`Sim`], its state and configuration ([`SimConfig`]),
-//!    adding grains, switching the flow, reading the state. Other modules
-//!    add `impl Sim` blocks, one topic each: `step` ([`Sim::step`],
-//!    [`Sim::run`]: the dispatch to the two paths), `bed` (the initial bed,
-//!    settling, the mean bed level), `observe` ([`Observation`]),
-//!    `checkpoint` ([`Sim::checkpoint`], [`Sim::restore`]), `digest`
-//!    ([`Sim::digest`]) and `fields` ([`GrainField`]: one grain's field
-//!    read or moved by ULPs, [`Sim::nudge`]).
+//!    adding grains, switching the flow, reading the state, and the
+//!    `impl Sim` blocks of its topics, one file each: `sim::step`
+//!    ([`Sim::step`], [`Sim::run`]: the neighbour refresh, the flow's
+//!    bookkeeping, the dispatch to the two paths), `sim::coupled` (the
+//!    coupled flow's start and its update every M steps), `sim::bed` (the
+//!    initial bed, settling, [`RestWatch`], the mean bed level),
+//!    `sim::observe` ([`Sim::observe`]), `sim::checkpoint`
+//!    ([`Sim::checkpoint`], [`Sim::restore`]), `sim::digest`
+//!    ([`Sim::digest`]) and `sim::fields` (one grain's field read or moved
+//!    by ULPs, [`Sim::nudge`]).
 //! 6. **Scenario** (`scenario`): [`Scenario`], a complete run set-up (the
 //!    paper's by default) from which the host, the golden tests and the
 //!    firmware all build their simulations.
@@ -104,10 +120,8 @@
 extern crate std;
 
 mod bed;
-mod checkpoint;
 mod constants;
 pub mod contact;
-mod coupled;
 mod digest;
 mod error;
 mod events;
@@ -124,8 +138,7 @@ mod scenario;
 mod sim;
 mod step;
 
-pub use bed::{BedInfo, BedSpec, Rest, RestWatch, Settled, SizeClass};
-pub use checkpoint::CHECKPOINT_VERSION;
+pub use bed::{BedInfo, BedSpec, Rest, Settled, SizeClass};
 pub use constants::{
     contact_constants, explicit_damping_number, ContactConstants, Material, TimeStepRule, A2, A3,
 };
@@ -139,4 +152,4 @@ pub use grains::{GrainSpec, MAX_CLASSES};
 pub use observe::{q_star, Observation};
 pub use real::Real;
 pub use scenario::{FlowSpec, FluidSpec, Scenario, G};
-pub use sim::{Sim, SimConfig};
+pub use sim::{RestWatch, Sim, SimConfig, CHECKPOINT_VERSION};

@@ -4,7 +4,7 @@
 //! paths bit for bit, the log law over a fixed bed, and hostile
 //! configurations, in f32 and f64.
 
-mod common;
+pub mod common;
 
 use common::{config, mobile, D};
 use mbs_kernel::fluid::FluidConfig;

@@ -1,8 +1,40 @@
 //! The simulation [`Sim`]: its state, its configuration ([`SimConfig`]),
 //! adding grains, switching the flow, and reading the state back. The
-//! other topics add their own `impl Sim` blocks: the step
-//! ([`crate::step`]), the bed ([`crate::bed`]), the observables, the
-//! checkpoints and the digest.
+//! other topics add their own `impl Sim` blocks, one file each:
+//!
+//! - `step`: [`Sim::step`], [`Sim::run`], the rebuild of the neighbour
+//!   slots and the pair index, the flow's bookkeeping, and the dispatch to
+//!   the two paths of [`crate::step`];
+//! - `coupled`: the coupled flow's start and its update every M steps
+//!   (docs/model.md §13);
+//! - `bed`: the initial bed (§7), settling it ([`RestWatch`]), the mean
+//!   bed level (§6);
+//! - `observe`: the observables (§8);
+//! - `checkpoint`: [`Sim::checkpoint`], [`Sim::restore`] (its format's
+//!   version [`CHECKPOINT_VERSION`]);
+//! - `digest`: [`Sim::digest`], [`Sim::group_digest`];
+//! - `fields`: one grain's field by name, [`Sim::nudge`].
+//!
+//! What this folder holds is what needs a `Sim`. The types a topic reads
+//! or returns that need none stay below it in their own modules, where
+//! other layers and the host use them without one: `bed` ([`crate::BedSpec`],
+//! [`crate::BedInfo`], [`crate::Rest`], [`crate::Settled`]), `observe`
+//! ([`crate::Observation`], [`crate::q_star`]), `digest` ([`crate::Fnv1a`],
+//! [`crate::FieldGroup`]) and `fields` ([`crate::GrainField`]). The
+//! checkpoint's byte reader and writer serve only [`Sim::restore`] and
+//! [`Sim::checkpoint`], and [`RestWatch`] reads a `Sim` at each check, so
+//! they live here.
+
+mod bed;
+mod checkpoint;
+mod coupled;
+mod digest;
+mod fields;
+mod observe;
+mod step;
+
+pub use bed::RestWatch;
+pub use checkpoint::CHECKPOINT_VERSION;
 
 use crate::constants::{ContactConstants, Material, A2};
 use crate::contact::{ContactLaw, Spring, Tension};

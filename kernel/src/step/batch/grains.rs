@@ -1,0 +1,140 @@
+//! The grains' motion in lanes, the batched step's last pass: every
+//! mobile grain, L at a time, moved by symplectic Euler (docs/model.md
+//! (1)–(3)) from its sums (drag and contact forces, torque), which it
+//! zeroes, lane by lane the operations of
+//! [`Mover::advance`](crate::step::mover::Mover::advance): velocities
+//! first, then positions from the new velocities, the periodic wrap in x,
+//! the checks that every value is finite and inside the domain. A group
+//! with a failing grain is redone grain by grain by `Mover::advance`
+//! itself, so the error is the scalar step's.
+//!
+//! Written once for both precisions: `grains!` writes the module `grains`
+//! into each precision's module of the batched step (`lanes!` in
+//! [`super`]).
+
+/// Writes the module `grains` (the pass `grain_pass`) in the lanes of
+/// `lanes::$lanes` ([`super::lanes`]).
+macro_rules! grains {
+    ($lanes:ident) => {
+        /// The grain pass in these lanes (`step/batch/grains.rs`).
+        pub(super) mod grains {
+            use crate::error::Error;
+            use crate::real::Real;
+            use crate::step::batch::lanes::$lanes::*;
+            use crate::step::batch::params::BatchStep;
+
+            /// Every grain's motion (`Mover::advance`) from its sums, which it
+            /// zeroes, L grains at a time: the largest squared speed, or the
+            /// first failing grain's error (the sums then all zeroed).
+            #[target_feature(enable = "avx2")]
+            pub(super) fn grain_pass<const N: usize, const K: usize>(
+                s: &mut BatchStep<'_, R, N, K>,
+            ) -> Result<R, Error> {
+                let zero = zero();
+                let m = &s.mover;
+                let (dt, width) = (splat(m.step_dt), splat(m.width));
+                let (gx, gy) = (splat(m.gravity[0]), splat(m.gravity[1]));
+                let (y_min, y_max) = (splat(m.y_min), splat(m.y_max));
+                let largest = splat(R::MAX);
+                let abs = splat(ABS);
+                let b = &mut *s.batch;
+                let mut max_v2 = zero;
+                let groups = s.n.min(N).div_ceil(L).min(N / L);
+                for grp in 0..groups {
+                    let g = grp * L;
+                    let mobile = load(group(&b.mobile, grp));
+                    let at = |a: &[R; N]| load(group(a, grp));
+                    let Some(sums) = b.sums.as_chunks_mut::<L>().0.get_mut(grp) else {
+                        break;
+                    };
+                    let [fx, fy, torque, _] = from_rows(sums.each_ref().map(|row| load_row(row)));
+                    *sums = [[0.0; 4]; L];
+                    if movemask(mobile) == 0 {
+                        continue;
+                    }
+                    // Mover::advance.
+                    let im = at(s.inv_mass);
+                    let (x0, y0, u0, v0, w0) = (at(s.x), at(s.y), at(s.u), at(s.v), at(s.w));
+                    let u = add(u0, mul(add(mul(fx, im), gx), dt));
+                    let v = add(v0, mul(add(mul(fy, im), gy), dt));
+                    let w = add(w0, mul(mul(torque, at(s.inv_inertia)), dt));
+                    let x = add(x0, mul(u, dt));
+                    let y = add(y0, mul(v, dt));
+                    let inside = |x: V| and(ge(x, zero), lt(x, width));
+                    let mut in_x = inside(x);
+                    // The periodic wrap, where a grain left [0, L) (x is
+                    // its own wrap inside).
+                    let x = if movemask(in_x) == (1 << L) - 1 {
+                        x
+                    } else {
+                        let over = ge(x, width);
+                        let under = lt(x, zero);
+                        let wrapped = add(x, width);
+                        let wrapped = andnot(ge(wrapped, width), wrapped);
+                        let x = select(select(x, wrapped, under), sub(x, width), over);
+                        in_x = inside(x);
+                        let crossed = movemask(and(xor(over, under), mobile)).count_ones();
+                        let e = &mut *s.events;
+                        e.seam_crossings = e.seam_crossings.wrapping_add(u64::from(crossed));
+                        x
+                    };
+                    let ok = and(
+                        and(le(and(w, abs), largest), in_x),
+                        and(ge(y, y_min), le(y, y_max)),
+                    );
+                    if movemask(andnot(ok, mobile)) != 0 {
+                        // A grain fails: redo the group grain by grain, as the
+                        // scalar step, up to the first failure.
+                        let sums = [lanes(fx), lanes(fy), lanes(torque)];
+                        let mobile = lanes(mobile);
+                        for l in 0..L {
+                            let i = (g + l) & (N - 1);
+                            if mobile[l].to_bits() == 0 {
+                                continue;
+                            }
+                            let moved = m.advance(
+                                i,
+                                [s.x[i], s.y[i], s.u[i], s.v[i], s.w[i]],
+                                [
+                                    sums[0][l] * s.inv_mass[i],
+                                    sums[1][l] * s.inv_mass[i],
+                                    sums[2][l] * s.inv_inertia[i],
+                                ],
+                            );
+                            let (moved, _) = moved.inspect_err(|_| b.sums.fill([0.0; 4]))?;
+                            [s.x[i], s.y[i], s.u[i], s.v[i], s.w[i]] = moved;
+                            let v2 = moved[2] * moved[2] + moved[3] * moved[3];
+                            max_v2 = max(splat(v2), max_v2);
+                        }
+                        continue;
+                    }
+                    // Fixed grains keep their state (a whole group of mobile
+                    // grains, the usual case, needs no blend).
+                    let all_mobile = movemask(mobile) == (1 << L) - 1;
+                    for (a, old, new) in [
+                        (&mut *s.x, x0, x),
+                        (&mut *s.y, y0, y),
+                        (&mut *s.u, u0, u),
+                        (&mut *s.v, v0, v),
+                        (&mut *s.w, w0, w),
+                    ] {
+                        if let Some(values) = group_mut(a, grp) {
+                            put(
+                                values,
+                                if all_mobile {
+                                    new
+                                } else {
+                                    select(old, new, mobile)
+                                },
+                            );
+                        }
+                    }
+                    let v2 = and(add(mul(u, u), mul(v, v)), mobile);
+                    max_v2 = max(v2, max_v2);
+                }
+                Ok(lanes(max_v2).into_iter().fold(0.0, <R as Real>::max))
+            }
+        }
+    };
+}
+pub(super) use grains;

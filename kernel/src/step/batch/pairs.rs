@@ -1,0 +1,298 @@
+//! The pair forces in lanes, the batched step's second pass: every listed
+//! pair of the [pair index](crate::step::index::PairIndex), L pairs at a
+//! time, lane by lane the operations of the scalar step's `State::contact`
+//! (the pair geometry: distance, unit normal, relative speeds, docs/model.md
+//! §2) and of [`ContactLaw::apply`](crate::contact::ContactLaw::apply)
+//! (the law (6)–(9) with its spring history, (8) or (8')); branches become
+//! selects.
+//!
+//! Each pair's force and torques are then added to its two grains' sums
+//! lane by lane, in pair order: one row (f_x, f_y, torque) per grain, one
+//! vector add per side, the second grain's force negated (s + (−f) is
+//! s − f, bit for bit; each torque adds its own −r f_s, the product the
+//! scalar step forms). Pairs are listed by first grain, so grain i
+//! receives the pairs (m, i), m ascending, then its own pairs (i, j) in
+//! slot order: exactly the scalar step's order, so the sums have its bits.
+//! A pair that exerts no force adds +0 or −0, which changes no sum.
+//!
+//! Written once for both precisions: `pairs!` writes the module `pairs`
+//! into each precision's module of the batched step (`lanes!` in
+//! [`super`]).
+
+/// Writes the module `pairs` (the pass `pair_pass`) in the lanes of
+/// `lanes::$lanes` ([`super::lanes`]).
+macro_rules! pairs {
+    ($lanes:ident) => {
+        /// The pair pass in these lanes (`step/batch/pairs.rs`).
+        pub(super) mod pairs {
+            use crate::step::batch::lanes::$lanes::*;
+            use crate::step::batch::params::BatchStep;
+            use crate::step::index::{second_window, window_start, CHUNK, FAR, PAIRS};
+            use core::arch::x86_64::{
+                __m256i, _mm256_cvtepu8_epi32, _mm256_setzero_si256, _mm256_slli_epi32,
+                _mm_cvtsi64_si128,
+            };
+
+            /// Second grains from a window ([`second_window`]).
+            const SECOND_WINDOW: bool = second_window(L) == 2 * L;
+
+            /// A batch's geometry and relative speeds: what its laws need of it
+            /// (`State::contact`).
+            #[derive(Clone, Copy)]
+            struct Geometry {
+                /// Unit normal, r_i + r_j − distance, radii.
+                nx: V,
+                ny: V,
+                overlap: V,
+                ri: V,
+                rj: V,
+                /// Lane masks: in contact (not apart, not coincident); coincident
+                /// (keeps its history).
+                touching: V,
+                keeps: V,
+                /// Normal and tangential relative speeds.
+                v_n: V,
+                v_s: V,
+            }
+
+            /// Every listed pair's geometry and law, L pairs at a time, lane by
+            /// lane as `State::contact` and `ContactLaw::apply`; each pair's force
+            /// and torques added to its grains' sums in pair order. The
+            /// events are counted if `COUNT`; `NO_TENSION`: the law (8')
+            /// ([`Tension::None`](crate::contact::Tension::None)), else the
+            /// paper's (8).
+            #[target_feature(enable = "avx2")]
+            pub(super) fn pair_pass<
+                const N: usize,
+                const K: usize,
+                const COUNT: bool,
+                const NO_TENSION: bool,
+            >(
+                s: &mut BatchStep<'_, R, N, K>,
+            ) {
+                let zero = zero();
+                let sign = splat(-0.0);
+                let all = splat(TRUE);
+                let neg = |a: V| xor(a, sign);
+                let (width, half_width) = (splat(s.width), splat(s.width * 0.5));
+                let law = &s.law;
+                let (dt, k_n, k_s) = (splat(law.step_dt), splat(law.k_n), splat(law.k_s));
+                let (eta_n, eta_s, mu) = (splat(law.eta_n), splat(law.eta_s), splat(law.mu));
+                let b = &mut *s.batch;
+                let (x, y, u, v, w) = (&*s.x, &*s.y, &*s.u, &*s.v, &*s.w);
+                let cap = N * PAIRS;
+                // Pair q's grain in `a` (< N by construction; masked so that the
+                // compiler sees it in bounds), and those of the batch from pair q.
+                let index = |a: &[[u32; PAIRS]; N], q: usize| {
+                    a.as_flattened()[q & (cap - 1)] as usize & (N - 1)
+                };
+                let at = |a: &[[u32; PAIRS]; N], q: usize| -> [usize; L] {
+                    core::array::from_fn(|l| index(a, q + l))
+                };
+                let control =
+                    |c: [u8; 8]| _mm256_cvtepu8_epi32(_mm_cvtsi64_si128(i64::from_le_bytes(c)));
+                // Batch t's first grains: its window and their lanes in it.
+                let first_window = |t: usize| {
+                    let lanes = control(b.window_lanes[t & (N - 1)]);
+                    let first = b.pair_i.as_flattened()[(t * L) & (cap - 1)];
+                    (window_start::<N>(first, L), lanes)
+                };
+                // Batch t's second grains' x, y, u, v, ω: from its second
+                // window (from `start`), or gathered.
+                let second_grains = |t: usize, start: usize| {
+                    let grains = [x, y, u, v, w];
+                    let c = b.second_lanes[t & (N - 1)];
+                    if SECOND_WINDOW && c[0] != FAR {
+                        let lanes = control(c);
+                        let high = to_mask(_mm256_slli_epi32::<28>(lanes));
+                        grains.map(|a| {
+                            let low = window(a, start, lanes);
+                            select(low, window(a, start + L, lanes), high)
+                        })
+                    } else {
+                        let j = at(&b.pair_j, t * L);
+                        grains.map(|a| gather(a, &j))
+                    }
+                };
+
+                // Chunks of batches: first their geometry (square root, division)
+                // and relative speeds (the gathers), then their laws and sums, so
+                // that the core overlaps many batches' square roots, divisions and
+                // gathers instead of waiting for each.
+                let batches = b.pairs.min(cap) / L;
+                // The last first grain and its sums.
+                let mut last = (usize::MAX, load_row(&[0.0; 4]));
+                // One buffer for every chunk (zeroing it per chunk cost ~8
+                // instructions per grain-step).
+                // Per lane, the contacts made, broken and sliding if COUNT
+                // (each mask lane, all ones, is −1 as an integer; counting
+                // costs ~7 % more instructions per grain-step).
+                let count = |n: __m256i, mask: V| int_sub(n, to_int(mask));
+                let (mut made_n, mut broken_n, mut sliding_n) = (
+                    _mm256_setzero_si256(),
+                    _mm256_setzero_si256(),
+                    _mm256_setzero_si256(),
+                );
+                let mut geometry = [Geometry {
+                    nx: zero,
+                    ny: zero,
+                    overlap: zero,
+                    ri: zero,
+                    rj: zero,
+                    touching: zero,
+                    keeps: zero,
+                    v_n: zero,
+                    v_s: zero,
+                }; CHUNK];
+                for chunk in (0..batches).step_by(CHUNK) {
+                    let seam = b.seam[(chunk / CHUNK) & (N - 1)];
+                    let chunk = chunk..batches.min(chunk + CHUNK);
+                    // Geometry (State::contact).
+                    for (t, g) in chunk.clone().zip(&mut geometry) {
+                        let (start, lanes) = first_window(t);
+                        let own = |a: &[R; N]| window(a, start, lanes);
+                        let [x_j, y_j, u_j, v_j, w_j] = second_grains(t, start);
+                        // The periodic image: d itself (within half the width)
+                        // away from the seam.
+                        let d = sub(x_j, own(x));
+                        let dx = if seam {
+                            select(
+                                select(d, add(d, width), lt(d, neg(half_width))),
+                                sub(d, width),
+                                gt(d, half_width),
+                            )
+                        } else {
+                            d
+                        };
+                        let dy = sub(y_j, own(y));
+                        let ri = load_at(b.r_i.as_flattened(), t * L);
+                        let rj = load_at(b.r_j.as_flattened(), t * L);
+                        let reach = add(ri, rj);
+                        let dist2 = add(mul(dx, dx), mul(dy, dy));
+                        let apart = ge(dist2, mul(reach, reach));
+                        let dist = sqrt(dist2);
+                        let coincident = eq(dist, zero);
+                        let inv = div(splat(1.0), dist);
+                        let (nx, ny) = (mul(dx, inv), mul(dy, inv));
+                        let (tx, ty) = (ny, neg(nx));
+                        let du = sub(own(u), u_j);
+                        let dv = sub(own(v), v_j);
+                        let v_n = add(mul(du, nx), mul(dv, ny));
+                        let spin = mul(ri, own(w));
+                        let v_s = add(add(neg(add(mul(du, tx), mul(dv, ty))), spin), mul(rj, w_j));
+                        *g = Geometry {
+                            nx,
+                            ny,
+                            overlap: sub(reach, dist),
+                            ri,
+                            rj,
+                            touching: andnot(apart, andnot(coincident, all)),
+                            keeps: andnot(apart, coincident),
+                            v_n,
+                            v_s,
+                        };
+                    }
+                    for (t, g) in chunk.zip(&geometry) {
+                        let q = t * L;
+                        let Geometry {
+                            nx,
+                            ny,
+                            overlap,
+                            ri,
+                            rj,
+                            touching,
+                            keeps,
+                            v_n,
+                            v_s,
+                        } = *g;
+                        let (tx, ty) = (ny, neg(nx));
+                        let e_n0 = load_at(b.e_n.as_flattened(), q);
+                        let e_s0 = load_at(b.e_s.as_flattened(), q);
+
+                        // Law (ContactLaw::apply).
+                        let first = eq(e_n0, zero);
+                        let e_n = add(e_n0, mul(k_n, select(mul(v_n, dt), overlap, first)));
+                        let broken = lt(e_n, zero);
+                        let f_n = add(e_n, mul(eta_n, v_n));
+                        // (8'): f_n < 0 becomes +0 (−0 and NaN kept, as
+                        // the scalar step), and the cap follows f_n.
+                        let (f_n, normal) = if NO_TENSION {
+                            let f_n = andnot(lt(f_n, zero), f_n);
+                            (f_n, f_n)
+                        } else {
+                            (f_n, e_n)
+                        };
+                        let e_s = add(e_s0, mul(mul(k_s, v_s), dt));
+                        let limit = mul(mu, normal);
+                        let slides = gt(andnot(sign, e_s), limit);
+                        let e_s_slid = select(neg(limit), limit, gt(e_s, zero));
+                        let e_s_new = select(e_s, e_s_slid, slides);
+                        let f_s = select(add(e_s, mul(eta_s, v_s)), e_s_new, slides);
+
+                        // Outcomes: apart or broken drop the history; coincident keeps
+                        // it; otherwise the new history and a force.
+                        let acts = andnot(broken, touching);
+                        // Events: made (first and acts), broken (had history,
+                        // neither acts nor keeps it), sliding (and acts).
+                        if COUNT {
+                            let held = xor(acts, keeps);
+                            made_n = count(made_n, and(first, acts));
+                            let dropped = andnot(first, andnot(held, all));
+                            broken_n = count(broken_n, dropped);
+                            sliding_n = count(sliding_n, and(slides, acts));
+                        }
+                        // Padding pairs (w, w) are coincident: their history stays zero.
+                        // The lanes that act and those that keep are disjoint, so
+                        // one of each pair of terms is +0: a bitwise merge, which
+                        // the optimiser does not turn into a masked store
+                        // (`vmaskmovpd`, slow on AMD cores) as it did a select.
+                        let e_n_out = xor(and(e_n, acts), and(e_n0, keeps));
+                        let e_s_out = xor(and(e_s_new, acts), and(e_s0, keeps));
+                        store(b.e_n.as_flattened_mut(), q, e_n_out);
+                        store(b.e_s.as_flattened_mut(), q, e_s_out);
+                        let fx = and(add(mul(neg(f_n), nx), mul(f_s, tx)), acts);
+                        let fy = and(add(mul(neg(f_n), ny), mul(f_s, ty)), acts);
+                        let f_s = and(f_s, acts);
+                        // Rows (f_x, f_y, −r_i f_s, −r_j f_s), added in pair order:
+                        // the first three to the first grain, the force negated and
+                        // the fourth to the second. A first grain's pairs are
+                        // consecutive, and no other pair adds to its sums between
+                        // them (its second-grain pairs all come earlier; a padding
+                        // pair (w, w) adds zeros, to the stale copy in memory that
+                        // the store overwrites), so its sums stay in a register
+                        // from one to the next and are stored once, when the next
+                        // first grain comes or the pass ends.
+                        let rows = to_rows([fx, fy, neg(mul(ri, f_s)), neg(mul(rj, f_s))]);
+                        for (l, row) in rows.into_iter().enumerate() {
+                            let (i, j) = (index(&b.pair_i, q + l), index(&b.pair_j, q + l));
+                            let base = if i == last.0 {
+                                last.1
+                            } else {
+                                if let Some(sums) = b.sums.get_mut(last.0) {
+                                    put_row(sums, last.1);
+                                }
+                                load_row(&b.sums[i])
+                            };
+                            last = (i, row_add(base, row));
+                            add_row(&mut b.sums[j], second_row(row));
+                        }
+                    }
+                }
+                if let Some(sums) = b.sums.get_mut(last.0) {
+                    put_row(sums, last.1);
+                }
+                let total = |n: __m256i| {
+                    lanes(to_mask(n))
+                        .into_iter()
+                        .map(|c| u64::from(c.to_bits()))
+                        .sum::<u64>()
+                };
+                let e = &mut *s.events;
+                e.contacts_made = e.contacts_made.wrapping_add(total(made_n));
+                e.contacts_broken = e.contacts_broken.wrapping_add(total(broken_n));
+                e.contacts_sliding = e.contacts_sliding.wrapping_add(total(sliding_n));
+            }
+        }
+    };
+}
+pub(super) use pairs;
