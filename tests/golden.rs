@@ -165,6 +165,7 @@ fn living<R: Real>() -> (u64, u64, mbs_kernel::Events) {
         neighbour_rebuilds: after.neighbour_rebuilds - before.neighbour_rebuilds,
         turbulence_redraws: after.turbulence_redraws - before.turbulence_redraws,
         bed_level_updates: after.bed_level_updates - before.bed_level_updates,
+        batched_steps: after.batched_steps - before.batched_steps,
     };
     (settled, sim.digest(), flow)
 }
@@ -187,6 +188,14 @@ fn living_bed_exercises_every_path_and_matches() {
         assert!(e.neighbour_rebuilds >= 1000, "{precision} {e:?}");
         assert_eq!(e.turbulence_redraws, 500, "{precision}");
         assert_eq!(e.bed_level_updates, 500, "{precision}");
+        // Both step paths are exercised: the batched step where it has
+        // lanes (and the scalar one after each rebuild that leaves pairs
+        // outside the index), the scalar one alone elsewhere.
+        if cfg!(all(target_arch = "x86_64", target_feature = "avx2")) {
+            assert!(e.batched_steps > 0, "{precision} {e:?}");
+        } else {
+            assert_eq!(e.batched_steps, 0, "{precision} {e:?}");
+        }
     }
     let now = vec![
         format!("settled f32 {:#018x}", a.0),

@@ -29,6 +29,9 @@ pub struct Events {
     pub turbulence_redraws: u64,
     /// Updates of the mean bed level (docs/model.md §6).
     pub bed_level_updates: u64,
+    /// Steps taken by the batched step (x86-64 with AVX2 and a ready pair
+    /// index); the rest were scalar steps. Always 0 on other targets.
+    pub batched_steps: u64,
 }
 
 impl Events {
@@ -41,6 +44,7 @@ impl Events {
         neighbour_rebuilds: 0,
         turbulence_redraws: 0,
         bed_level_updates: 0,
+        batched_steps: 0,
     };
 
     /// Adds `other`'s counts, saturating.
@@ -58,5 +62,6 @@ impl Events {
         self.bed_level_updates = self
             .bed_level_updates
             .saturating_add(other.bed_level_updates);
+        self.batched_steps = self.batched_steps.saturating_add(other.batched_steps);
     }
 }

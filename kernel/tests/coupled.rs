@@ -471,7 +471,8 @@ proptest::proptest! {
     #![proptest_config(proptest::prelude::ProptestConfig { cases: 48, ..Default::default() })]
 
     /// Any coupled flow configuration, however hostile, is refused with an
-    /// error or runs; a run may fail with an error, never a panic.
+    /// error and changes nothing, or runs; a run may fail with an error
+    /// (keeping its step count), never a panic.
     #[test]
     fn hostile_fluid_configurations_never_panic(
         cells in 0usize..2000,
@@ -505,12 +506,17 @@ proptest::proptest! {
             f.hindrance = hindrance;
         }
         f.update_steps = update_steps;
+        let before = sim.digest();
         if sim.set_flow(Some(&flow)).is_ok() {
             for _ in 0..400 {
+                let n = sim.step_count();
                 if sim.step().is_err() {
+                    proptest::prop_assert_eq!(sim.step_count(), n, "a failed step keeps the step count");
                     break;
                 }
             }
+        } else {
+            proptest::prop_assert_eq!(sim.digest(), before, "a refused flow changes nothing");
         }
     }
 }

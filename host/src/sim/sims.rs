@@ -18,7 +18,7 @@ const CHUNK: u64 = 2000;
 /// A simulation allocated directly on the heap, never built on the stack.
 pub fn boxed_sim<R: Real, const N: usize, const K: usize>() -> Box<Sim<R, N, K, FLUID_CELLS>> {
     let zeroed = Box::<Sim<R, N, K, FLUID_CELLS>>::new_zeroed();
-    // SAFETY: `Sim` documents (kernel/src/sim.rs) that every field is a
+    // SAFETY: `Sim` documents (kernel/src/sim/mod.rs) that every field is a
     // number, a bool, or a struct or array of those, and `Real` is sealed to
     // f32 and f64; so the all-zero bit pattern is a valid `Sim`, equal to
     // `Sim::new()` (checked by `tests::zeroed_box_equals_new`).

@@ -445,9 +445,10 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
     /// flow's updates count from now. A coupled flow starts from the log
     /// law (14) of `u_star` above the mean bed level of now, with the solid
     /// fractions of the grains of now; its cells must fit the capacity `C`
-    /// ([`Capacity::FluidCells`]). On an error the flow is unchanged, except
-    /// for a coupled flow whose column refused the grains (a slab's solid
-    /// fraction ≥ 1), which leaves the flow off.
+    /// ([`Capacity::FluidCells`]). On an error nothing changes (the
+    /// digest is the same), except when a coupled flow whose column refused
+    /// the grains (a slab's solid fraction ≥ 1) replaces a coupled flow:
+    /// the earlier column is overwritten, and the flow is left off.
     pub fn set_flow(&mut self, flow: Option<&FlowConfig>) -> Result<(), Error> {
         self.switch_flow(flow, true)
     }
@@ -466,6 +467,14 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
                 if coupled {
                     f.fluid.validate(C)?;
                 }
+                let was_coupled = self.flow_on && self.fluid.on;
+                let before = (
+                    self.flow,
+                    self.profile,
+                    self.flow_on,
+                    self.flow_epoch,
+                    self.bed_level,
+                );
                 self.flow = *f;
                 self.profile = Profile::new(f);
                 self.flow_on = true;
@@ -476,7 +485,18 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
                 } else {
                     Ok(())
                 } {
-                    self.switch_flow(None, steady)?;
+                    if was_coupled {
+                        // The column the earlier flow ran on is overwritten.
+                        self.switch_flow(None, steady)?;
+                    } else {
+                        (
+                            self.flow,
+                            self.profile,
+                            self.flow_on,
+                            self.flow_epoch,
+                            self.bed_level,
+                        ) = before;
+                    }
                     return Err(e);
                 }
             }

@@ -95,7 +95,10 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
         #[cfg(not(all(target_arch = "x86_64", target_feature = "avx2")))]
         let batched = None;
         let moved = match batched {
-            Some(moved) => moved,
+            Some(moved) => {
+                events.batched_steps = 1;
+                moved
+            }
             None => {
                 if coupled {
                     scalar::add_coupled_drag(&mut self.grains, &mut self.fluid, &self.profile);
@@ -117,6 +120,7 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
                     events = Events {
                         bed_level_updates: events.bed_level_updates,
                         turbulence_redraws: events.turbulence_redraws,
+                        batched_steps: events.batched_steps,
                         ..Events::ZERO
                     };
                 }
@@ -190,6 +194,18 @@ mod tests {
     use super::*;
     use crate::{GrainSpec, Scenario, Tension};
 
+    /// Whether this build has the batched step's lanes.
+    const LANES: bool = cfg!(all(target_arch = "x86_64", target_feature = "avx2"));
+
+    /// `events` without the count of batched steps, which is all that may
+    /// differ between the two paths.
+    fn without_path(events: Events) -> Events {
+        Events {
+            batched_steps: 0,
+            ..events
+        }
+    }
+
     /// The paper's scenario with the `tension` rule, settling then flow,
     /// stepped with the batched step where it has lanes (`BATCHED`) or the
     /// scalar step with the pair geometry found ahead (`BUFFER` > 0) or
@@ -221,12 +237,10 @@ mod tests {
             let h = (h.e_n.to_f64(), h.e_s.to_f64());
             assert_eq!(sim.contact_history(j, i), Some(h));
         }
-        // The batched step runs (both precisions have lanes).
-        #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
-        if BATCHED {
-            assert!(sim.index.ready);
-        }
+        // The batched step runs where it has lanes (both precisions have
+        // them), and only where asked.
         let events = sim.events();
+        assert_eq!(events.batched_steps > 0, BATCHED && LANES, "{events:?}");
         for made in [
             events.contacts_made,
             events.contacts_broken,
@@ -234,7 +248,7 @@ mod tests {
         ] {
             assert!(made > 0, "{events:?}");
         }
-        (settled, flow, events)
+        (settled, flow, without_path(events))
     }
 
     /// The host's loop shapes (batched step in lanes; scalar step with the
@@ -281,6 +295,7 @@ mod tests {
         }
         #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
         assert_eq!(sim.index.ready, BATCHED);
+        assert_eq!(sim.events().batched_steps > 0, BATCHED && LANES);
         assert!(sim.fluid_in_transit() != 0.0, "the column was updated");
         sim.digest()
     }
@@ -336,19 +351,29 @@ mod tests {
         }
         let mut scalar = batched.clone();
         let crossed = batched.events().seam_crossings;
+        let before = batched.events().batched_steps;
         let mut wraps = 0;
         for _ in 0..400 {
             let xs = batched.grains.x;
             batched.step_with::<8, true>().unwrap();
             scalar.step_with::<0, false>().unwrap();
             assert_eq!(batched.digest(), scalar.digest());
-            assert_eq!(batched.events(), scalar.events());
+            assert_eq!(
+                without_path(batched.events()),
+                without_path(scalar.events())
+            );
             let half = 0.5 * batched.width.to_f64();
             wraps += (0..batched.len())
                 .filter(|&i| (xs[i] - batched.grains.x[i]).to_f64() > half)
                 .count();
         }
         assert!(wraps >= 10, "{wraps} grains wrapped around");
+        // The 400 steps compared ran batched (where there are lanes) and scalar.
+        assert_eq!(
+            batched.events().batched_steps - before,
+            if LANES { 400 } else { 0 }
+        );
+        assert_eq!(scalar.events().batched_steps, before);
         assert_eq!(batched.events().seam_crossings - crossed, wraps as u64);
         assert!(
             batched.contacts().count() > batched.len(),
@@ -415,6 +440,7 @@ mod tests {
         }
         #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
         assert_eq!(sim.index.ready, batched);
+        assert_eq!(sim.events().batched_steps > 0, batched && LANES);
         assert_eq!(sim.contacts().count(), 14);
         sim.digest()
     }
@@ -523,7 +549,7 @@ mod tests {
         for _ in 0..40 {
             let outcome = step_small_box(&mut sim, batched);
             let failed = outcome.is_err();
-            outcomes.push((outcome, sim.digest(), sim.events()));
+            outcomes.push((outcome, sim.digest(), without_path(sim.events())));
             if failed {
                 break;
             }

@@ -19,11 +19,61 @@ pub const BATCHED: usize = 8;
 pub const SCALAR: usize = 6;
 
 /// A boxed, reset simulation of 256 grains with `K` neighbour slots per
-/// grain: [`BATCHED`] or [`SCALAR`] picks the step path.
-pub fn sim<R: Real, const K: usize>(config: &SimConfig) -> Box<Sim<R, 256, K>> {
+/// grain: [`BATCHED`] or [`SCALAR`] picks the step path. When dropped it
+/// adds the steps it took by the batched step to this thread's count
+/// ([`batched_steps`]).
+pub fn sim<R: Real, const K: usize>(config: &SimConfig) -> Tracked<R, K> {
     let mut s = Box::new(Sim::<R, 256, K>::new());
     s.reset(config).expect("valid config");
-    s
+    Tracked(s)
+}
+
+/// A simulation of [`sim`] that reports its batched steps when dropped.
+pub struct Tracked<R: Real, const K: usize>(Box<Sim<R, 256, K>>);
+
+impl<R: Real, const K: usize> std::ops::Deref for Tracked<R, K> {
+    type Target = Sim<R, 256, K>;
+    fn deref(&self) -> &Self::Target {
+        &self.0
+    }
+}
+
+impl<R: Real, const K: usize> std::ops::DerefMut for Tracked<R, K> {
+    fn deref_mut(&mut self) -> &mut Self::Target {
+        &mut self.0
+    }
+}
+
+impl<R: Real, const K: usize> Drop for Tracked<R, K> {
+    fn drop(&mut self) {
+        BATCHED_STEPS.with(|n| n.set(n.get() + self.0.events().batched_steps));
+    }
+}
+
+std::thread_local! {
+    static BATCHED_STEPS: std::cell::Cell<u64> = const { std::cell::Cell::new(0) };
+}
+
+/// Runs `body` and returns the batched steps of the simulations of [`sim`]
+/// it dropped (each test runs on its own thread).
+pub fn batched_steps(body: impl FnOnce()) -> u64 {
+    BATCHED_STEPS.with(|n| n.set(0));
+    body();
+    BATCHED_STEPS.with(|n| n.get())
+}
+
+/// The step path a test of [`both_paths`] claims is the one that ran: a
+/// `*_batched` test took batched steps where the batched step has lanes
+/// (x86-64 with AVX2) and none elsewhere; a `*_scalar` test took none.
+pub fn assert_path(batched_steps: u64, batched: bool) {
+    if batched && cfg!(all(target_arch = "x86_64", target_feature = "avx2")) {
+        assert!(batched_steps > 0, "a *_batched test ran no batched step");
+    } else {
+        assert_eq!(
+            batched_steps, 0,
+            "the batched step ran where it has no lanes or was not asked for"
+        );
+    }
 }
 
 /// A boxed, reset simulation.
@@ -88,26 +138,40 @@ pub fn fixed(x: f64, y: f64) -> GrainSpec {
 }
 
 /// Runs a test body `$body::<R, K>(tol)` for f32 and f64 (`tol` as in
-/// [`both_precisions`]) through both step paths ([`BATCHED`], [`SCALAR`]).
+/// [`both_precisions`]) through both step paths ([`BATCHED`], [`SCALAR`]),
+/// and checks that the path the test is named after is the one that ran
+/// ([`assert_path`]).
 #[macro_export]
 macro_rules! both_paths {
     ($name:ident, $body:ident) => {
         mod $name {
             #[test]
             fn f64_batched() {
-                super::$body::<f64, { crate::common::BATCHED }>(1e-9);
+                let n = crate::common::batched_steps(|| {
+                    super::$body::<f64, { crate::common::BATCHED }>(1e-9)
+                });
+                crate::common::assert_path(n, true);
             }
             #[test]
             fn f64_scalar() {
-                super::$body::<f64, { crate::common::SCALAR }>(1e-9);
+                let n = crate::common::batched_steps(|| {
+                    super::$body::<f64, { crate::common::SCALAR }>(1e-9)
+                });
+                crate::common::assert_path(n, false);
             }
             #[test]
             fn f32_batched() {
-                super::$body::<f32, { crate::common::BATCHED }>(1e-4);
+                let n = crate::common::batched_steps(|| {
+                    super::$body::<f32, { crate::common::BATCHED }>(1e-4)
+                });
+                crate::common::assert_path(n, true);
             }
             #[test]
             fn f32_scalar() {
-                super::$body::<f32, { crate::common::SCALAR }>(1e-4);
+                let n = crate::common::batched_steps(|| {
+                    super::$body::<f32, { crate::common::SCALAR }>(1e-4)
+                });
+                crate::common::assert_path(n, false);
             }
         }
     };
