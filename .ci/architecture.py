@@ -12,6 +12,10 @@ none). Fails (exit 1) when a row's imports differ from the code's, when a
 row names a module that does not exist, or when a module of kernel/src or
 host/src has no row. `--write` rewrites the imports columns from the code
 instead (the rows and their descriptions stay as written).
+
+Also fails when a relative link of README.md or a page under docs/ or
+validation/ points to a file or folder that does not exist (a moved module
+leaves no dead link behind).
 """
 import re
 import sys
@@ -42,6 +46,20 @@ def code_graph():
                 p,
                 sorted(name_of(i) for i in imports(m, p, mods)),
             )
+    return out
+
+
+def dead_links():
+    """Relative links of the README and the docs whose target is missing."""
+    out = []
+    pages = [Path("README.md")] + sorted(Path("docs").rglob("*.md")) + sorted(Path("validation").rglob("*.md"))
+    for page in pages:
+        for k, line in enumerate(page.read_text(encoding="utf-8").split("\n")):
+            for target in re.findall(r"\]\(([^)#\s]+)(?:#[^)]*)?\)", line):
+                if re.match(r"^[a-z]+:", target):
+                    continue
+                if not (page.parent / target).exists():
+                    out.append(f"{page}:{k + 1}: dead link {target}")
     return out
 
 
@@ -77,12 +95,13 @@ def main(write):
                 faults.append(f"{DOC}:{k + 1}: `{key[1]}` imports {want}, the row says {cells[-1].strip()}")
     for key in sorted(set(graph) - seen):
         faults.append(f"{DOC}: no row for `{key[1]}` ({key[0]}/{graph[key][0].relative_to(key[0])})")
+    faults += dead_links()
     if write:
         DOC.write_text("\n".join(lines), encoding="utf-8")
     for f in faults:
         print(f)
     if faults and not write:
-        print("fix the rows, or run `python3 .ci/architecture.py --write` for the imports columns")
+        print("fix the rows or links; `python3 .ci/architecture.py --write` regenerates the imports columns")
     return 1 if faults else 0
 
 

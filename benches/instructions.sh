@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Noise-free companion of the criterion benches (benches/step.rs): instructions per
-# grain-step of the timed region of `mbs bench` (mbs::bench::timed),
+# grain-step of the timed region of `mbs bench` (mbs::tools::bench::timed),
 # counted by callgrind. Prepared beds are made natively first and kept in
 # target/tmp/bench-beds (shared with the criterion benches), so valgrind only runs the timed repetitions.
 #
@@ -29,7 +29,7 @@ for n in ${sizes[*]}; do
         args=(bench --quiet --grains "$n" --precision "$p" --beta "$beta" --case "$case" --beds "$beds")
         "$mbs" "${args[@]}" --steps 1 >/dev/null
         line=$(valgrind --tool=callgrind --callgrind-out-file="$out/cg" \
-          --toggle-collect='mbs::bench::timed*' "$mbs" "${args[@]}" --steps "$steps" 2>/dev/null)
+          --toggle-collect='mbs::tools::bench::timed*' "$mbs" "${args[@]}" --steps "$steps" 2>/dev/null)
         total=$(callgrind_annotate "$out/cg" 2>/dev/null | awk '/PROGRAM TOTALS/ {gsub(",", "", $1); print $1}')
         grains=$(sed -E 's/^([0-9]+) grains.*/\1/' <<<"$line")
         contacts=$(sed -E 's/.*, ([0-9.]+) contacts per grain.*/\1/' <<<"$line")
