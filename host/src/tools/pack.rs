@@ -87,9 +87,16 @@ pub fn packing(job: Packing<'_>) -> Result<Vec<PackSample>, HostError> {
 pub fn write_packing(dir: &Path, samples: &[PackSample], title: &str) -> Result<(), HostError> {
     write_csv(&dir.join("packing.csv"), None, samples)?;
     let points: Vec<(f64, f64)> = samples.iter().map(|s| (s.time, s.y_gc * 1e3)).collect();
-    let figure = LinesFigure {
-        series: vec![(String::new(), points)],
-        title: title.to_string(),
+    let figure = settling_figure(vec![(String::new(), points)], title.to_string());
+    save(&figure, dir, "packing")
+}
+
+/// y_gc(t) (mm against s) of labelled packing runs: the packing test's
+/// figure and the settling stages' of the calibration.
+pub fn settling_figure(series: Vec<(String, Vec<(f64, f64)>)>, title: String) -> LinesFigure {
+    LinesFigure {
+        series,
+        title,
         x_label: "time t (s)".into(),
         y_label: "centre of gravity y_gc (mm)".into(),
         log_axes: false,
@@ -97,6 +104,5 @@ pub fn write_packing(dir: &Path, samples: &[PackSample], title: &str) -> Result<
         dots: Vec::new(),
         x_ticks: Vec::new(),
         marks: Vec::new(),
-    };
-    save(&figure, dir, "packing")
+    }
 }

@@ -7,8 +7,9 @@ use crate::calibrate::cells::{PackCurve, PackSpec};
 use crate::calibrate::Context;
 use crate::config::ConfigFile;
 use crate::error::HostError;
-use crate::figures::{save, LinesFigure};
+use crate::figures::save;
 use crate::io::output::{decimal, write_csv};
+use crate::tools::pack::settling_figure;
 use serde::{Deserialize, Serialize};
 
 /// One value of the swept parameter.
@@ -197,21 +198,13 @@ fn write_outputs(ctx: &Context<'_>, stage: usize, r: &SettlingStage) -> Result<(
         .collect();
     write_csv(&ctx.dir.join(format!("{name}.csv")), None, &lines)?;
     let symbol = if stage == 1 { "α_m" } else { "α_cn" };
-    let figure = LinesFigure {
-        series: r
-            .curves
+    let figure = settling_figure(
+        r.curves
             .iter()
             .map(|(v, points)| (format!("{symbol} = {v}"), points.clone()))
             .collect(),
-        title: format!("Stage {stage}: settling of the packed bed against {symbol} (β = 1)"),
-        x_label: "time t (s)".into(),
-        y_label: "centre of gravity y_gc (mm)".into(),
-        log_axes: false,
-        markers: false,
-        dots: Vec::new(),
-        x_ticks: Vec::new(),
-        marks: Vec::new(),
-    };
+        format!("Stage {stage}: settling of the packed bed against {symbol} (β = 1)"),
+    );
     save(&figure, &ctx.dir, &name)?;
     save_stage(&ctx.dir, &name, r)
 }
