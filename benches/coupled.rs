@@ -30,7 +30,7 @@ use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Through
 use mbs::tools::bench::{prepare, BenchBed, TAU_STAR};
 use mbs::sim::sims::{boxed_sim, NEIGHBOURS};
 use mbs_kernel::fluid::FluidConfig;
-use mbs_kernel::{Error, FlowModel, Real, Sim};
+use mbs_kernel::{Error, FlowModel, IntegrationSteps, Real, Sim};
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
@@ -146,18 +146,19 @@ fn bench<R: Real>(c: &mut Criterion) {
         .fold(f64::INFINITY, f64::min);
     let sc = bed.scenario(bed.columns());
     let mut flow = sc.flow(TAU_STAR);
-    let cells = ((flow.depth - bottom) / (0.5 * d)).round() as usize;
+    let depth = flow.spec.depth;
+    let cells = ((depth - bottom) / (0.5 * d)).round() as usize;
     let width = coupled.config().width;
-    let mut fluid = FluidConfig::new(cells, bottom, flow.depth, width * d);
-    fluid.driving = FluidConfig::driving_for(flow.u_star, flow.depth);
-    fluid.hindrance = 3.1;
+    let mut fluid = FluidConfig::new(cells, bottom, depth, width * d);
+    fluid.driving = FluidConfig::driving_for(flow.u_star, depth);
+    fluid.spec.hindrance = 3.1;
     if let Some(m) = std::env::var("MBS_UPDATE_STEPS")
         .ok()
         .and_then(|m| m.parse().ok())
     {
-        fluid.update_steps = m;
+        fluid.spec.update_steps = IntegrationSteps(m);
     }
-    (flow.model, flow.fluid) = (FlowModel::Coupled, fluid);
+    (flow.spec.model, flow.fluid) = (FlowModel::Coupled, fluid);
     coupled.set_flow(Some(&flow)).expect("coupled flow");
     coupled.step().expect("first coupled step");
     let mut coupled_start = Vec::new();

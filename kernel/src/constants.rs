@@ -82,7 +82,10 @@ impl Material {
     }
 }
 
-/// Spring and dashpot constants of the contact law (docs/model.md (6)–(9)), SI units.
+/// Spring and dashpot constants of the contact law (docs/model.md (6)–(9)),
+/// SI units. The subscript s is the tangential (shear) direction of the
+/// contact throughout, as in the paper (e_s, f_s, Δξ_s); the roughness
+/// height of the log law (14) is k_sr ([`crate::FlowSpec::roughness`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct ContactConstants {
@@ -97,6 +100,31 @@ pub struct ContactConstants {
 }
 
 impl ContactConstants {
+    /// The constants of the normal spring `k_n` (N/m) and dashpot `eta_n`
+    /// (N·s/m), with the tangential ones of docs/model.md (12)–(13) for the
+    /// Poisson ratio `poisson` ν: k_s = k_n/(2(1 + ν)),
+    /// η_s = η_n/√(2(1 + ν)). Not validated ([`Self::validate`]).
+    ///
+    /// ```
+    /// use mbs_kernel::ContactConstants;
+    ///
+    /// let c = ContactConstants::from_normal(0.26, 4.6e-4, 0.3);
+    /// assert_eq!((c.k_n, c.eta_n), (0.26, 4.6e-4));
+    /// assert_eq!(c.k_s, 0.26 / 2.6);
+    /// assert_eq!(c.eta_s, 4.6e-4 / 2.6f64.sqrt());
+    /// c.validate()?;
+    /// # Ok::<(), mbs_kernel::Error>(())
+    /// ```
+    pub fn from_normal(k_n: f64, eta_n: f64, poisson: f64) -> Self {
+        let two_one_plus_nu = 2.0 * (1.0 + poisson);
+        ContactConstants {
+            k_n,
+            k_s: k_n / two_one_plus_nu,
+            eta_n,
+            eta_s: eta_n / libm::sqrt(two_one_plus_nu),
+        }
+    }
+
     /// Checks every field; the error names the first bad one.
     pub fn validate(&self) -> Result<(), Error> {
         positive("contact.k_n", self.k_n)?;
@@ -168,7 +196,8 @@ pub struct TimeStepRule {
 }
 
 /// Derives (k_n, k_s, η_n, η_s) from the time step for a grain of diameter `d`
-/// (the largest grain for mixed sizes), docs/model.md (10), (12), (13), (17), (18):
+/// (the largest grain for mixed sizes), docs/model.md (10), (12), (13), (17), (18),
+/// the tangential ones by [`ContactConstants::from_normal`]:
 ///
 /// m = ρ(s + C_M)A3 d³,  α_m' = βα_m,  α_cn' = βα_cn,
 /// k_n = 2π² m/(α_m' Δt)²,  k_s = k_n/(2(1+ν)),
@@ -199,14 +228,8 @@ pub fn contact_constants(
     let alpha_m = rule.beta * rule.alpha_m;
     let alpha_cn = rule.beta * rule.alpha_cn;
     let k_n = 2.0 * PI * PI * m / ((alpha_m * rule.constants_dt) * (alpha_m * rule.constants_dt));
-    let two_one_plus_nu = 2.0 * (1.0 + material.nu);
     let eta_n = (alpha_cn / alpha_m) * 2.0 * core::f64::consts::SQRT_2 * PI * m / rule.constants_dt;
-    let out = ContactConstants {
-        k_n,
-        k_s: k_n / two_one_plus_nu,
-        eta_n,
-        eta_s: eta_n / libm::sqrt(two_one_plus_nu),
-    };
+    let out = ContactConstants::from_normal(k_n, eta_n, material.nu);
     out.validate()?;
     Ok(out)
 }

@@ -96,13 +96,13 @@ impl Tension {
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ContactLaw<R: Real> {
-    /// k_n (N/m).
+    /// Normal spring k_n (N/m).
     pub k_n: R,
-    /// k_s (N/m).
+    /// Tangential spring k_s (N/m), docs/model.md (7), (12).
     pub k_s: R,
-    /// η_n (N·s/m).
+    /// Normal dashpot η_n (N·s/m).
     pub eta_n: R,
-    /// η_s (N·s/m).
+    /// Tangential dashpot η_s (N·s/m), docs/model.md (7), (13).
     pub eta_s: R,
     /// μ.
     pub mu: R,

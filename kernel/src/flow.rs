@@ -5,11 +5,21 @@
 //! [`crate::fluid`]).
 //!
 //! Heights `y` here are measured from the mean bed level (docs/model.md §6).
+//!
+//! One definition per quantity: a [`FlowSpec`] is the flow a user chooses
+//! (κ, h, ε0, k_sr, d, the fluctuations, the intervals, the model), the
+//! same at every Shields number; a [`FlowConfig`], what a simulation runs,
+//! is a `FlowSpec` at a shear velocity u* with the coupled flow's column
+//! ([`FluidConfig`], itself a [`crate::fluid::FluidSpec`] with what the bed
+//! gives it). [`crate::Scenario::flow`] makes one from the other; the
+//! Shields relation between u* and τ* is [`shear_velocity`] and
+//! [`shields_number`].
 
 use crate::error::{check, non_negative, positive, Error};
 use crate::fluid::FluidConfig;
 use crate::random::{Stream, TURBULENCE_STREAM};
 use crate::real::Real;
+use crate::steps::IntegrationSteps;
 
 /// What drives the grains' drag (docs/model.md §6, §13).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -35,76 +45,105 @@ impl FlowModel {
     }
 }
 
-/// User-facing flow parameters (SI units). Defaults are those of docs/model.md §1.
+/// The flow of docs/model.md §6 without its strength: a [`FlowConfig`]
+/// without the shear velocity u* and the coupled flow's column, which
+/// [`crate::Scenario::flow`] derives from a Shields number and the bed.
+/// Defaults are those of docs/model.md §1 ([`FlowSpec::new`]); its
+/// intervals count integration steps ([`IntegrationSteps`]).
 ///
 /// ```
-/// use mbs_kernel::{shear_velocity, FlowConfig};
+/// use mbs_kernel::{FlowModel, FlowSpec, IntegrationSteps};
 ///
-/// // τ* = 0.2 on 0.5 mm sand: u* ≈ 4.0 cm/s.
-/// let u_star = shear_velocity(0.2, 2.65, 9.81, 0.5e-3);
-/// assert!((u_star - 0.0402).abs() < 1e-4);
-/// let flow = FlowConfig::new(u_star, 0.5e-3);
+/// let spec = FlowSpec::new(0.5e-3);
+/// assert_eq!((spec.kappa, spec.eps0, spec.roughness), (0.4, 0.4, 0.5e-3));
+/// assert_eq!(spec.hold_steps, IntegrationSteps(100));
+/// let flow = spec.at(0.04);
+/// assert_eq!((flow.u_star, flow.spec), (0.04, spec));
+/// assert_eq!(flow.spec.model, FlowModel::ClearWater);
 /// flow.validate()?;
-/// assert_eq!((flow.kappa, flow.eps0, flow.hold_steps), (0.4, 0.4, 100));
 /// # Ok::<(), mbs_kernel::Error>(())
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct FlowConfig {
-    /// Shear velocity u* (m/s); see [`shear_velocity`].
-    pub u_star: f64,
+pub struct FlowSpec {
     /// Kármán constant κ.
     pub kappa: f64,
     /// Flow depth h (m), scale of the intensity decay (15).
     pub depth: f64,
     /// Sheltering coefficient at bed level ε0 (16); 1 disables sheltering.
     pub eps0: f64,
-    /// Equivalent roughness k_s (m); docs/model.md §1: k_s = d.
+    /// Roughness height k_sr of the log law (14) (m); docs/model.md §1: k_sr = d.
     pub roughness: f64,
     /// Grain diameter d of the zero-level shift y + 0.25d in (14), (16) (m).
     pub reference_diameter: f64,
     /// Monte Carlo fluctuations on (15); off gives the mean flow only.
     pub turbulence: bool,
-    /// Steps a fluctuation is held before it is redrawn (paper: 100).
-    pub hold_steps: u32,
-    /// Steps between recomputations of the mean bed level (docs/model.md §6, \[choice\] 100).
-    pub bed_level_interval: u32,
+    /// Integration steps a fluctuation is held before it is redrawn (the
+    /// paper: 100 steps of Δt).
+    pub hold_steps: IntegrationSteps,
+    /// Integration steps between recomputations of the mean bed level
+    /// (docs/model.md §6, \[choice\] 100 steps of Δt).
+    pub bed_level_interval: IntegrationSteps,
     /// Width of the windows in which the mean bed level is found, in largest
     /// diameters (docs/model.md §6 applied per window, \[choice\] 5: the paper's bed,
     /// nld = 5, is one window). See [`crate::Sim::bed_level`].
     pub bed_level_window: f64,
-    /// Clear water (the default) or the coupled flow.
+    /// Clear water (the default) or the coupled flow, whose column is
+    /// [`FlowConfig::fluid`].
     pub model: FlowModel,
-    /// The coupled flow's column; read only with [`FlowModel::Coupled`].
-    /// u* then gives the column's initial profile (the log law (14)) and
-    /// the depth h the decay of the fluctuations (15); the driving is
-    /// `fluid.driving` plus gravity along the bed slope
-    /// ([`crate::SimConfig::slope`]).
-    pub fluid: FluidConfig,
 }
 
-impl FlowConfig {
-    /// The defaults of docs/model.md §1 for grains of diameter `d` at shear velocity `u_star`.
-    pub fn new(u_star: f64, d: f64) -> Self {
-        FlowConfig {
-            u_star,
+impl FlowSpec {
+    /// The defaults of docs/model.md §1 for grains of diameter `d`: κ = 0.4,
+    /// h = 0.20 m, ε0 = 0.4, k_sr = d, fluctuations held and the bed level
+    /// recomputed every 100 integration steps, bed-level windows of 5
+    /// diameters, clear water.
+    pub const fn new(d: f64) -> Self {
+        FlowSpec {
             kappa: 0.4,
             depth: 0.20,
             eps0: 0.4,
             roughness: d,
             reference_diameter: d,
             turbulence: true,
-            hold_steps: 100,
-            bed_level_interval: 100,
+            hold_steps: IntegrationSteps(100),
+            bed_level_interval: IntegrationSteps(100),
             bed_level_window: 5.0,
             model: FlowModel::ClearWater,
+        }
+    }
+
+    /// The kernel's flow at shear velocity `u_star` (m/s), its column the
+    /// defaults of [`FluidConfig::new`] without cells: a clear-water flow,
+    /// or a coupled one whose column is still to be given
+    /// ([`crate::Scenario::flow`] gives it).
+    pub const fn at(&self, u_star: f64) -> FlowConfig {
+        FlowConfig {
+            u_star,
+            spec: *self,
             fluid: FluidConfig::new(0, 0.0, 0.0, 0.0),
         }
     }
 
+    /// The height y0 where the log law (14) starts, 30.1 (y0 + 0.25 d)/k_sr
+    /// = 1: y0 = k_sr/30.1 − 0.25 d (m above the mean bed level); the mean
+    /// velocity is 0 at and below it.
+    ///
+    /// ```
+    /// use mbs_kernel::{flow::Profile, FlowConfig};
+    ///
+    /// let flow = FlowConfig::new(0.04, 0.5e-3);
+    /// let y0 = flow.spec.zero_velocity_height();
+    /// let profile = Profile::<f64>::new(&flow);
+    /// assert_eq!(profile.mean_velocity(y0 - 1e-9), 0.0);
+    /// assert!(profile.mean_velocity(y0 + 1e-9) > 0.0);
+    /// ```
+    pub fn zero_velocity_height(&self) -> f64 {
+        self.roughness / 30.1 - 0.25 * self.reference_diameter
+    }
+
     /// Checks every field; the error names the first bad one.
     pub fn validate(&self) -> Result<(), Error> {
-        non_negative("flow.u_star", self.u_star)?;
         positive("flow.kappa", self.kappa)?;
         positive("flow.depth", self.depth)?;
         check(
@@ -116,24 +155,70 @@ impl FlowConfig {
         positive("flow.roughness", self.roughness)?;
         non_negative("flow.reference_diameter", self.reference_diameter)?;
         check(
-            self.hold_steps >= 1,
+            self.hold_steps.0 >= 1,
             "flow.hold_steps",
-            self.hold_steps as f64,
-            ">= 1",
+            f64::from(self.hold_steps.0),
+            ">= 1 integration step",
         )?;
         check(
-            self.bed_level_interval >= 1,
+            self.bed_level_interval.0 >= 1,
             "flow.bed_level_interval",
-            self.bed_level_interval as f64,
-            ">= 1",
+            f64::from(self.bed_level_interval.0),
+            ">= 1 integration step",
         )?;
         check(
             self.bed_level_window.is_finite() && self.bed_level_window >= 1.0,
             "flow.bed_level_window",
             self.bed_level_window,
             ">= 1 (largest diameters)",
-        )?;
-        match self.model {
+        )
+    }
+}
+
+/// The flow the kernel runs (SI units): a [`FlowSpec`] at a shear velocity
+/// u*, with the coupled flow's column. Defaults are those of
+/// docs/model.md §1 ([`FlowConfig::new`]).
+///
+/// ```
+/// use mbs_kernel::{shear_velocity, FlowConfig, IntegrationSteps};
+///
+/// // τ* = 0.2 on 0.5 mm sand: u* ≈ 4.0 cm/s.
+/// let u_star = shear_velocity(0.2, 2.65, 9.81, 0.5e-3);
+/// assert!((u_star - 0.0402).abs() < 1e-4);
+/// let flow = FlowConfig::new(u_star, 0.5e-3);
+/// flow.validate()?;
+/// assert_eq!((flow.spec.kappa, flow.spec.eps0), (0.4, 0.4));
+/// assert_eq!(flow.spec.hold_steps, IntegrationSteps(100));
+/// # Ok::<(), mbs_kernel::Error>(())
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct FlowConfig {
+    /// Shear velocity u* (m/s); see [`shear_velocity`].
+    pub u_star: f64,
+    /// The flow without its strength: κ, h, ε0, k_sr, d, the fluctuations,
+    /// the intervals, the model.
+    pub spec: FlowSpec,
+    /// The coupled flow's column; read only with [`FlowModel::Coupled`].
+    /// u* then gives the column's initial profile (the log law (14)) and
+    /// the depth h the decay of the fluctuations (15); the driving is
+    /// `fluid.driving` plus gravity along the bed slope
+    /// ([`crate::SimConfig::slope_angle`]).
+    pub fluid: FluidConfig,
+}
+
+impl FlowConfig {
+    /// The defaults of docs/model.md §1 ([`FlowSpec::new`]) for grains of
+    /// diameter `d` at shear velocity `u_star`: clear water.
+    pub const fn new(u_star: f64, d: f64) -> Self {
+        FlowSpec::new(d).at(u_star)
+    }
+
+    /// Checks every field; the error names the first bad one.
+    pub fn validate(&self) -> Result<(), Error> {
+        non_negative("flow.u_star", self.u_star)?;
+        self.spec.validate()?;
+        match self.spec.model {
             FlowModel::ClearWater => Ok(()),
             // The capacity is checked by `Sim::set_flow`.
             FlowModel::Coupled => self.fluid.validate(usize::MAX),
@@ -141,9 +226,44 @@ impl FlowConfig {
     }
 }
 
-/// u* from the Shields number: τ* = u*²/((s − 1)gd) (docs/model.md §6).
+/// u* from the Shields number: τ* = u*²/((s − 1)gd) (docs/model.md §6),
+/// u* = √(τ* (s − 1) g d); the inverse of [`shields_number`].
 pub fn shear_velocity(tau_star: f64, s: f64, g: f64, d: f64) -> f64 {
     libm::sqrt(tau_star * (s - 1.0) * g * d)
+}
+
+/// The Shields number of the shear velocity `u_star`: τ* = u*²/((s − 1)gd)
+/// (docs/model.md §6); the inverse of [`shear_velocity`].
+///
+/// ```
+/// use mbs_kernel::{shear_velocity, shields_number};
+///
+/// let (s, g, d) = (2.65, 9.81, 0.5e-3);
+/// let tau_star = shields_number(0.03, s, g, d);
+/// assert_eq!(tau_star, 0.03 * 0.03 / ((s - 1.0) * g * d));
+/// // The round trip, to round-off.
+/// assert!((shear_velocity(tau_star, s, g, d) - 0.03).abs() < 1e-15);
+/// assert!((shields_number(shear_velocity(0.2, s, g, d), s, g, d) - 0.2).abs() < 1e-15);
+/// ```
+pub fn shields_number(u_star: f64, s: f64, g: f64, d: f64) -> f64 {
+    u_star * u_star / ((s - 1.0) * g * d)
+}
+
+/// The Shields number of a uniform open-channel flow of depth `depth` on
+/// the energy slope `slope` S (the sine of its angle): its bed shear
+/// stress ρ g h S, u*² = g h S, gives τ* = h S/((s − 1) d) (docs/model.md
+/// §6, §13 (C5)); g cancels.
+///
+/// ```
+/// use mbs_kernel::{shields_number, uniform_flow_shields_number};
+///
+/// let (h, slope, s, d) = (0.05, 0.002, 2.65, 0.5e-3);
+/// let tau_star = uniform_flow_shields_number(h, slope, s, d);
+/// let u_star = (9.81 * h * slope).sqrt();
+/// assert!((tau_star - shields_number(u_star, s, 9.81, d)).abs() < 1e-15);
+/// ```
+pub fn uniform_flow_shields_number(depth: f64, slope: f64, s: f64, d: f64) -> f64 {
+    depth * slope / ((s - 1.0) * d)
 }
 
 /// The flow profile in the working precision, evaluated per grain per step.
@@ -172,7 +292,7 @@ pub struct Profile<R: Real> {
     pub(crate) minus_inv_depth: R,
     /// ε0.
     pub(crate) eps0: R,
-    /// 1/k_s.
+    /// 1/k_sr.
     pub(crate) inv_roughness: R,
     /// 0.25 d.
     pub(crate) zero_shift: R,
@@ -195,19 +315,20 @@ impl<R: Real> Profile<R> {
 
     /// Converts a validated [`FlowConfig`] to the working precision.
     pub fn new(c: &FlowConfig) -> Self {
+        let f = &c.spec;
         Profile {
-            u_star_over_kappa: R::from_f64(c.u_star / c.kappa),
+            u_star_over_kappa: R::from_f64(c.u_star / f.kappa),
             rms_u0: R::from_f64(2.30 * c.u_star),
             rms_v0: R::from_f64(1.27 * c.u_star),
-            minus_inv_depth: R::from_f64(-1.0 / c.depth),
-            eps0: R::from_f64(c.eps0),
-            inv_roughness: R::from_f64(1.0 / c.roughness),
-            zero_shift: R::from_f64(0.25 * c.reference_diameter),
-            turbulence: c.turbulence,
+            minus_inv_depth: R::from_f64(-1.0 / f.depth),
+            eps0: R::from_f64(f.eps0),
+            inv_roughness: R::from_f64(1.0 / f.roughness),
+            zero_shift: R::from_f64(0.25 * f.reference_diameter),
+            turbulence: f.turbulence,
         }
     }
 
-    /// (14): U = (u*/κ) ln(30.1 (y + 0.25d)/k_s), and 0 where the argument is ≤ 1.
+    /// (14): U = (u*/κ) ln(30.1 (y + 0.25d)/k_sr), and 0 where the argument is ≤ 1.
     #[inline]
     pub fn mean_velocity(&self, y: R) -> R {
         let arg = R::from_f64(30.1) * (y + self.zero_shift) * self.inv_roughness;
@@ -225,7 +346,7 @@ impl<R: Real> Profile<R> {
         (self.rms_u0 * decay, self.rms_v0 * decay)
     }
 
-    /// (16): ε = ε0 + (1 − ε0)[1 − exp(−((y + 0.25d)/k_s)²)]; ε = ε0 below the
+    /// (16): ε = ε0 + (1 − ε0)[1 − exp(−((y + 0.25d)/k_sr)²)]; ε = ε0 below the
     /// zero level y + 0.25d ≤ 0 **\[choice\]**: (16) is even in y + 0.25d and
     /// would otherwise expose deeply buried grains.
     #[inline]
@@ -267,7 +388,7 @@ impl<R: Real> Profile<R> {
 
 /// The standard-normal pair (z_u, z_v) of grain `id` in hold period `period`
 /// (docs/model.md (15), \[choice\]: per grain, independent u and v, held for
-/// `hold_steps`). Keyed, so it does not depend on draw order.
+/// [`FlowSpec::hold_steps`]). Keyed, so it does not depend on draw order.
 pub fn fluctuation_draw(seed: u64, period: u64, id: u32) -> (f64, f64) {
     Stream::new(seed, TURBULENCE_STREAM, period, id as u64).gaussian_pair()
 }
@@ -291,6 +412,7 @@ mod tests {
         }
         // Zero-velocity level: 30.1 (y + d/4)/d = 1.
         let y0 = d / 30.1 - 0.25 * d;
+        assert_eq!(y0, c.spec.zero_velocity_height());
         assert_eq!(p.mean_velocity(y0 - 1e-9), 0.0);
         assert!(p.mean_velocity(y0 + 1e-9) > 0.0);
         assert_eq!(p.mean_velocity(-d), 0.0);
@@ -327,7 +449,7 @@ mod tests {
     #[test]
     fn validation_names_fields() {
         let mut c = FlowConfig::new(0.03, 0.5e-3);
-        c.eps0 = 1.5;
+        c.spec.eps0 = 1.5;
         assert!(matches!(
             c.validate(),
             Err(Error::InvalidParameter {
@@ -335,14 +457,20 @@ mod tests {
                 ..
             })
         ));
-        c.eps0 = 0.4;
-        c.hold_steps = 0;
+        c.spec.eps0 = 0.4;
+        c.spec.hold_steps = IntegrationSteps(0);
+        let e = c.validate().unwrap_err();
         assert!(matches!(
-            c.validate(),
-            Err(Error::InvalidParameter {
+            e,
+            Error::InvalidParameter {
                 name: "flow.hold_steps",
                 ..
-            })
+            }
         ));
+        // The kernel counts its intervals in integration steps, and says so.
+        assert_eq!(
+            std::format!("{e}"),
+            "flow.hold_steps = 0: must be >= 1 integration step"
+        );
     }
 }

@@ -55,9 +55,11 @@
 //! | (4)–(5) | drag | [`flow::Profile::drag`] |
 //! | (6)–(9), (8') | contact law with history; what may pull, [`Tension`] | [`contact::ContactLaw::apply`] |
 //! | (10)–(13), (17), (18) | constants from Δt | [`contact_constants`] |
+//! | (12)–(13) | tangential constants from normal ones | [`ContactConstants::from_normal`] |
 //! | (11) | stability bound of the integration step | [`ContactConstants::stable_dt_limit`] |
 //! | (14)–(16) | log law, turbulence, sheltering | [`flow::Profile`] |
 //! | §6 | mean bed level | [`Sim::bed_level`] |
+//! | §6 | the Shields relation, both ways | [`shear_velocity`], [`shields_number`] |
 //! | §7 | initial bed | [`Sim::build_bed`], [`Sim::settle`] |
 //! | §8 | observables | [`Sim::observe`] |
 //! | (C1)–(C7), §13 | the coupled flow: its column, updated every M steps; the grains' drag from it in the step | [`fluid::Column`], [`FlowModel::Coupled`] |
@@ -72,7 +74,8 @@
 //!    only), `error` ([`Error`]), `events` ([`Events`]: event counters),
 //!    [`random`] (keyed random streams), `periodic` (the minimum image
 //!    across the periodic boundary), `digest` ([`Fnv1a`], the digest's
-//!    hash, and [`FieldGroup`]).
+//!    hash, and [`FieldGroup`]), `steps` ([`IntegrationSteps`]: the
+//!    kernel's intervals, counts of integration steps Δt/substeps).
 //! 2. **Model laws**: `constants` (material, and the contact constants from
 //!    Δt: [`contact_constants`]), [`contact`] (the contact law (6)–(9) and
 //!    its spring history), [`flow`] (the flow profile (14)–(16), the drag
@@ -137,6 +140,7 @@ mod real;
 mod scenario;
 mod sim;
 mod step;
+mod steps;
 
 pub use bed::{BedInfo, BedSpec, Rest, Settled, SizeClass};
 pub use constants::{
@@ -147,9 +151,13 @@ pub use digest::{FieldGroup, Fnv1a};
 pub use error::{Capacity, CheckpointFault, Error, Quantity};
 pub use events::Events;
 pub use fields::GrainField;
-pub use flow::{shear_velocity, FlowConfig, FlowModel};
+pub use flow::{
+    shear_velocity, shields_number, uniform_flow_shields_number, FlowConfig, FlowModel, FlowSpec,
+};
+pub use fluid::FluidSpec;
 pub use grains::{GrainSpec, MAX_CLASSES};
-pub use observe::{q_star, Observation};
+pub use observe::{q_star, transport_scale, Observation};
 pub use real::Real;
-pub use scenario::{FlowSpec, FluidSpec, Scenario, G};
+pub use scenario::{Scenario, G};
 pub use sim::{RestWatch, Sim, SimConfig, CHECKPOINT_VERSION};
+pub use steps::IntegrationSteps;

@@ -1,10 +1,10 @@
 //! The observables' record (docs/model.md §8): [`Observation`] (centre of
 //! gravity y_gc, energies, overlaps, contacts, and the bed-load transport
-//! rate q_B, in total and per size class) and q* ([`q_star`]). Computing
-//! them from a simulation ([`crate::Sim::observe`]) is an `impl Sim` in
-//! `sim/observe.rs`; the record and the formula stay here, below the
-//! simulation, because they need none (the host combines observations of
-//! many runs).
+//! rate q_B, in total and per size class) and q* ([`q_star`], on the
+//! scale [`transport_scale`]). Computing them from a simulation
+//! ([`crate::Sim::observe`]) is an `impl Sim` in `sim/observe.rs`; the
+//! record and the formulas stay here, below the simulation, because they
+//! need none (the host combines observations of many runs).
 
 use crate::grains::MAX_CLASSES;
 
@@ -58,7 +58,21 @@ impl Observation {
     }
 }
 
-/// q* = q_B/√((s − 1)g d³) (docs/model.md §8).
+/// q* = q_B/√((s − 1)g d³) (docs/model.md §8), the scale by [`transport_scale`].
 pub fn q_star(q_b: f64, d: f64, s: f64, g: f64) -> f64 {
-    q_b / libm::sqrt((s - 1.0) * g * d * d * d)
+    q_b / transport_scale(d, s, g)
+}
+
+/// The scale √((s − 1)g d³) (m²/s) of the transport rate (docs/model.md
+/// §8): q_B = q* √((s − 1)g d³), the inverse of [`q_star`].
+///
+/// ```
+/// use mbs_kernel::{q_star, transport_scale};
+///
+/// let (d, s, g) = (0.5e-3, 2.65, 9.81);
+/// let scale = transport_scale(d, s, g);
+/// assert!((q_star(0.1 * scale, d, s, g) - 0.1).abs() < 1e-15);
+/// ```
+pub fn transport_scale(d: f64, s: f64, g: f64) -> f64 {
+    libm::sqrt((s - 1.0) * g * d * d * d)
 }

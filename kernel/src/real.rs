@@ -283,7 +283,7 @@ mod tests {
             let e =
                 (<f32 as Real>::exp(x) as f64 - libm::exp(x as f64)).abs() / libm::exp(x as f64);
             worst_exp = worst_exp.max(e);
-            let z = 1.0 + k as f32 * 0.05; // ln of 30.1(y+d/4)/k_s: arguments in [1, 100]
+            let z = 1.0 + k as f32 * 0.05; // ln of 30.1(y+d/4)/k_sr: arguments in [1, 100]
             let l = (<f32 as Real>::ln(z) as f64 - libm::log(z as f64)).abs()
                 / libm::log(z as f64).max(0.1);
             worst_ln = worst_ln.max(l);

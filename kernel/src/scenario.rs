@@ -6,94 +6,14 @@ use crate::bed::{BedInfo, BedSpec};
 use crate::constants::{contact_constants, ContactConstants, Material, TimeStepRule};
 use crate::contact::Tension;
 use crate::error::Error;
-use crate::flow::{shear_velocity, FlowConfig, FlowModel};
-use crate::fluid::FluidConfig;
+use crate::flow::{shear_velocity, FlowConfig, FlowModel, FlowSpec};
+use crate::fluid::{FluidConfig, FluidSpec};
 use crate::real::Real;
 use crate::sim::{Sim, SimConfig};
+use crate::steps::IntegrationSteps;
 
 /// Standard gravity (m/s²).
 pub const G: f64 = 9.81;
-
-/// The flow of docs/model.md §6 without its strength: a [`FlowConfig`]
-/// without the shear velocity, which [`Scenario::flow`] derives from a
-/// Shields number. Its intervals count integration steps.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct FlowSpec {
-    /// Kármán constant κ.
-    pub kappa: f64,
-    /// Flow depth h (m).
-    pub depth: f64,
-    /// Sheltering coefficient at bed level ε0.
-    pub eps0: f64,
-    /// Equivalent roughness k_s (m).
-    pub roughness: f64,
-    /// Grain diameter d of the zero-level shift y + 0.25d (m).
-    pub reference_diameter: f64,
-    /// Monte Carlo fluctuations on.
-    pub turbulence: bool,
-    /// Integration steps a fluctuation is held.
-    pub hold_steps: u32,
-    /// Integration steps between recomputations of the mean bed level.
-    pub bed_level_interval: u32,
-    /// Width of the bed-level windows, in largest diameters.
-    pub bed_level_window: f64,
-    /// Clear water (the paper) or the coupled flow (docs/model.md §13).
-    pub model: FlowModel,
-    /// The coupled flow's column without its geometry and driving, which
-    /// [`Scenario::flow`] derives; read only with [`FlowModel::Coupled`].
-    pub fluid: FluidSpec,
-}
-
-/// The coupled flow's parameters a user chooses (docs/model.md §13); the
-/// rest of its [`FluidConfig`] follows from the bed, the material and the
-/// flow ([`Scenario::flow`]).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct FluidSpec {
-    /// Largest height of a cell Δy (m): the column has the fewest equal
-    /// cells no higher than this.
-    pub cell_height: f64,
-    /// Kinematic viscosity ν (m²/s).
-    pub viscosity: f64,
-    /// φ_max of the mixing length (C3).
-    pub phi_max: f64,
-    /// Integration steps M between two updates of the column.
-    pub update_steps: u32,
-    /// Exponent n of the hindrance (C7); 0 turns it off.
-    pub hindrance: f64,
-}
-
-impl FluidSpec {
-    /// The defaults of [`FluidConfig::new`] with cells of `cell_height`.
-    pub const fn new(cell_height: f64) -> Self {
-        let f = FluidConfig::new(0, 0.0, 0.0, 0.0);
-        FluidSpec {
-            cell_height,
-            viscosity: f.viscosity,
-            phi_max: f.phi_max,
-            update_steps: f.update_steps,
-            hindrance: f.hindrance,
-        }
-    }
-}
-
-impl FlowSpec {
-    /// The kernel's flow at shear velocity `u_star` (m/s).
-    pub fn at(&self, u_star: f64) -> FlowConfig {
-        FlowConfig {
-            u_star,
-            kappa: self.kappa,
-            depth: self.depth,
-            eps0: self.eps0,
-            roughness: self.roughness,
-            reference_diameter: self.reference_diameter,
-            turbulence: self.turbulence,
-            hold_steps: self.hold_steps,
-            bed_level_interval: self.bed_level_interval,
-            bed_level_window: self.bed_level_window,
-            ..FlowConfig::new(u_star, self.reference_diameter)
-        }
-    }
-}
 
 /// Everything needed to build, settle and drive a bed.
 ///
@@ -131,8 +51,17 @@ pub struct Scenario {
     /// The flow without its strength ([`Scenario::flow`] adds the u* of a
     /// τ*); its `depth` is also the top of the domain.
     pub flow: FlowSpec,
-    /// Bed slope θ (rad), [`SimConfig::slope`]: x runs down the slope.
-    pub slope: f64,
+    /// The coupled flow's parameters a user chooses (docs/model.md §13);
+    /// [`Scenario::column`] adds what the bed gives. Read only with
+    /// [`FlowModel::Coupled`].
+    pub fluid: FluidSpec,
+    /// Largest height of a cell of the coupled flow's column Δy (m): the
+    /// column has the fewest equal cells no higher than this
+    /// ([`Scenario::column`]). Read only with [`FlowModel::Coupled`].
+    pub fluid_cell_height: f64,
+    /// Bed slope angle θ (rad), [`SimConfig::slope_angle`]: x runs down the
+    /// slope.
+    pub slope_angle: f64,
     /// Largest neighbour skin in units of the largest diameter.
     pub skin: f64,
     /// Seed of every random draw.
@@ -167,31 +96,25 @@ impl Scenario {
             substeps: SUBSTEPS,
             bed: BedSpec::uniform(D, 5, 10),
             flow: FlowSpec {
-                kappa: 0.4,
-                depth: 0.20,
-                eps0: 0.4,
-                roughness: D,
-                reference_diameter: D,
-                turbulence: true,
-                hold_steps: 100 * SUBSTEPS,
-                bed_level_interval: 100 * SUBSTEPS,
-                bed_level_window: 5.0,
-                model: FlowModel::ClearWater,
-                // \[choice\] cells of d/2; φ_max 0.6 of a packed bed, the
-                // largest mean solid fraction of the quasi-2-D beds of
-                // Frey (2014) (0.58–0.60), so that the mixing length (C3)
-                // starts at the bed's surface; the column updated every
-                // 10 Δt, a tenth of the fluctuations' hold (far below its
-                // drag relaxation time); Richardson–Zaki's hindrance 3.1,
-                // as in Maurin et al. (2015) (C7) (docs/model.md §13).
-                fluid: FluidSpec {
-                    phi_max: 0.6,
-                    update_steps: 10 * SUBSTEPS,
-                    hindrance: 3.1,
-                    ..FluidSpec::new(0.5 * D)
-                },
+                hold_steps: IntegrationSteps::from_constants_steps(100, SUBSTEPS),
+                bed_level_interval: IntegrationSteps::from_constants_steps(100, SUBSTEPS),
+                ..FlowSpec::new(D)
             },
-            slope: 0.0,
+            // \[choice\] cells of d/2; φ_max 0.6 of a packed bed, the
+            // largest mean solid fraction of the quasi-2-D beds of Frey
+            // (2014) (0.58–0.60), so that the mixing length (C3) starts at
+            // the bed's surface; the column updated every 10 Δt, a tenth of
+            // the fluctuations' hold (far below its drag relaxation time);
+            // Richardson–Zaki's hindrance 3.1, as in Maurin et al. (2015)
+            // (C7) (docs/model.md §13).
+            fluid: FluidSpec {
+                phi_max: 0.6,
+                update_steps: IntegrationSteps::from_constants_steps(10, SUBSTEPS),
+                hindrance: 3.1,
+                ..FluidSpec::new()
+            },
+            fluid_cell_height: 0.5 * D,
+            slope_angle: 0.0,
             skin: 0.1,
             seed: 1,
         }
@@ -229,7 +152,7 @@ impl Scenario {
     pub fn paper_coupled() -> Self {
         let mut scenario = Scenario::paper();
         scenario.flow.model = FlowModel::Coupled;
-        scenario.flow.fluid.cell_height = 4.0 * scenario.bed.max_diameter();
+        scenario.fluid_cell_height = 4.0 * scenario.bed.max_diameter();
         scenario
     }
 
@@ -258,7 +181,7 @@ impl Scenario {
             y_max: self.flow.depth,
             skin: self.skin * d,
             seed: self.seed,
-            slope: self.slope,
+            slope_angle: self.slope_angle,
         })
     }
 
@@ -280,7 +203,7 @@ impl Scenario {
     /// let mut sc = Scenario::paper();
     /// sc.flow.model = FlowModel::Coupled;
     /// let flow = sc.flow(0.2);
-    /// assert_eq!(flow.model, FlowModel::Coupled);
+    /// assert_eq!(flow.spec.model, FlowModel::Coupled);
     /// assert!((flow.fluid.driving * 0.2 - flow.u_star * flow.u_star).abs() < 1e-15);
     /// ```
     pub fn flow(&self, tau_star: f64) -> FlowConfig {
@@ -289,7 +212,7 @@ impl Scenario {
         let mut flow = self.flow.at(u_star);
         if self.flow.model == FlowModel::Coupled {
             let mut fluid = self.column();
-            let slope_drive = G * libm::sin(self.slope);
+            let slope_drive = G * libm::sin(self.slope_angle);
             let drive = FluidConfig::driving_for(u_star, fluid.surface) - slope_drive;
             // A uniform flow, u*² = g h sin θ, to round-off: the slope alone.
             fluid.driving = if drive < 0.0 && drive >= -1e-9 * slope_drive {
@@ -297,7 +220,6 @@ impl Scenario {
             } else {
                 drive
             };
-            flow.model = FlowModel::Coupled;
             flow.fluid = fluid;
         }
         flow
@@ -308,8 +230,9 @@ impl Scenario {
     /// (Maurin et al. 2015: below it the fixed layer holds the water at
     /// rest, and a column reaching below the fixed grains carries a
     /// spurious fast layer under them), to the top of the domain, the
-    /// depth h, in equal cells of at most [`FluidSpec::cell_height`]; its
-    /// slabs as wide as the bed and one d_max thick.
+    /// depth h, in equal cells of at most [`Scenario::fluid_cell_height`];
+    /// its slabs as wide as the bed and one d_max thick; the
+    /// [`Scenario::fluid`], the material's density and the flow's κ.
     ///
     /// ```
     /// use mbs_kernel::Scenario;
@@ -320,10 +243,9 @@ impl Scenario {
     /// ```
     pub fn column(&self) -> FluidConfig {
         let d = self.bed.max_diameter();
-        let f = &self.flow.fluid;
         let bottom = 0.0;
         let surface = self.flow.depth;
-        let cells = libm::ceil((surface - bottom) / f.cell_height);
+        let cells = libm::ceil((surface - bottom) / self.fluid_cell_height);
         // A NaN or huge count fails `FluidConfig::validate`.
         let cells = if cells.is_finite() && cells < 1e9 {
             cells as usize
@@ -331,12 +253,9 @@ impl Scenario {
             usize::MAX
         };
         FluidConfig {
+            spec: self.fluid,
             density: self.material.rho,
-            viscosity: f.viscosity,
             kappa: self.flow.kappa,
-            phi_max: f.phi_max,
-            update_steps: f.update_steps,
-            hindrance: f.hindrance,
             ..FluidConfig::new(cells, bottom, surface, self.bed.width() * d)
         }
     }

@@ -3,7 +3,7 @@
 
 pub mod common;
 
-use mbs_kernel::{BedSpec, Real, Rest, RestWatch, Scenario, Sim, SizeClass, G};
+use mbs_kernel::{BedSpec, IntegrationSteps, Real, Rest, RestWatch, Scenario, Sim, SizeClass, G};
 
 type Bed<R> = Sim<R, 512, 8>;
 
@@ -25,8 +25,8 @@ fn packing() -> Scenario {
 /// intervals count integration steps: 100 steps of Δt, as in the paper.
 fn refined(mut s: Scenario) -> Scenario {
     s.substeps = 4;
-    s.flow.hold_steps = 100 * s.substeps;
-    s.flow.bed_level_interval = 100 * s.substeps;
+    s.flow.hold_steps = IntegrationSteps::from_constants_steps(100, s.substeps);
+    s.flow.bed_level_interval = IntegrationSteps::from_constants_steps(100, s.substeps);
     s
 }
 
@@ -84,7 +84,7 @@ fn builds_and_settles<R: Real>(_tol: f64) {
     for (window, windows) in [(5.0, 1usize), (1e6, 1), (2.0, 2), (1.0, 5)] {
         let mut level_flow = sc.flow(Scenario::PAPER_TAU_STAR);
         level_flow.u_star = 0.0;
-        level_flow.bed_level_window = window;
+        level_flow.spec.bed_level_window = window;
         sim.set_flow(Some(&level_flow)).unwrap();
         sim.step().unwrap();
         let grains: Vec<_> = (0..sim.len()).map(|i| sim.grain(i).unwrap()).collect();

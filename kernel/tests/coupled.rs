@@ -9,7 +9,8 @@ pub mod common;
 use common::{config, mobile, D};
 use mbs_kernel::fluid::FluidConfig;
 use mbs_kernel::{
-    BedInfo, Capacity, Error, FlowConfig, FlowModel, GrainSpec, Material, Real, Scenario, Sim,
+    BedInfo, Capacity, Error, FlowConfig, FlowModel, GrainSpec, IntegrationSteps, Material, Real,
+    Scenario, Sim,
 };
 
 /// Cells of the test simulations' columns.
@@ -22,12 +23,12 @@ const CELLS: usize = 1024;
 fn coupled_flow(sc: &Scenario, info: &BedInfo, tau_star: f64, hindrance: f64) -> FlowConfig {
     let mut flow = sc.flow(tau_star);
     let bottom = info.y_min + 1.5 * D;
-    let surface = flow.depth;
+    let surface = flow.spec.depth;
     let cells = ((surface - bottom) / (0.5 * D)).round() as usize;
     let mut fluid = FluidConfig::new(cells, bottom, surface, info.width * D);
     fluid.driving = FluidConfig::driving_for(flow.u_star, surface);
-    fluid.hindrance = hindrance;
-    flow.model = FlowModel::Coupled;
+    fluid.spec.hindrance = hindrance;
+    flow.spec.model = FlowModel::Coupled;
     flow.fluid = fluid;
     flow
 }
@@ -65,7 +66,7 @@ fn a_grain_on_a_slope<R: Real>(tol: f64) {
     let m = Material::default();
     for slope in [0.0, 0.1, 0.3] {
         let mut c = config(1e-5, 1e3, 0.0, 0.5);
-        (c.gravity, c.slope) = ([0.0, -g], slope);
+        (c.gravity, c.slope_angle) = ([0.0, -g], slope);
         let mut sim = Box::new(Sim::<R, 8, 4>::new());
         sim.reset(&c).unwrap();
         sim.add_grain(&mobile(10.0 * D, 100.0 * D, 0.0, 0.0))
@@ -100,16 +101,19 @@ fn slope_is_validated() {
     let mut c = config(1e-5, 1e3, 0.0, 0.5);
     c.gravity = [0.0, -9.81];
     for bad in [-0.1, 0.5, f64::NAN, f64::INFINITY] {
-        c.slope = bad;
+        c.slope_angle = bad;
         assert!(
             matches!(
                 c.validate(),
-                Err(Error::InvalidParameter { name: "slope", .. })
+                Err(Error::InvalidParameter {
+                    name: "slope_angle",
+                    ..
+                })
             ),
             "{bad}"
         );
     }
-    c.slope = 0.2;
+    c.slope_angle = 0.2;
     c.gravity = [1.0, -9.81];
     assert!(matches!(
         c.validate(),
@@ -127,7 +131,7 @@ fn the_slope_drives_the_coupled_flow() {
     let sc = Scenario::paper();
     let mut sim = Box::new(Sim::<f64, 64, 8, CELLS>::new());
     let mut c = sc.sim_config().unwrap();
-    c.slope = 0.05;
+    c.slope_angle = 0.05;
     let info = sim.build_bed(&c, &sc.bed).unwrap();
     let mut flow = coupled_flow(&sc, &info, 0.2, 0.0);
     flow.fluid.driving = 0.0;
@@ -158,13 +162,13 @@ fn momentum_is_exchanged_exactly<R: Real>(tol: f64) {
     }
     let (depth, u_star) = (0.04, 0.03);
     let mut flow = FlowConfig::new(u_star, D);
-    flow.depth = depth;
-    flow.hold_steps = 40;
+    flow.spec.depth = depth;
+    flow.spec.hold_steps = IntegrationSteps(40);
     let mut fluid = FluidConfig::new(160, 0.0, depth, c.width * D);
     fluid.driving = FluidConfig::driving_for(u_star, depth);
-    fluid.update_steps = 50;
-    fluid.hindrance = 3.1;
-    (flow.model, flow.fluid) = (FlowModel::Coupled, fluid);
+    fluid.spec.update_steps = IntegrationSteps(50);
+    fluid.spec.hindrance = 3.1;
+    (flow.spec.model, flow.fluid) = (FlowModel::Coupled, fluid);
     let momentum = |sim: &Sim<R, 16, 4, 256>| -> f64 {
         (0..sim.len())
             .map(|i| {
@@ -175,7 +179,7 @@ fn momentum_is_exchanged_exactly<R: Real>(tol: f64) {
     };
     let start = momentum(&sim);
     sim.set_flow(Some(&flow)).unwrap();
-    let m = u64::from(fluid.update_steps);
+    let m = u64::from(fluid.spec.update_steps);
     let dt_fluid = m as f64 * c.step_dt;
     let area = fluid.cross_section;
     sim.run(m).unwrap();
@@ -369,9 +373,9 @@ fn fixed_row<R: Real>(u_star: f64) -> Box<Sim<R, 32, 4, 512>> {
     let cells = ((h + 0.5 * D) / (0.5 * D)).round() as usize;
     let mut fluid = FluidConfig::new(cells, 0.0, 0.5 * D + h, c.width * D);
     fluid.driving = FluidConfig::driving_for(u_star, h);
-    fluid.update_steps = 500; // the column's step 0.5 s, as in fluid.rs
+    fluid.spec.update_steps = IntegrationSteps(500); // the column's step 0.5 s, as in fluid.rs
     let mut flow = FlowConfig::new(u_star, D);
-    (flow.depth, flow.model, flow.fluid) = (h, FlowModel::Coupled, fluid);
+    (flow.spec.depth, flow.spec.model, flow.fluid) = (h, FlowModel::Coupled, fluid);
     sim.set_flow(Some(&flow)).unwrap();
     sim
 }
@@ -437,25 +441,25 @@ fn log_law_in_a_sim<R: Real>(u_star: f64) {
         .map(|&(y, u)| (30.1 * (y + 0.25 * D)).ln() - 0.4 * u / u_star)
         .sum::<f64>()
         / profile.len() as f64;
-    let k_s = mean.exp();
-    let error = |k_s: f64| {
+    let k_sr = mean.exp();
+    let error = |k_sr: f64| {
         profile
             .iter()
             .map(|&(y, u)| {
-                let log = u_star / 0.4 * (30.1 * (y + 0.25 * D) / k_s).ln();
+                let log = u_star / 0.4 * (30.1 * (y + 0.25 * D) / k_sr).ln();
                 (u - log).abs() / log
             })
             .fold(0.0, f64::max)
     };
     std::println!(
-        "{}, u* = {u_star}: a Sim's column over fixed grains: log law within {:.3} % (fitted k_s = {:.3} d), {:.3} % with k_s = d",
+        "{}, u* = {u_star}: a Sim's column over fixed grains: log law within {:.3} % (fitted k_sr = {:.3} d), {:.3} % with k_sr = d",
         R::NAME,
-        100.0 * error(k_s),
-        k_s / D,
+        100.0 * error(k_sr),
+        k_sr / D,
         100.0 * error(D)
     );
-    assert!(error(k_s) < 0.02);
-    assert!((0.5 * D..2.5 * D).contains(&k_s), "k_s = {k_s}");
+    assert!(error(k_sr) < 0.02);
+    assert!((0.5 * D..2.5 * D).contains(&k_sr), "k_sr = {k_sr}");
     if u_star == 0.03 {
         assert!(error(D) < 0.02);
     }
@@ -494,18 +498,18 @@ proptest::proptest! {
             // Plausible geometry, hostile numbers.
             f.cells = cells.min(CELLS);
             f.density = numbers[0].abs();
-            f.viscosity = numbers[1].abs();
-            f.phi_max = numbers[2].abs().min(1.0);
+            f.spec.viscosity = numbers[1].abs();
+            f.spec.phi_max = numbers[2].abs().min(1.0);
             f.driving = numbers[3].abs();
-            f.hindrance = hindrance.abs().min(10.0);
+            f.spec.hindrance = hindrance.abs().min(10.0);
             f.kappa = numbers[4].abs();
         } else {
             (f.cells, f.bottom, f.surface, f.cross_section) = (cells, bottom, surface, cross_section);
-            (f.density, f.viscosity, f.kappa, f.phi_max, f.driving) =
+            (f.density, f.spec.viscosity, f.kappa, f.spec.phi_max, f.driving) =
                 (numbers[0], numbers[1], numbers[2], numbers[3], numbers[4]);
-            f.hindrance = hindrance;
+            f.spec.hindrance = hindrance;
         }
-        f.update_steps = update_steps;
+        f.spec.update_steps = IntegrationSteps(update_steps);
         let before = sim.digest();
         if sim.set_flow(Some(&flow)).is_ok() {
             for _ in 0..400 {

@@ -4,7 +4,8 @@ pub mod common;
 
 use common::*;
 use mbs_kernel::{
-    BedSpec, Capacity, Error, FlowConfig, GrainSpec, Quantity, Scenario, Sim, SimConfig,
+    BedSpec, Capacity, Error, FlowConfig, GrainSpec, IntegrationSteps, Quantity, Scenario, Sim,
+    SimConfig,
 };
 use proptest::prelude::*;
 
@@ -123,7 +124,7 @@ fn overflowing_state_is_reported_with_step_and_grain() {
     s.add_grain(&mobile(D, 0.0, 0.0, 0.0)).unwrap();
     s.add_grain(&mobile(5.0 * D, 0.0, 1e200, 0.0)).unwrap();
     let mut flow = FlowConfig::new(0.0, D);
-    flow.turbulence = false;
+    flow.spec.turbulence = false;
     s.set_flow(Some(&flow)).unwrap();
     // Drag ∝ |w|² overflows to infinity.
     let err = s.step().unwrap_err();
@@ -237,8 +238,8 @@ proptest! {
             let _ = s.add_grain(&GrainSpec { x, y, u, v, spin: 0.0, diameter: d, fixed, class });
         }
         let mut flow = FlowConfig::new(u_star, D);
-        flow.eps0 = eps0;
-        flow.hold_steps = hold;
+        flow.spec.eps0 = eps0;
+        flow.spec.hold_steps = IntegrationSteps(hold);
         let before = s.digest();
         if s.set_flow(Some(&flow)).is_err() {
             prop_assert_eq!(s.digest(), before, "a refused flow changes nothing");

@@ -65,22 +65,22 @@ fn run_rough<R: Real>(config: &FluidConfig, steps: usize, dt: f64) -> (Box<Col<R
 }
 
 /// The largest relative error of u_f against docs/model.md (14) with
-/// roughness `k_s`, over the cells in the outer 80 % of the depth h above
+/// roughness `k_sr`, over the cells in the outer 80 % of the depth h above
 /// the bed level D/2.
-fn log_law_error<R: Real>(column: &Col<R>, h: f64, u_star: f64, k_s: f64) -> f64 {
+fn log_law_error<R: Real>(column: &Col<R>, h: f64, u_star: f64, k_sr: f64) -> f64 {
     let grid = column.grid();
     let mut worst = 0.0f64;
     for (j, &u) in column.velocities().iter().enumerate() {
         let y = grid.centre(j).to_f64() - 0.5 * D;
         if y >= 0.2 * h {
-            let log = u_star / 0.4 * (30.1 * (y + 0.25 * D) / k_s).ln();
+            let log = u_star / 0.4 * (30.1 * (y + 0.25 * D) / k_sr).ln();
             worst = worst.max((u.to_f64() - log).abs() / log);
         }
     }
     worst
 }
 
-/// The roughness k_s of (14) that fits the profile over the outer 80 % in
+/// The roughness k_sr of (14) that fits the profile over the outer 80 % in
 /// the mean of ln(30.1 (y + D/4)) − κ u/u*.
 fn fitted_roughness<R: Real>(column: &Col<R>, h: f64, u_star: f64) -> f64 {
     let grid = column.grid();
@@ -98,30 +98,30 @@ fn fitted_roughness<R: Real>(column: &Col<R>, h: f64, u_star: f64) -> f64 {
 /// With no mobile grains the steady profile at shear velocity `u_star` is
 /// the log law (14) over the outer 80 % of the depth: within 2 % with the
 /// roughness that fits it best, a roughness of the order of d (the wall is
-/// hydraulically transitional, k_s u*/ν = 6–40, so it varies with u*), and
-/// at u* = 3 cm/s within 2 % of (14) with the paper's k_s = d too.
+/// hydraulically transitional, k_sr u*/ν = 6–40, so it varies with u*), and
+/// at u* = 3 cm/s within 2 % of (14) with the paper's k_sr = d too.
 /// `steady` bounds the last step's relative change (the f32 solve of a
 /// nearly steady diffusion has round-off noise of about 1e-4).
 fn log_law_over_a_fixed_rough_bed<R: Real>(u_star: f64, steady: f64) {
     let h = 0.1;
     let config = rough_config(h, u_star);
     let (column, change) = run_rough::<R>(&config, 6000, 0.5);
-    let k_s = fitted_roughness(&column, h, u_star);
-    let fitted = log_law_error(&column, h, u_star, k_s);
+    let k_sr = fitted_roughness(&column, h, u_star);
+    let fitted = log_law_error(&column, h, u_star, k_sr);
     let paper = log_law_error(&column, h, u_star, D);
     std::println!(
-        "{}, u* = {u_star} m/s: log law over the outer 80 %: max error {:.3} % with the fitted k_s = {:.3} d, {:.3} % with k_s = d; last change {change:.1e} m/s",
+        "{}, u* = {u_star} m/s: log law over the outer 80 %: max error {:.3} % with the fitted k_sr = {:.3} d, {:.3} % with k_sr = d; last change {change:.1e} m/s",
         R::NAME,
         fitted * 100.0,
-        k_s / D,
+        k_sr / D,
         paper * 100.0
     );
     let top = column.velocities().last().unwrap().to_f64();
     assert!(change < steady * top, "not steady: {change:e}");
-    assert!(fitted < 0.02, "log law, fitted k_s: {fitted}");
-    assert!((0.5 * D..2.5 * D).contains(&k_s), "k_s = {k_s}");
+    assert!(fitted < 0.02, "log law, fitted k_sr: {fitted}");
+    assert!((0.5 * D..2.5 * D).contains(&k_sr), "k_sr = {k_sr}");
     if u_star == 0.03 {
-        assert!(paper < 0.02, "log law, k_s = d: {paper}");
+        assert!(paper < 0.02, "log law, k_sr = d: {paper}");
     }
     // The local shear velocity of the Reynolds stress (C4): the driving of
     // the water above, ρ u*² (y_s − y)/h, less the viscous stress of the log
@@ -129,7 +129,7 @@ fn log_law_over_a_fixed_rough_bed<R: Real>(u_star: f64, steady: f64) {
     let grid = column.grid();
     for frac in [0.1, 0.5, 0.9] {
         let y = 0.5 * D + frac * h;
-        let viscous = config.viscosity * u_star / (0.4 * frac * h);
+        let viscous = config.spec.viscosity * u_star / (0.4 * frac * h);
         let expect = (u_star * u_star * (1.0 - frac) - viscous).sqrt();
         let got = column.shear_velocity_at(R::from_f64(y)).to_f64();
         assert!(
@@ -439,9 +439,9 @@ fn bad_inputs_are_errors() {
             "fluid.surface" => c.surface = value,
             "fluid.cross_section" => c.cross_section = value,
             "fluid.density" => c.density = value,
-            "fluid.viscosity" => c.viscosity = value,
+            "fluid.viscosity" => c.spec.viscosity = value,
             "fluid.kappa" => c.kappa = value,
-            "fluid.phi_max" => c.phi_max = value,
+            "fluid.phi_max" => c.spec.phi_max = value,
             _ => c.driving = value,
         }
         assert_eq!(name(column.reset(&c)), field);
@@ -537,7 +537,7 @@ proptest::proptest! {
     ) {
         let mut c = FluidConfig::new(cells, bottom, bottom + height, D * D);
         c.driving = driving;
-        c.phi_max = phi_max;
+        c.spec.phi_max = phi_max;
         let mut column = Box::new(Col::<f64>::new());
         let _ = column.reset(&c);
         let mut slabs = Box::new(Slabs::<f64, CAP>::new());

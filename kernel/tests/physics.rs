@@ -179,8 +179,8 @@ fn settling_velocity<R: Real>(_tol: f64) {
     s.add_grain(&mobile(cfg.width / 2.0, 0.0, 0.0, 0.0))
         .unwrap();
     let mut still = FlowConfig::new(0.0, D);
-    still.eps0 = 1.0;
-    still.turbulence = false;
+    still.spec.eps0 = 1.0;
+    still.spec.turbulence = false;
     s.set_flow(Some(&still)).unwrap();
     let (sg, cd, cm, g) = (2.65, 0.4, 0.5, 9.81);
     let w_t = (4.0 * (sg - 1.0) * g * D / (3.0 * cd)).sqrt();
@@ -383,7 +383,7 @@ fn turbulence_statistics<R: Real>(_tol: f64) {
     for period in 0..16 {
         s.step().unwrap();
         let first: Vec<_> = (0..250).map(|i| s.fluctuation(i).unwrap()).collect();
-        s.run(flow.hold_steps as u64 - 1).unwrap();
+        s.run(u64::from(flow.spec.hold_steps) - 1).unwrap();
         for (i, &(u0, _)) in first.iter().enumerate() {
             let g = s.grain(i).unwrap();
             let (u, v) = s.fluctuation(i).unwrap();
@@ -392,7 +392,7 @@ fn turbulence_statistics<R: Real>(_tol: f64) {
                 u0 == 0.0 || (u / u0 - 1.0).abs() < 0.05,
                 "held within the period {period}"
             );
-            let decay = (-(g.y - s.bed_level()) / flow.depth).exp();
+            let decay = (-(g.y - s.bed_level()) / flow.spec.depth).exp();
             let c = i % 2;
             let (zu, zv) = (u / (2.30 * u_star * decay), v / (1.27 * u_star * decay));
             sums[c][0] += zu;
@@ -418,7 +418,7 @@ fn turbulence_statistics<R: Real>(_tol: f64) {
     }
     // A new period brings new draws.
     let a = s.fluctuation(0).unwrap();
-    s.run(flow.hold_steps as u64).unwrap();
+    s.run(u64::from(flow.spec.hold_steps)).unwrap();
     assert_ne!(a, s.fluctuation(0).unwrap());
 }
 both_precisions!(turbulence, turbulence_statistics);

@@ -5,7 +5,7 @@ use super::common::print_err;
 use super::common::Common;
 use super::common::Invocation;
 use super::common::Shared;
-use crate::config::Precision;
+use crate::config::{Precision, MAX_CAPACITY};
 use crate::error::HostError;
 use indicatif::ProgressBar;
 
@@ -19,8 +19,14 @@ pub struct BenchArgs {
     /// Shared options.
     #[command(flatten)]
     pub shared: Shared,
-    /// Grains (fixed included), 33 to 65536.
-    #[arg(long, default_value_t = 1024, value_parser = clap::value_parser!(u32).range(33..=65536))]
+    /// Grains (fixed included), 33 to the largest capacity
+    /// ([`MAX_CAPACITY`]).
+    #[arg(
+        long,
+        default_value_t = 1024,
+        value_parser = clap::value_parser!(u32).range(33..=MAX_CAPACITY as i64),
+        help = format!("Grains (fixed included), 33 to {MAX_CAPACITY}")
+    )]
     pub grains: u32,
     /// Repetitions timed: steps, rebuilds or passes over the contacts.
     #[arg(long, default_value_t = 2000)]

@@ -101,8 +101,8 @@ impl Default for FlowSection {
             eps0: f.eps0,
             roughness_d: f.roughness / p.bed.max_diameter(),
             turbulence: f.turbulence,
-            hold_steps: f.hold_steps / p.substeps,
-            bed_level_interval: f.bed_level_interval / p.substeps,
+            hold_steps: f.hold_steps.to_constants_steps(p.substeps),
+            bed_level_interval: f.bed_level_interval.to_constants_steps(p.substeps),
             bed_level_window: f.bed_level_window,
             fluid_density: p.material.rho,
             drag_coefficient: p.material.c_d,
@@ -117,12 +117,12 @@ impl Default for FlowSection {
 impl Default for FluidSection {
     fn default() -> Self {
         let p = Scenario::paper();
-        let f = p.flow.fluid;
+        let f = p.fluid;
         FluidSection {
-            cell_d: f.cell_height / p.bed.max_diameter(),
+            cell_d: p.fluid_cell_height / p.bed.max_diameter(),
             viscosity_m2_s: f.viscosity,
             phi_max: f.phi_max,
-            update_steps: f.update_steps / p.substeps,
+            update_steps: f.update_steps.to_constants_steps(p.substeps),
             hindrance: f.hindrance,
         }
     }

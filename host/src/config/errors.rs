@@ -30,7 +30,7 @@ fn config_key(name: &'static str) -> &'static str {
         "material.mu" => "contact.friction",
         "material.nu" => "contact.poisson",
         "grains.fraction (sum)" => "grains.classes (sum of fractions)",
-        "slope" => "bed.slope_rad",
+        "slope_angle" => "bed.slope_rad",
         "fluid.viscosity" => "fluid.viscosity_m2_s",
         "fluid.cells" => "fluid.cell_d",
         "fluid.density" => "flow.fluid_density",
@@ -107,6 +107,12 @@ mod tests {
             ("[grains]\nclasses = [{ diameter_mm = 1.0, fraction = 0.6 }, { diameter_mm = 0.7, fraction = 0.6 }]", "grains.classes (sum of fractions) = 1.2: must be = 1"),
             ("[run]\nseeds = [1, 1]", "run.seeds = [1, 1]: must be distinct"),
             ("[flow]\ntau_star = [0.1, 0.1]", "flow.tau_star = [0.1, 0.1]: must be distinct values"),
+            // Intervals in steps of constants_dt: the key and the value as written, never the
+            // integration steps the kernel gets (here 8 to each step of constants_dt).
+            ("[flow]\nhold_steps = 0", "flow.hold_steps = 0: must be >= 1 (steps of constants_dt)"),
+            ("[time]\nsubsteps = 8\n[flow]\nbed_level_interval = 0", "flow.bed_level_interval = 0: must be >= 1 (steps of constants_dt)"),
+            ("[time]\nsubsteps = 8\n[fluid]\nupdate_steps = 0", "fluid.update_steps = 0: must be in [1, 1000000] steps of constants_dt"),
+            ("[time]\nsubsteps = 8\n[fluid]\nupdate_steps = 1000001", "fluid.update_steps = 1000001: must be in [1, 1000000] steps of constants_dt"),
         ];
         for (text, message) in cases {
             let e = Config::from_toml(text).unwrap_err().to_string();
@@ -146,11 +152,6 @@ mod tests {
                 "[flow]\neps0 = 2.0",
                 "flow.eps0",
                 "flow.eps0 = 2: must be in [0, 1]",
-            ),
-            (
-                "[flow]\nhold_steps = 0",
-                "flow.hold_steps",
-                "flow.hold_steps = 0: must be >= 1",
             ),
             (
                 "[contact]\nalpha_m = -1.0",

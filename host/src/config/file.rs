@@ -266,7 +266,7 @@ pub struct FlowSection {
     pub depth: f64,
     /// ε0.
     pub eps0: f64,
-    /// k_s / d.
+    /// Roughness height of the log law k_sr / d (docs/model.md (14)).
     pub roughness_d: f64,
     /// Monte Carlo turbulence on.
     pub turbulence: bool,

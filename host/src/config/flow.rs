@@ -1,13 +1,24 @@
 //! Kernel specifications of the flow: `[flow]` and `[fluid]` into the
 //! kernel's [`FlowSpec`] and [`FluidSpec`] (the flow given as shear
-//! velocities or slopes turned into τ* first, [`flow_forms`]), and the
-//! coupled flow's column checked against the host's at each τ*.
+//! velocities or slopes turned into τ* first, [`flow_forms`], by the
+//! kernel's [`shields_number`] and [`uniform_flow_shields_number`]), and
+//! the coupled flow's column checked against the host's at each τ*.
+//!
+//! The file counts the flow's intervals (`flow.hold_steps`,
+//! `flow.bed_level_interval`, `fluid.update_steps`) in steps of the
+//! constants' time step; they are checked here as written, and only then
+//! converted to the kernel's [`IntegrationSteps`]
+//! ([`IntegrationSteps::from_constants_steps`], the one conversion), so an
+//! error quotes the key and the value of the file.
 
 use super::errors::need;
 use super::file::{ConfigFile, FlowSection, FluidSection};
 use super::limits::FLUID_CELLS;
 use crate::error::ConfigError;
-use mbs_kernel::{FlowModel, FlowSpec, FluidSpec, Scenario, G};
+use mbs_kernel::{
+    shields_number, uniform_flow_shields_number, FlowModel, FlowSpec, FluidSpec, IntegrationSteps,
+    Scenario, G,
+};
 
 /// The flow given as shear velocities or slopes (docs/model.md §6), into
 /// `flow.tau_star` on the largest diameter d_max:
@@ -39,8 +50,10 @@ pub fn flow_forms(file: &mut ConfigFile, s: f64, d: f64) -> Result<(), ConfigErr
                 "not given with flow.u_star_m_s: give the flow as one of tau_star, u_star_m_s or \
                  slope",
             ),
-            (Some(u), None) => ("flow.u_star_m_s", u, &|u: f64| u * u / ((s - 1.0) * G * d)),
-            (None, Some(slope)) => ("flow.slope", slope, &|sl: f64| h * sl / ((s - 1.0) * d)),
+            (Some(u), None) => ("flow.u_star_m_s", u, &|u: f64| shields_number(u, s, G, d)),
+            (None, Some(slope)) => ("flow.slope", slope, &|sl: f64| {
+                uniform_flow_shields_number(h, sl, s, d)
+            }),
         };
     need(
         !given.is_empty() && given.len() <= 1000,
@@ -72,8 +85,9 @@ pub fn flow_forms(file: &mut ConfigFile, s: f64, d: f64) -> Result<(), ConfigErr
 }
 
 /// `[flow]` except τ* into the kernel's flow specification, its intervals
-/// converted to integration steps (`substeps` per constants_dt); κ, ε0 and the
-/// intervals are checked by the kernel with the flow at each τ*.
+/// checked as written (steps of constants_dt) and converted to integration
+/// steps (`substeps` per constants_dt); κ and ε0 are checked by the kernel
+/// with the flow at each τ*.
 pub(super) fn flow_spec(file: &ConfigFile, d: f64, substeps: u32) -> Result<FlowSpec, ConfigError> {
     let f = &file.flow;
     need(
@@ -117,6 +131,12 @@ pub(super) fn flow_spec(file: &ConfigFile, d: f64, substeps: u32) -> Result<Flow
         f.bed_level_window,
         "in [1, 1e6] largest diameters",
     )?;
+    for (key, steps) in [
+        ("flow.hold_steps", f.hold_steps),
+        ("flow.bed_level_interval", f.bed_level_interval),
+    ] {
+        need(steps >= 1, key, steps, ">= 1 (steps of constants_dt)")?;
+    }
     Ok(FlowSpec {
         kappa: f.kappa,
         depth: f.depth,
@@ -124,18 +144,22 @@ pub(super) fn flow_spec(file: &ConfigFile, d: f64, substeps: u32) -> Result<Flow
         roughness: f.roughness_d * d,
         reference_diameter: d,
         turbulence: f.turbulence,
-        hold_steps: f.hold_steps.saturating_mul(substeps),
-        bed_level_interval: f.bed_level_interval.saturating_mul(substeps),
+        hold_steps: IntegrationSteps::from_constants_steps(f.hold_steps, substeps),
+        bed_level_interval: IntegrationSteps::from_constants_steps(f.bed_level_interval, substeps),
         bed_level_window: f.bed_level_window,
         model: f.model.kernel(),
-        fluid: fluid_spec(&file.fluid, d, substeps)?,
     })
 }
 
-/// `[fluid]` into the kernel's [`FluidSpec`], its update interval converted
-/// to integration steps; checked whatever the model, so that a bad value
-/// is an error before it is used.
-fn fluid_spec(f: &FluidSection, d: f64, substeps: u32) -> Result<FluidSpec, ConfigError> {
+/// `[fluid]` into the kernel's [`FluidSpec`], its update interval checked
+/// as written and converted to integration steps, and the largest height
+/// of the column's cells (m, [`Scenario::fluid_cell_height`]); checked
+/// whatever the model, so that a bad value is an error before it is used.
+pub(super) fn fluid_spec(
+    f: &FluidSection,
+    d: f64,
+    substeps: u32,
+) -> Result<(FluidSpec, f64), ConfigError> {
     need(
         f.cell_d.is_finite() && f.cell_d > 0.0 && f.cell_d <= 10.0,
         "fluid.cell_d",
@@ -166,13 +190,13 @@ fn fluid_spec(f: &FluidSection, d: f64, substeps: u32) -> Result<FluidSpec, Conf
         f.hindrance,
         "in [0, 10] (Richardson-Zaki: 3.1; 0: off)",
     )?;
-    Ok(FluidSpec {
-        cell_height: f.cell_d * d,
+    let spec = FluidSpec {
         viscosity: f.viscosity_m2_s,
         phi_max: f.phi_max,
-        update_steps: f.update_steps.saturating_mul(substeps),
+        update_steps: IntegrationSteps::from_constants_steps(f.update_steps, substeps),
         hindrance: f.hindrance,
-    })
+    };
+    Ok((spec, f.cell_d * d))
 }
 
 /// The coupled flow of `scenario` at each τ* fits the host's column and is
@@ -189,16 +213,16 @@ pub(super) fn coupled_flow_fits(scenario: &Scenario, tau_stars: &[f64]) -> Resul
         need(
             cells <= FLUID_CELLS,
             "fluid.cell_d",
-            scenario.flow.fluid.cell_height / scenario.bed.max_diameter(),
+            scenario.fluid_cell_height / scenario.bed.max_diameter(),
             &format!(
                 "large enough for at most {FLUID_CELLS} cells over the column's {:e} m \
                  (here {cells} cells; or a smaller flow.depth)",
                 flow.fluid.surface - flow.fluid.bottom
             ),
         )?;
-        let s = scenario.material.s;
-        let h = scenario.flow.depth;
-        let least = h * scenario.slope.sin() / (s - 1.0) / scenario.bed.max_diameter();
+        let (s, d) = (scenario.material.s, scenario.bed.max_diameter());
+        let (h, angle) = (scenario.flow.depth, scenario.slope_angle);
+        let least = uniform_flow_shields_number(h, angle.sin(), s, d);
         need(
             flow.fluid.driving >= 0.0,
             &format!("flow.tau_star[{k}]"),
@@ -207,7 +231,7 @@ pub(super) fn coupled_flow_fits(scenario: &Scenario, tau_stars: &[f64]) -> Resul
                 ">= h sin(theta)/((s - 1) d_max) = {least:e}, the Shields number the bed slope \
                  bed.slope_rad = {} alone drives over flow.depth = {h} m (a uniform flow: \
                  flow.slope = [sin(theta)])",
-                scenario.slope
+                angle
             ),
         )?;
     }
@@ -218,6 +242,27 @@ pub(super) fn coupled_flow_fits(scenario: &Scenario, tau_stars: &[f64]) -> Resul
 mod tests {
     use super::*;
     use crate::config::{canonical, Config};
+
+    /// The file's intervals count steps of constants_dt; the kernel gets
+    /// them as integration steps, converted once, and the defaults are the
+    /// paper's 100 and 10 steps of constants_dt whatever the substeps.
+    #[test]
+    fn intervals_are_converted_to_integration_steps_once() {
+        let c = Config::from_toml(
+            "[time]\nsubsteps = 8\n[flow]\nhold_steps = 3\nbed_level_interval = 5\n\
+             [fluid]\nupdate_steps = 7\n",
+        )
+        .unwrap();
+        let (flow, fluid) = (c.scenario.flow, c.scenario.fluid);
+        assert_eq!(flow.hold_steps, IntegrationSteps(24));
+        assert_eq!(flow.bed_level_interval, IntegrationSteps(40));
+        assert_eq!(fluid.update_steps, IntegrationSteps(56));
+        let paper = Config::from_toml("[time]\nsubsteps = 4\n").unwrap();
+        assert_eq!(paper.file.flow.hold_steps, 100);
+        assert_eq!(paper.scenario.flow.hold_steps, IntegrationSteps(400));
+        assert_eq!(paper.file.fluid.update_steps, 10);
+        assert_eq!(paper.scenario.fluid.update_steps, IntegrationSteps(40));
+    }
 
     #[test]
     fn the_flow_may_be_given_as_shear_velocities_or_slopes() {

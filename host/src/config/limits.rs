@@ -13,8 +13,41 @@ pub const CONFIG_BOUND: Bound = Bound {
              take under 100 kB)",
 };
 
-/// Grain capacities the host is compiled for (the kernel's `N`).
-pub const CAPACITIES: [usize; 3] = [256, 4096, 65536];
+/// Expands `callback!(ARGS…)` to `callback!(ARGS… 256, 4096, 65536)`: the
+/// grain capacities the host is compiled for (the kernel's `N`), smallest
+/// first. The one list of them: [`CAPACITIES`], the message of a bad
+/// `run.capacity`, the range of `mbs bench --grains` and the simulations
+/// [`crate::sim::sims::with_sim`] dispatches to all come from it.
+macro_rules! grain_capacities {
+    ($callback:ident!($($args:tt)*)) => {
+        $callback!($($args)* 256, 4096, 65536)
+    };
+}
+pub(crate) use grain_capacities;
+
+/// The array of the capacities `grain_capacities!` gives.
+macro_rules! capacity_array {
+    ($($n:literal),+) => {
+        [$($n),+]
+    };
+}
+
+/// Grain capacities the host is compiled for (the kernel's `N`), smallest
+/// first (`grain_capacities!`).
+pub const CAPACITIES: &[usize] = &grain_capacities!(capacity_array!());
+
+/// The largest of [`CAPACITIES`]: the most grains a simulation holds.
+pub const MAX_CAPACITY: usize = CAPACITIES[CAPACITIES.len() - 1];
+
+/// [`CAPACITIES`] as a message writes them: "256, 4096 or 65536".
+pub fn capacities_listed() -> String {
+    let shown: Vec<String> = CAPACITIES.iter().map(usize::to_string).collect();
+    match shown.split_last() {
+        Some((last, [])) => last.clone(),
+        Some((last, rest)) => format!("{} or {last}", rest.join(", ")),
+        None => String::new(),
+    }
+}
 
 /// The longest settling, spin-up or window (s of physical time).
 pub const MAX_PHASE_S: f64 = 1000.0;
@@ -50,7 +83,25 @@ pub const FLUID_CELLS: usize = 2048;
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::config::DEFAULT_TOML;
     use mbs_kernel::{Material, Scenario};
+
+    /// The capacities are listed once; the embedded default file, which
+    /// cannot be generated, names them as the list does.
+    #[test]
+    fn the_capacities_are_one_list() {
+        assert_eq!(CAPACITIES, [256, 4096, 65536]);
+        assert!(CAPACITIES.windows(2).all(|w| w[0] < w[1]));
+        assert_eq!(MAX_CAPACITY, 65536);
+        assert_eq!(capacities_listed(), "256, 4096 or 65536");
+        assert!(
+            DEFAULT_TOML.contains(&format!(
+                "Grain capacity of the simulation: {}.",
+                capacities_listed()
+            )),
+            "host/default.toml's run.capacity comment"
+        );
+    }
 
     #[test]
     fn the_density_and_diameter_limits_keep_inverse_inertias_finite_in_f32() {

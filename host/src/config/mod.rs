@@ -16,7 +16,7 @@
 //! | `validate.rs` | validation, pure: a parsed file and the files it names, as read, into the run plan |
 //! | `specs.rs` | kernel specifications of the grains, bed, material, contact; substeps and stability |
 //! | `flow.rs` | kernel specifications of the flow and the coupled flow's column ([`flow_forms`]) |
-//! | `limits.rs` | the bounds checked that are not the kernel's ([`CAPACITIES`], [`CONFIG_BOUND`], [`MAX_PHASE_S`], …) |
+//! | `limits.rs` | the bounds checked that are not the kernel's ([`CAPACITIES`] and the one list they come from, `grain_capacities!`; [`CONFIG_BOUND`], [`MAX_PHASE_S`], …) |
 //! | `warnings.rs` | warnings about a valid but questionable configuration ([`warnings`]) |
 //! | `errors.rs` | how the errors are made: out of range, a kernel error's key, toml's message |
 
@@ -39,9 +39,11 @@ pub use file::{
     TensionRule, TimeSection,
 };
 pub use flow::flow_forms;
+pub(crate) use limits::grain_capacities;
 pub use limits::{
-    CAPACITIES, CONFIG_BOUND, FLUID_CELLS, GRAIN_STEPS_PER_S_PER_CORE, MAX_CELL_STEPS, MAX_PHASE_S,
-    MIN_CONSTANTS_DT, MIN_DIAMETER_MM, SUBSTEP_DAMPING_NUMBER,
+    capacities_listed, CAPACITIES, CONFIG_BOUND, FLUID_CELLS, GRAIN_STEPS_PER_S_PER_CORE,
+    MAX_CAPACITY, MAX_CELL_STEPS, MAX_PHASE_S, MIN_CONSTANTS_DT, MIN_DIAMETER_MM,
+    SUBSTEP_DAMPING_NUMBER,
 };
 pub use overrides::apply_overrides;
 pub use specs::{number_fractions, volume_fractions};

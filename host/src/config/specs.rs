@@ -255,23 +255,16 @@ pub(super) fn time_rule(
     Ok(rule)
 }
 
-/// Explicit k_n and η_n, with k_s and η_s from (12), (13) (the kernel
-/// checks them in [`Scenario::contact`]).
+/// Explicit k_n and η_n, with k_s and η_s from (12), (13) by the kernel's
+/// [`ContactConstants::from_normal`] (the kernel checks them in
+/// [`Scenario::contact`]).
 pub(super) fn explicit_contact(
     c: &ContactSection,
     nu: f64,
 ) -> Result<Option<ContactConstants>, ConfigError> {
     match (c.k_n, c.eta_n) {
         (None, None) => Ok(None),
-        (Some(k_n), Some(eta_n)) => {
-            let two_one_plus_nu = 2.0 * (1.0 + nu);
-            Ok(Some(ContactConstants {
-                k_n,
-                k_s: k_n / two_one_plus_nu,
-                eta_n,
-                eta_s: eta_n / two_one_plus_nu.sqrt(),
-            }))
-        }
+        (Some(k_n), Some(eta_n)) => Ok(Some(ContactConstants::from_normal(k_n, eta_n, nu))),
         (Some(k), None) => need(false, "contact.k_n", k, "given with contact.eta_n").map(|()| None),
         (None, Some(e)) => need(false, "contact.eta_n", e, "given with contact.k_n").map(|()| None),
     }

@@ -4,9 +4,10 @@
 
 use super::errors::need;
 use super::file::{ConfigFile, Substeps};
-use super::flow::{coupled_flow_fits, flow_forms, flow_spec};
+use super::flow::{coupled_flow_fits, flow_forms, flow_spec, fluid_spec};
 use super::limits::{
-    CAPACITIES, GRAIN_STEPS_PER_S_PER_CORE, MAX_CELL_STEPS, MAX_PHASE_S, PHASE_REASON,
+    capacities_listed, CAPACITIES, GRAIN_STEPS_PER_S_PER_CORE, MAX_CELL_STEPS, MAX_PHASE_S,
+    PHASE_REASON,
 };
 use super::specs::{bed_spec, explicit_contact, material, stability, time_rule};
 use super::{Config, Durations};
@@ -28,11 +29,11 @@ pub(super) struct Named {
 pub(super) fn validate(mut file: ConfigFile, named: Named) -> Result<Config, ConfigError> {
     let bed = bed_spec(&file)?;
     let d = bed.max_diameter();
-    let slope = file.bed.slope_rad;
+    let slope_angle = file.bed.slope_rad;
     need(
-        slope.is_finite() && (0.0..0.5).contains(&slope),
+        slope_angle.is_finite() && (0.0..0.5).contains(&slope_angle),
         "bed.slope_rad",
-        slope,
+        slope_angle,
         "in [0, 0.5) rad (0: the paper's horizontal bed)",
     )?;
     let material = material(&file)?;
@@ -53,6 +54,7 @@ pub(super) fn validate(mut file: ConfigFile, named: Named) -> Result<Config, Con
         Substeps::Auto => 1,
     };
     let mut flow = flow_spec(&file, d, substeps)?;
+    let (mut fluid, fluid_cell_height) = fluid_spec(&file.fluid, d, substeps)?;
     // A window holds at least one step; settling and spin-up may be skipped.
     for (key, value, zero_allowed) in [
         ("time.settle", t.settle, true),
@@ -132,7 +134,7 @@ pub(super) fn validate(mut file: ConfigFile, named: Named) -> Result<Config, Con
         CAPACITIES.contains(&r.capacity),
         "run.capacity",
         r.capacity,
-        "one of 256, 4096, 65536",
+        &format!("one of {}", capacities_listed()),
     )?;
     let grains = bed.columns as usize * (bed.fixed_per_column() + bed.rows as usize);
     need(
@@ -158,7 +160,9 @@ pub(super) fn validate(mut file: ConfigFile, named: Named) -> Result<Config, Con
         substeps,
         bed,
         flow,
-        slope: file.bed.slope_rad,
+        fluid,
+        fluid_cell_height,
+        slope_angle,
         skin: r.skin_d,
         seed: r.seeds[0],
     };
@@ -172,8 +176,9 @@ pub(super) fn validate(mut file: ConfigFile, named: Named) -> Result<Config, Con
             scenario.rule.constants_dt,
         );
         flow = flow_spec(&file, d, substeps)?;
+        (fluid, _) = fluid_spec(&file.fluid, d, substeps)?;
         scenario.substeps = substeps;
-        scenario.flow = flow;
+        (scenario.flow, scenario.fluid) = (flow, fluid);
     }
     stability(&scenario, &contact)?;
     coupled_flow_fits(&scenario, &file.flow.tau_star)?;

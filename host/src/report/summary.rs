@@ -15,13 +15,13 @@ use std::path::Path;
 /// Contact constants and time steps derived from the configuration.
 #[derive(Debug, Clone, Serialize)]
 pub struct Derived {
-    /// k_n (N/m).
+    /// Normal spring k_n (N/m).
     pub k_n: f64,
-    /// k_s (N/m).
+    /// Tangential spring k_s (N/m), docs/model.md (12).
     pub k_s: f64,
-    /// η_n (N s/m).
+    /// Normal dashpot η_n (N s/m).
     pub eta_n: f64,
-    /// η_s (N s/m).
+    /// Tangential dashpot η_s (N s/m), docs/model.md (13).
     pub eta_s: f64,
     /// The constants' time step constants_dt (s).
     pub constants_dt_s: f64,

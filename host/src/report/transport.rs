@@ -6,7 +6,7 @@ use crate::error::HostError;
 use crate::figures::TransportFigure;
 use crate::io::output::{decimal, decimals, write_csv};
 use crate::work::experiment::TransportRow;
-use mbs_kernel::{shear_velocity, G};
+use mbs_kernel::{shear_velocity, transport_scale, G};
 use serde::Serialize;
 use std::path::Path;
 
@@ -74,7 +74,7 @@ pub fn write_transport(
         config.scenario.bed.max_diameter(),
         config.scenario.material.s,
     );
-    let q_scale = ((s - 1.0) * G * d * d * d).sqrt();
+    let q_scale = transport_scale(d, s, G);
     let lines: Vec<TransportLine> = rows
         .iter()
         .map(|r| TransportLine {

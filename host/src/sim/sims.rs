@@ -1,8 +1,11 @@
 //! Heap-allocated kernel simulations of a capacity and precision chosen at
 //! run time. The kernel's `Sim<R, N, K>` fixes them at compile time; the host
-//! is compiled for [`crate::config::CAPACITIES`] × {f32, f64}.
+//! is compiled for [`crate::config::CAPACITIES`] × {f32, f64}, the dispatch
+//! ([`with_sim`], [`max_checkpoint_len`], [`compiled_capacity`]) expanded
+//! by `by_capacity!` from the one list of capacities,
+//! `crate::config::grain_capacities!`.
 
-use crate::config::{Precision, FLUID_CELLS};
+use crate::config::{grain_capacities, Precision, FLUID_CELLS};
 use indicatif::ProgressBar;
 use mbs_kernel::{FlowConfig, Real, Scenario, Sim, SimConfig};
 
@@ -33,26 +36,42 @@ pub trait SimJob {
     fn run<R: Real, const N: usize>(self, sim: &mut HostSim<R, N>) -> Self::Output;
 }
 
+/// `by_capacity!(capacity, N => body; CAPACITIES…)`: `body` with the const
+/// `N` the compiled capacity of `capacity`, the smallest of the capacities
+/// (listed smallest first) ≥ `capacity`, the largest if none is; one branch
+/// per capacity. Called through `grain_capacities!`, which lists them.
+macro_rules! by_capacity {
+    ($capacity:expr, $n:ident => $body:expr; $last:literal) => {{
+        const $n: usize = $last;
+        $body
+    }};
+    ($capacity:expr, $n:ident => $body:expr; $first:literal, $($rest:literal),+) => {
+        if $capacity <= $first {
+            const $n: usize = $first;
+            $body
+        } else {
+            by_capacity!($capacity, $n => $body; $($rest),+)
+        }
+    };
+}
+
 /// The compiled capacity a simulation of `capacity` grains gets: the
-/// smallest ≥ `capacity`, the largest if none is.
+/// smallest of [`crate::config::CAPACITIES`] ≥ `capacity`, the largest if
+/// none is.
 pub fn compiled_capacity(capacity: usize) -> usize {
-    match capacity {
-        0..=256 => 256,
-        257..=4096 => 4096,
-        _ => 65536,
-    }
+    grain_capacities!(by_capacity!(capacity, N => N;))
 }
 
 /// Runs `job` on a fresh heap simulation of `precision` with the
 /// [`compiled_capacity`] of `capacity`.
 pub fn with_sim<J: SimJob>(precision: Precision, capacity: usize, job: J) -> J::Output {
-    match (precision, compiled_capacity(capacity)) {
-        (Precision::F32, 256) => job.run(&mut *boxed_sim::<f32, 256, NEIGHBOURS>()),
-        (Precision::F32, 4096) => job.run(&mut *boxed_sim::<f32, 4096, NEIGHBOURS>()),
-        (Precision::F32, _) => job.run(&mut *boxed_sim::<f32, 65536, NEIGHBOURS>()),
-        (Precision::F64, 256) => job.run(&mut *boxed_sim::<f64, 256, NEIGHBOURS>()),
-        (Precision::F64, 4096) => job.run(&mut *boxed_sim::<f64, 4096, NEIGHBOURS>()),
-        (Precision::F64, _) => job.run(&mut *boxed_sim::<f64, 65536, NEIGHBOURS>()),
+    match precision {
+        Precision::F32 => grain_capacities!(by_capacity!(
+            capacity, N => job.run(&mut *boxed_sim::<f32, N, NEIGHBOURS>());
+        )),
+        Precision::F64 => grain_capacities!(by_capacity!(
+            capacity, N => job.run(&mut *boxed_sim::<f64, N, NEIGHBOURS>());
+        )),
     }
 }
 
@@ -97,13 +116,13 @@ pub fn checkpoint_len(precision: Precision, grains: usize, contacts: usize) -> u
 /// The largest kernel checkpoint of the simulation [`with_sim`] gives
 /// (`Sim::MAX_CHECKPOINT_LEN`): longer files are refused unread.
 pub fn max_checkpoint_len(precision: Precision, capacity: usize) -> usize {
-    match (precision, compiled_capacity(capacity)) {
-        (Precision::F32, 256) => HostSim::<f32, 256>::MAX_CHECKPOINT_LEN,
-        (Precision::F32, 4096) => HostSim::<f32, 4096>::MAX_CHECKPOINT_LEN,
-        (Precision::F32, _) => HostSim::<f32, 65536>::MAX_CHECKPOINT_LEN,
-        (Precision::F64, 256) => HostSim::<f64, 256>::MAX_CHECKPOINT_LEN,
-        (Precision::F64, 4096) => HostSim::<f64, 4096>::MAX_CHECKPOINT_LEN,
-        (Precision::F64, _) => HostSim::<f64, 65536>::MAX_CHECKPOINT_LEN,
+    match precision {
+        Precision::F32 => grain_capacities!(by_capacity!(
+            capacity, N => HostSim::<f32, N>::MAX_CHECKPOINT_LEN;
+        )),
+        Precision::F64 => grain_capacities!(by_capacity!(
+            capacity, N => HostSim::<f64, N>::MAX_CHECKPOINT_LEN;
+        )),
     }
 }
 
@@ -128,6 +147,38 @@ mod tests {
     use super::*;
     use mbs_kernel::Scenario;
 
+    /// Every capacity of the list is compiled, and a simulation gets the
+    /// smallest that holds it.
+    #[test]
+    fn capacities_dispatch_from_the_one_list() {
+        use crate::config::{CAPACITIES, MAX_CAPACITY};
+        struct Capacity;
+        impl SimJob for Capacity {
+            type Output = usize;
+            fn run<R: Real, const N: usize>(self, _: &mut HostSim<R, N>) -> usize {
+                N
+            }
+        }
+        let mut below = 0;
+        for &n in CAPACITIES {
+            for asked in [below + 1, n] {
+                assert_eq!(compiled_capacity(asked), n);
+                for precision in [Precision::F32, Precision::F64] {
+                    assert_eq!(with_sim(precision, asked, Capacity), n);
+                }
+            }
+            type F64 = HostSim<f64, 1>;
+            let largest = F64::checkpoint_len(n, n * NEIGHBOURS);
+            assert_eq!(
+                max_checkpoint_len(Precision::F64, n),
+                largest.saturating_add(F64::fluid_len(FLUID_CELLS))
+            );
+            below = n;
+        }
+        assert_eq!(compiled_capacity(0), CAPACITIES[0]);
+        assert_eq!(compiled_capacity(MAX_CAPACITY + 1), MAX_CAPACITY);
+    }
+
     #[test]
     fn zeroed_box_equals_new() {
         let sc = Scenario::paper();
@@ -145,13 +196,8 @@ mod tests {
             sc.digests(&mut *b, 0.2, 200, 200).unwrap()
         );
         // And under the coupled flow, whose column the zeroed box holds too.
-        let coupled = Scenario {
-            flow: mbs_kernel::FlowSpec {
-                model: mbs_kernel::FlowModel::Coupled,
-                ..sc.flow
-            },
-            ..sc
-        };
+        let mut coupled = sc;
+        coupled.flow.model = mbs_kernel::FlowModel::Coupled;
         let (mut a, mut b) = (
             boxed_sim::<f64, 64, 8>(),
             Box::new(HostSim::<f64, 64>::new()),

@@ -120,8 +120,8 @@ fn flow_profile(frame: &Frame) -> Vec<(f64, f64)> {
         .iter()
         .map(|g| g.y + g.diameter)
         .fold(bed, f64::max);
-    // Where (14) starts: 30.1 (y + 0.25 d)/k_s = 1.
-    let zero = flow.roughness / 30.1 - 0.25 * flow.reference_diameter;
+    // Where (14) starts: 30.1 (y + 0.25 d)/k_sr = 1.
+    let zero = flow.spec.zero_velocity_height();
     // Denser near the bed, where U changes fastest.
     (0..=POINTS)
         .map(|k| {

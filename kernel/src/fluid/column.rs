@@ -94,9 +94,9 @@ impl<R: Real, const C: usize> Column<R, C> {
         self.phi.fill(R::ZERO);
         self.grid = config.grid();
         self.density = R::from_f64(config.density);
-        self.viscosity = R::from_f64(config.viscosity);
+        self.viscosity = R::from_f64(config.spec.viscosity);
         self.kappa = R::from_f64(config.kappa);
-        self.phi_max = R::from_f64(config.phi_max);
+        self.phi_max = R::from_f64(config.spec.phi_max);
         self.driving = R::from_f64(config.driving);
         self.refresh_mixing();
         Ok(())

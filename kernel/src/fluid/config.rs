@@ -1,11 +1,79 @@
 //! The coupled flow's parameters (docs/model.md §13), in SI units and `f64`,
 //! checked once by [`FluidConfig::validate`].
+//!
+//! One definition per quantity: [`FluidSpec`] is what a user chooses for
+//! the coupled flow whatever the bed (ν, φ_max, the update interval M, the
+//! hindrance n), and a [`FluidConfig`] holds a `FluidSpec` plus what the
+//! bed, the material and the flow give it (its cells, bottom, surface and
+//! cross-section, the density ρ, the flow's κ, the driving g S), as
+//! [`crate::Scenario::column`] and [`crate::Scenario::flow`] derive them.
+//! The largest cell height a user chooses is no field of either: with the
+//! bed it makes the column's `cells` ([`crate::Scenario::fluid_cell_height`]),
+//! and a `FluidConfig` holds only the cells it made, the grid a column and
+//! a checkpoint know, so that a configuration restored from a checkpoint
+//! equals the one written. κ and ρ are fields of their own, not read
+//! through the flow or the material, because a [`super::Column`] stands
+//! alone (it knows no flow) and a checkpoint carries them apart.
 
 use super::grid::Grid;
 use crate::error::{check, finite, non_negative, positive, Capacity, Error};
 use crate::real::Real;
+use crate::steps::IntegrationSteps;
 
-/// Parameters of a [`super::Column`].
+/// The coupled flow's parameters a user chooses (docs/model.md §13): the
+/// same whatever the bed; the rest of a [`FluidConfig`] follows from the
+/// bed, the material and the flow ([`crate::Scenario::flow`]).
+///
+/// ```
+/// use mbs_kernel::{fluid::FluidSpec, IntegrationSteps};
+///
+/// let spec = FluidSpec::new();
+/// assert_eq!((spec.viscosity, spec.hindrance), (1.0e-6, 0.0));
+/// assert_eq!(spec.update_steps, IntegrationSteps(100));
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct FluidSpec {
+    /// Kinematic viscosity of the fluid ν (m²/s).
+    pub viscosity: f64,
+    /// Solid fraction of the packed bed φ_max, where the mixing length stops
+    /// growing, docs/model.md (C3).
+    pub phi_max: f64,
+    /// Integration steps M between two updates of the column in a coupled
+    /// [`crate::Sim`] (docs/model.md §13): the column advances by M step_dt
+    /// with the grains' drag averaged over those steps. \[choice\] 100, the
+    /// paper's hold period of the fluctuations: the column's step is then
+    /// ~1e-4 s, far below its drag relaxation time (~0.03 s in a bed) and
+    /// the update costs well under 1 % of the grain steps.
+    pub update_steps: IntegrationSteps,
+    /// Exponent n of the hindrance (1 − φ)^(−n) of the grains' drag,
+    /// docs/model.md (C7); 0 (the default) turns it off, Richardson–Zaki
+    /// give about 3.1.
+    pub hindrance: f64,
+}
+
+impl FluidSpec {
+    /// Water (ν = 1.0e-6 m²/s), φ_max = π/4 (docs/model.md §13: the largest
+    /// solid fraction of a slab of spheres in a slice one diameter thick),
+    /// updates every 100 integration steps, no hindrance (C7).
+    pub const fn new() -> Self {
+        FluidSpec {
+            viscosity: 1.0e-6,
+            phi_max: core::f64::consts::FRAC_PI_4,
+            update_steps: IntegrationSteps(100),
+            hindrance: 0.0,
+        }
+    }
+}
+
+impl Default for FluidSpec {
+    fn default() -> Self {
+        FluidSpec::new()
+    }
+}
+
+/// Parameters of a [`super::Column`]: a [`FluidSpec`] and what the bed,
+/// the material and the flow give it (see the module's documentation).
 ///
 /// ```
 /// use mbs_kernel::fluid::FluidConfig;
@@ -21,6 +89,8 @@ use crate::real::Real;
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct FluidConfig {
+    /// What a user chooses: ν, φ_max, the update interval M, the hindrance n.
+    pub spec: FluidSpec,
     /// Number of cells (slabs) of the column, at most the capacity `C`.
     pub cells: usize,
     /// Height of the column's bottom, the bottom of the fixed layer (m).
@@ -30,50 +100,31 @@ pub struct FluidConfig {
     /// Horizontal area of a slab (m²): the periodic width times the
     /// thickness of the slice (docs/model.md §13: one largest diameter).
     pub cross_section: f64,
-    /// Density of the fluid ρ (kg/m³).
+    /// Density of the fluid ρ (kg/m³), the material's.
     pub density: f64,
-    /// Kinematic viscosity of the fluid ν (m²/s).
-    pub viscosity: f64,
-    /// Kármán constant κ of the mixing length, docs/model.md (C3).
+    /// Kármán constant κ of the mixing length, docs/model.md (C3): the
+    /// flow's ([`crate::FlowSpec::kappa`]).
     pub kappa: f64,
-    /// Solid fraction of the packed bed φ_max, where the mixing length stops
-    /// growing, docs/model.md (C3).
-    pub phi_max: f64,
-    /// The driving acceleration g S (m/s²), gravity along the slope S: the
-    /// driving stress over a depth h is ρ g S h = ρ u*² ([`Self::driving_for`]).
+    /// The driving acceleration g S (m/s²), gravity along the energy slope
+    /// S: the driving stress over a depth h is ρ g S h = ρ u*²
+    /// ([`Self::driving_for`]).
     pub driving: f64,
-    /// Grain steps M between two updates of the column in a coupled
-    /// [`crate::Sim`] (docs/model.md §13): the column advances by M step_dt
-    /// with the grains' drag averaged over those steps. \[choice\] 100, the
-    /// paper's hold period of the fluctuations: the column's step is then
-    /// ~1e-4 s, far below its drag relaxation time (~0.03 s in a bed) and
-    /// the update costs well under 1 % of the grain steps.
-    pub update_steps: u32,
-    /// Exponent n of the hindrance (1 − φ)^(−n) of the grains' drag,
-    /// docs/model.md (C7); 0 (the default) turns it off, Richardson–Zaki
-    /// give about 3.1.
-    pub hindrance: f64,
 }
 
 impl FluidConfig {
     /// `cells` cells from `bottom` to `surface`, slabs of `cross_section`,
-    /// water (1000 kg/m³, ν = 1.0e-6 m²/s), κ = 0.4, φ_max = π/4
-    /// (docs/model.md §13: the largest solid fraction of a slab of spheres
-    /// in a slice one diameter thick), no driving, updates every 100 grain
-    /// steps, no hindrance.
+    /// the [`FluidSpec::new`] defaults, water (1000 kg/m³), κ = 0.4, no
+    /// driving.
     pub const fn new(cells: usize, bottom: f64, surface: f64, cross_section: f64) -> Self {
         FluidConfig {
+            spec: FluidSpec::new(),
             cells,
             bottom,
             surface,
             cross_section,
             density: 1000.0,
-            viscosity: 1.0e-6,
             kappa: 0.4,
-            phi_max: core::f64::consts::FRAC_PI_4,
             driving: 0.0,
-            update_steps: 100,
-            hindrance: 0.0,
         }
     }
 
@@ -93,6 +144,7 @@ impl FluidConfig {
     /// Checks every field against the capacity `capacity` (the `C` of the
     /// column); the error names the first bad one.
     pub fn validate(&self, capacity: usize) -> Result<(), Error> {
+        let spec = &self.spec;
         check(self.cells >= 2, "fluid.cells", self.cells as f64, ">= 2")?;
         if self.cells > capacity {
             return Err(Error::CapacityExceeded {
@@ -110,25 +162,25 @@ impl FluidConfig {
         )?;
         positive("fluid.cross_section", self.cross_section)?;
         positive("fluid.density", self.density)?;
-        positive("fluid.viscosity", self.viscosity)?;
+        positive("fluid.viscosity", spec.viscosity)?;
         positive("fluid.kappa", self.kappa)?;
         check(
-            self.phi_max > 0.0 && self.phi_max < 1.0,
+            spec.phi_max > 0.0 && spec.phi_max < 1.0,
             "fluid.phi_max",
-            self.phi_max,
+            spec.phi_max,
             "in (0, 1)",
         )?;
         non_negative("fluid.driving", self.driving)?;
         check(
-            self.update_steps >= 1,
+            spec.update_steps.0 >= 1,
             "fluid.update_steps",
-            f64::from(self.update_steps),
-            ">= 1",
+            f64::from(spec.update_steps.0),
+            ">= 1 integration step",
         )?;
         check(
-            self.hindrance.is_finite() && (0.0..=10.0).contains(&self.hindrance),
+            spec.hindrance.is_finite() && (0.0..=10.0).contains(&spec.hindrance),
             "fluid.hindrance",
-            self.hindrance,
+            spec.hindrance,
             "in [0, 10]",
         )
     }

@@ -233,10 +233,10 @@ impl<R: Real, const C: usize> Coupling<R, C> {
     /// ([`Coupling::centres`], [`Coupling::slopes`]): u_f, the scale of the
     /// fluctuations u*_loc exp(−(y − `bed_level`)/h) (`minus_inv_depth` =
     /// −1/h) and the hindrance (1 − φ)^(−n) with exponent
-    /// `config.hindrance` (f64 `libm::pow`). After every update of the
+    /// `config.spec.hindrance` (f64 `libm::pow`). After every update of the
     /// column or of the bed level, and after a restore.
     pub(crate) fn refresh(&mut self, config: &FluidConfig, minus_inv_depth: R, bed_level: R) {
-        let n = config.hindrance;
+        let n = config.spec.hindrance;
         let grid = self.column.grid();
         let velocities = self.column.velocities();
         let cells = self.column.solid_fractions().iter().zip(velocities);

@@ -5,12 +5,12 @@
 //!
 //! A [`crate::Sim`] with the coupled flow ([`crate::FlowModel::Coupled`])
 //! holds a column in its `Coupling` and updates it every
-//! [`FluidConfig::update_steps`] grain steps; a caller can also drive a
+//! [`FluidSpec::update_steps`] integration steps; a caller can also drive a
 //! [`Column`] alone: fill [`Slabs`] and call [`Column::advance`]. One concept per file:
 //!
 //! | file | what | docs/model.md |
 //! |---|---|---|
-//! | `config` | [`FluidConfig`], the user-facing parameters, validated | §13 |
+//! | `config` | [`FluidSpec`], the parameters a user chooses, and [`FluidConfig`], those with what the bed gives, validated | §13 |
 //! | `grid` | [`Grid`]: the uniform cells (slabs) of the column | §13 |
 //! | `slice` | [`slice_volume`]: a sphere's volume between two planes | docs/model.md (C1) |
 //! | `slabs` | [`Slabs`]: solid fraction, grain velocity and drag per slab | docs/model.md (C2) |
@@ -34,7 +34,7 @@ mod slice;
 mod tridiagonal;
 
 pub use column::Column;
-pub use config::FluidConfig;
+pub use config::{FluidConfig, FluidSpec};
 #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
 pub(crate) use coupling::Cells;
 pub(crate) use coupling::Coupling;

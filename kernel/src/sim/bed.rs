@@ -239,7 +239,7 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
         for i in 0..n {
             d_max = R::max(d_max, g.r[i] + g.r[i]);
         }
-        let window = self.flow.bed_level_window * d_max.to_f64();
+        let window = self.flow.spec.bed_level_window * d_max.to_f64();
         let windows = window_count(self.width.to_f64(), window, N);
         let per_metre = R::from_f64(windows as f64) / self.width;
         let window_of = |x: R| ((x * per_metre).to_f64() as usize).min(windows - 1);

@@ -9,8 +9,8 @@
 //! | field | bytes |
 //! |---|---|
 //! | magic `MBSK`, version u16, precision bytes u8 (4/8), 0 u8 | 8 |
-//! | `SimConfig`: step_dt, ρ, s, C_M, C_D, μ, ν, k_n, k_s, η_n, η_s, g_x, g_y, L, y_min, y_max, skin (f64), seed (u64), tension (u8: 0 the paper's rule (8), 1 none (8')), slope (f64) | 153 |
-//! | flow on (u8); `FlowConfig`: u*, κ, h, ε0, k_s, d (f64), turbulence (u8), hold, bed-level interval (u32), bed-level window (f64), model (u8: 0 clear water, 1 coupled); `FluidConfig`: cells (u32), bottom, surface, cross-section, ρ, ν, κ, φ_max, driving (f64), update steps (u32), hindrance (f64) | 147 |
+//! | `SimConfig`: step_dt, ρ, s, C_M, C_D, μ, ν, k_n, k_s, η_n, η_s, g_x, g_y, L, y_min, y_max, skin (f64), seed (u64), tension (u8: 0 the paper's rule (8), 1 none (8')), slope angle θ (f64) | 153 |
+//! | flow on (u8); `FlowConfig`: u*, and of its `FlowSpec` κ, h, ε0, k_sr, d (f64), turbulence (u8), hold, bed-level interval (u32, integration steps), bed-level window (f64), model (u8: 0 clear water, 1 coupled); `FluidConfig`: cells (u32), bottom, surface, cross-section, ρ, ν, κ, φ_max, driving (f64), update steps (u32, integration steps), hindrance (f64) | 147 |
 //! | flow epoch, step (u64), bed level (R) | 16 + R |
 //! | grains n (u32); per grain x, y, u, v, ω, d/2, z_u, z_v, 1/m, 1/I, drag factor (R), fixed, class (u8) | 4 + n (11R + 2) |
 //! | contacts m (u32); per contact i, j (u32), e_n, e_s (R), in (i, j) order | 4 + m (8 + 2R) |
@@ -32,11 +32,12 @@
 use crate::constants::{ContactConstants, Material};
 use crate::contact::{Spring, Tension};
 use crate::error::{Capacity, CheckpointFault, Error};
-use crate::flow::{FlowConfig, FlowModel};
-use crate::fluid::FluidConfig;
+use crate::flow::{FlowConfig, FlowModel, FlowSpec};
+use crate::fluid::{FluidConfig, FluidSpec};
 use crate::grains::{GrainSpec, MAX_CLASSES};
 use crate::real::Real;
 use crate::sim::{check_grain, Sim, SimConfig};
+use crate::steps::IntegrationSteps;
 
 /// Format version written by [`Sim::checkpoint`].
 pub const CHECKPOINT_VERSION: u16 = 4;
@@ -187,7 +188,7 @@ fn read_head<R: Real>(r: &mut Reader<'_>) -> Result<Head, Error> {
         y_max: f[15],
         skin: f[16],
         seed,
-        slope: if version >= 4 { r.f64()? } else { 0.0 },
+        slope_angle: if version >= 4 { r.f64()? } else { 0.0 },
     };
     let at = r.at;
     config.validate().map_err(|_| Error::BadCheckpoint {
@@ -199,20 +200,19 @@ fn read_head<R: Real>(r: &mut Reader<'_>) -> Result<Head, Error> {
     for x in g.iter_mut() {
         *x = r.f64()?;
     }
-    let flow = FlowConfig {
-        u_star: g[0],
+    let spec = FlowSpec {
         kappa: g[1],
         depth: g[2],
         eps0: g[3],
         roughness: g[4],
         reference_diameter: g[5],
         turbulence: r.flag()?,
-        hold_steps: r.u32()?,
-        bed_level_interval: r.u32()?,
+        hold_steps: IntegrationSteps(r.u32()?),
+        bed_level_interval: IntegrationSteps(r.u32()?),
         bed_level_window: r.f64()?,
         model: FlowModel::ClearWater,
-        fluid: FluidConfig::new(0, 0.0, 0.0, 0.0),
     };
+    let flow = spec.at(g[0]);
     let flow = if version >= 4 {
         let at = r.at;
         let model = FlowModel::from_code(r.u8()?).ok_or(Error::BadCheckpoint {
@@ -225,20 +225,22 @@ fn read_head<R: Real>(r: &mut Reader<'_>) -> Result<Head, Error> {
             *x = r.f64()?;
         }
         let fluid = FluidConfig {
+            spec: FluidSpec {
+                viscosity: c[4],
+                phi_max: c[6],
+                update_steps: IntegrationSteps(r.u32()?),
+                hindrance: r.f64()?,
+            },
             cells,
             bottom: c[0],
             surface: c[1],
             cross_section: c[2],
             density: c[3],
-            viscosity: c[4],
             kappa: c[5],
-            phi_max: c[6],
             driving: c[7],
-            update_steps: r.u32()?,
-            hindrance: r.f64()?,
         };
         FlowConfig {
-            model,
+            spec: FlowSpec { model, ..spec },
             fluid,
             ..flow
         }
@@ -251,7 +253,7 @@ fn read_head<R: Real>(r: &mut Reader<'_>) -> Result<Head, Error> {
             fault: CheckpointFault::Value,
             offset: at,
         })?;
-    } else if flow.model != FlowModel::ClearWater {
+    } else if flow.spec.model != FlowModel::ClearWater {
         return Err(Error::BadCheckpoint {
             fault: CheckpointFault::Value,
             offset: at,
@@ -326,11 +328,11 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
         }
         w.uint(c.seed, 8);
         w.uint(u64::from(c.tension.code()), 1);
-        w.f64(c.slope);
-        let f = &self.flow;
+        w.f64(c.slope_angle);
+        let (u_star, f, fl) = (self.flow.u_star, &self.flow.spec, &self.flow.fluid);
         w.uint(u64::from(self.flow_on), 1);
         for x in [
-            f.u_star,
+            u_star,
             f.kappa,
             f.depth,
             f.eps0,
@@ -340,26 +342,25 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
             w.f64(x);
         }
         w.uint(u64::from(f.turbulence), 1);
-        w.uint(u64::from(f.hold_steps), 4);
-        w.uint(u64::from(f.bed_level_interval), 4);
+        w.uint(u64::from(f.hold_steps.0), 4);
+        w.uint(u64::from(f.bed_level_interval.0), 4);
         w.f64(f.bed_level_window);
         w.uint(f.model as u64, 1);
-        let fl = &f.fluid;
         w.uint(fl.cells as u64, 4);
         for x in [
             fl.bottom,
             fl.surface,
             fl.cross_section,
             fl.density,
-            fl.viscosity,
+            fl.spec.viscosity,
             fl.kappa,
-            fl.phi_max,
+            fl.spec.phi_max,
             fl.driving,
         ] {
             w.f64(x);
         }
-        w.uint(u64::from(fl.update_steps), 4);
-        w.f64(fl.hindrance);
+        w.uint(u64::from(fl.spec.update_steps.0), 4);
+        w.f64(fl.spec.hindrance);
         w.uint(self.flow_epoch, 8);
         w.uint(self.step, 8);
         w.real(self.bed_level);
@@ -427,7 +428,7 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
                 capacity: N,
             });
         }
-        if let Some(f) = head.flow.filter(|f| f.model == FlowModel::Coupled) {
+        if let Some(f) = head.flow.filter(|f| f.spec.model == FlowModel::Coupled) {
             f.fluid.validate(C)?;
         }
         for i in 0..n {
@@ -488,7 +489,7 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
                 self.nbrs.push_history(i, j, spring);
             }
         }
-        if let Some(flow) = head.flow.filter(|f| f.model == FlowModel::Coupled) {
+        if let Some(flow) = head.flow.filter(|f| f.spec.model == FlowModel::Coupled) {
             self.read_fluid(&mut r, &flow, apply)?;
         }
         if r.at != bytes.len() {

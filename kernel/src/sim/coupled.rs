@@ -55,7 +55,7 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
             self.steady_column()?;
         }
         let fluid = &mut self.fluid;
-        let steps = self.flow.fluid.update_steps.max(1);
+        let steps = self.flow.fluid.spec.update_steps.0.max(1);
         fluid.exchange_dt = R::from_f64(f64::from(steps) * self.config.step_dt);
         fluid.inv_steps = R::from_f64(1.0 / f64::from(steps));
         fluid.on = true;
@@ -73,11 +73,11 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
     fn steady_column(&mut self) -> Result<(), Error> {
         let config = &self.flow.fluid;
         let height = config.surface - config.bottom;
-        let rate = self.flow.kappa * self.flow.u_star / height;
+        let rate = self.flow.spec.kappa * self.flow.u_star / height;
         let rate = if rate > 0.0 {
             rate
         } else {
-            config.viscosity / (height * height)
+            config.spec.viscosity / (height * height)
         };
         let dt = R::from_f64(STEADY_DT / rate);
         let tolerance = R::from_f64(if R::BYTES == 4 {

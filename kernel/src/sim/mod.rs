@@ -40,8 +40,8 @@ use crate::constants::{ContactConstants, Material, A2};
 use crate::contact::{ContactLaw, Spring, Tension};
 use crate::error::{check, finite, positive, Capacity, Error};
 use crate::events::Events;
-use crate::flow::{FlowConfig, FlowModel, Profile};
-use crate::fluid::{Coupling, FluidConfig};
+use crate::flow::{FlowConfig, FlowModel, FlowSpec, Profile};
+use crate::fluid::{Coupling, FluidConfig, FluidSpec};
 use crate::grains::{GrainSpec, Grains, MAX_CLASSES};
 use crate::neighbours::Neighbours;
 use crate::real::Real;
@@ -49,6 +49,7 @@ use crate::real::Real;
 use crate::step::index::PairIndex;
 #[cfg(not(all(target_arch = "x86_64", target_feature = "avx2")))]
 use crate::step::no_lanes::PairIndex;
+use crate::steps::IntegrationSteps;
 
 /// Everything a simulation needs besides its grains and its flow (SI units).
 ///
@@ -76,7 +77,7 @@ pub struct SimConfig {
     pub tension: Tension,
     /// Gravity (g_x, g_y) (m/s²); (0, −9.81) by default. Tilt it to incline
     /// the bed as a whole, water included (the buoyancy then tilts too); for
-    /// a river bed use [`SimConfig::slope`].
+    /// a river bed use [`SimConfig::slope_angle`].
     pub gravity: [f64; 2],
     /// Periodic width L (m); grains live in 0 ≤ x < L.
     pub width: f64,
@@ -89,8 +90,10 @@ pub struct SimConfig {
     pub skin: f64,
     /// Seed of every random draw (docs/model.md §7: all randomness from one seed).
     pub seed: u64,
-    /// Bed slope θ (rad), 0 ≤ θ < 0.5; 0 by default. x runs down the slope,
-    /// y normal to the bed. The water is in uniform open-channel flow (Maurin
+    /// Bed slope angle θ (rad), 0 ≤ θ < 0.5; 0 by default: an angle, not
+    /// the energy slope S = sin θ of a uniform flow
+    /// ([`crate::uniform_flow_shields_number`]). x runs down the slope, y
+    /// normal to the bed. The water is in uniform open-channel flow (Maurin
     /// et al. 2015): its pressure is hydrostatic normal to the bed, so a
     /// grain feels its whole weight along the slope and its buoyant weight
     /// normal to it: accelerations g sin θ · s/(s + C_M) along x and
@@ -98,7 +101,7 @@ pub struct SimConfig {
     /// g = −`gravity.y`. A slope needs the vertical gravity (`gravity.x` = 0);
     /// θ = 0 is the paper's horizontal bed, bit for bit. The coupled flow is
     /// driven by g sin θ besides its own `driving` (docs/model.md §13).
-    pub slope: f64,
+    pub slope_angle: f64,
 }
 
 impl SimConfig {
@@ -119,13 +122,13 @@ impl SimConfig {
         )?;
         crate::error::non_negative("skin", self.skin)?;
         check(
-            self.slope.is_finite() && (0.0..0.5).contains(&self.slope),
-            "slope",
-            self.slope,
+            self.slope_angle.is_finite() && (0.0..0.5).contains(&self.slope_angle),
+            "slope_angle",
+            self.slope_angle,
             "in [0, 0.5) rad",
         )?;
         check(
-            self.slope == 0.0 || self.gravity[0] == 0.0,
+            self.slope_angle == 0.0 || self.gravity[0] == 0.0,
             "gravity.x",
             self.gravity[0],
             "0 with a bed slope (the slope tilts the vertical gravity)",
@@ -135,27 +138,27 @@ impl SimConfig {
     /// The acceleration of weight less buoyancy over inertia (m/s²) along x
     /// and y: (g_x, g_y)(s − 1)/(s + C_M) (docs/model.md (2)); with a
     /// slope θ, (g sin θ · s, −g cos θ · (s − 1))/(s + C_M), g = −g_y
-    /// (see [`SimConfig::slope`]).
+    /// (see [`SimConfig::slope_angle`]).
     pub fn reduced_gravity(&self) -> [f64; 2] {
         let m = &self.material;
         let reduce = (m.s - 1.0) / (m.s + m.c_m);
-        if self.slope == 0.0 {
+        if self.slope_angle == 0.0 {
             return [self.gravity[0] * reduce, self.gravity[1] * reduce];
         }
         let g = -self.gravity[1];
         [
-            g * libm::sin(self.slope) * m.s / (m.s + m.c_m),
-            self.gravity[1] * libm::cos(self.slope) * reduce,
+            g * libm::sin(self.slope_angle) * m.s / (m.s + m.c_m),
+            self.gravity[1] * libm::cos(self.slope_angle) * reduce,
         ]
     }
 
     /// g sin θ (m/s²): gravity along the bed slope, which drives the
     /// coupled flow (docs/model.md §13); 0 without a slope.
     pub fn slope_driving(&self) -> f64 {
-        if self.slope == 0.0 {
+        if self.slope_angle == 0.0 {
             0.0
         } else {
-            -self.gravity[1] * libm::sin(self.slope)
+            -self.gravity[1] * libm::sin(self.slope_angle)
         }
     }
 }
@@ -275,31 +278,36 @@ const ZERO_MATERIAL: Material = Material {
 
 /// All zero bits.
 const ZERO_FLUID: FluidConfig = FluidConfig {
+    spec: FluidSpec {
+        viscosity: 0.0,
+        phi_max: 0.0,
+        update_steps: IntegrationSteps(0),
+        hindrance: 0.0,
+    },
     cells: 0,
     bottom: 0.0,
     surface: 0.0,
     cross_section: 0.0,
     density: 0.0,
-    viscosity: 0.0,
     kappa: 0.0,
-    phi_max: 0.0,
     driving: 0.0,
-    update_steps: 0,
-    hindrance: 0.0,
 };
 
+/// All zero bits.
 const ZERO_FLOW: FlowConfig = FlowConfig {
     u_star: 0.0,
-    kappa: 0.0,
-    depth: 0.0,
-    eps0: 0.0,
-    roughness: 0.0,
-    reference_diameter: 0.0,
-    turbulence: false,
-    hold_steps: 0,
-    bed_level_interval: 0,
-    bed_level_window: 0.0,
-    model: FlowModel::ClearWater,
+    spec: FlowSpec {
+        kappa: 0.0,
+        depth: 0.0,
+        eps0: 0.0,
+        roughness: 0.0,
+        reference_diameter: 0.0,
+        turbulence: false,
+        hold_steps: IntegrationSteps(0),
+        bed_level_interval: IntegrationSteps(0),
+        bed_level_window: 0.0,
+        model: FlowModel::ClearWater,
+    },
     fluid: ZERO_FLUID,
 };
 
@@ -332,7 +340,7 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
                 y_max: 0.0,
                 skin: 0.0,
                 seed: 0,
-                slope: 0.0,
+                slope_angle: 0.0,
             },
             configured: false,
             law: ContactLaw::ZERO,
@@ -463,7 +471,7 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
         match flow {
             Some(f) => {
                 f.validate()?;
-                let coupled = f.model == FlowModel::Coupled;
+                let coupled = f.spec.model == FlowModel::Coupled;
                 if coupled {
                     f.fluid.validate(C)?;
                 }
@@ -656,7 +664,7 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
 
     /// Mean bed level y = 0 of the flow (docs/model.md §6), absolute (m): the mean
     /// centre height of the surface grains, found per window of
-    /// `FlowConfig::bed_level_window` largest diameters so that it does not
+    /// `FlowSpec::bed_level_window` largest diameters so that it does not
     /// depend on the width of the periodic bed (docs/findings/bed-width.md).
     pub fn bed_level(&self) -> f64 {
         self.bed_level.to_f64()

@@ -50,12 +50,13 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
         let mut events = Events::ZERO;
         if self.flow_on {
             let since = self.step.saturating_sub(self.flow_epoch);
-            let update = u64::from(self.flow.fluid.update_steps.max(1));
+            let update = u64::from(self.flow.fluid.spec.update_steps.0.max(1));
             let exchange = self.fluid.on && since > 0 && since.is_multiple_of(update);
             if exchange {
                 self.exchange()?;
             }
-            let bed_level = since.is_multiple_of(u64::from(self.flow.bed_level_interval.max(1)));
+            let bed_level =
+                since.is_multiple_of(u64::from(self.flow.spec.bed_level_interval.0.max(1)));
             if bed_level {
                 self.update_bed_level();
                 events.bed_level_updates = 1;
@@ -63,7 +64,7 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
             if self.fluid.on && (exchange || bed_level) {
                 self.refresh_coupling();
             }
-            let hold = u64::from(self.flow.hold_steps.max(1));
+            let hold = u64::from(self.flow.spec.hold_steps.0.max(1));
             if self.profile.turbulence && since.is_multiple_of(hold) {
                 self.draw_fluctuations(since / hold);
                 events.turbulence_redraws = 1;
@@ -284,11 +285,12 @@ mod tests {
         let mut flow = sc.flow(Scenario::PAPER_TAU_STAR);
         let d = sc.bed.max_diameter();
         let bottom = info.y_min + 1.5 * d;
-        let cells = ((flow.depth - bottom) / (0.5 * d)) as usize;
-        let mut fluid = crate::fluid::FluidConfig::new(cells, bottom, flow.depth, info.width * d);
-        fluid.driving = crate::fluid::FluidConfig::driving_for(flow.u_star, flow.depth);
-        fluid.hindrance = 3.1;
-        (flow.model, flow.fluid) = (crate::FlowModel::Coupled, fluid);
+        let depth = flow.spec.depth;
+        let cells = ((depth - bottom) / (0.5 * d)) as usize;
+        let mut fluid = crate::fluid::FluidConfig::new(cells, bottom, depth, info.width * d);
+        fluid.driving = crate::fluid::FluidConfig::driving_for(flow.u_star, depth);
+        fluid.spec.hindrance = 3.1;
+        (flow.spec.model, flow.fluid) = (crate::FlowModel::Coupled, fluid);
         sim.set_flow(Some(&flow)).unwrap();
         for _ in 0..2000 {
             sim.step_with::<BUFFER, BATCHED>().unwrap();
@@ -507,12 +509,12 @@ mod tests {
             update_steps in 1..8u32,
         ) {
             let mut flow = Scenario::paper().flow(Scenario::PAPER_TAU_STAR);
-            flow.turbulence = turbulence;
+            flow.spec.turbulence = turbulence;
             let mut fluid = crate::fluid::FluidConfig::new(cells, bottom, bottom + height, 0.02 * 0.5e-3);
-            fluid.driving = crate::fluid::FluidConfig::driving_for(flow.u_star, flow.depth);
-            fluid.hindrance = if hindered { 3.1 } else { 0.0 };
-            fluid.update_steps = update_steps;
-            (flow.model, flow.fluid) = (crate::FlowModel::Coupled, fluid);
+            fluid.driving = crate::fluid::FluidConfig::driving_for(flow.u_star, flow.spec.depth);
+            fluid.spec.hindrance = if hindered { 3.1 } else { 0.0 };
+            fluid.spec.update_steps = crate::IntegrationSteps(update_steps);
+            (flow.spec.model, flow.fluid) = (crate::FlowModel::Coupled, fluid);
             let (flow, t) = (Some(&flow), Tension::Dashpot);
             proptest::prop_assert_eq!(cluster::<f64, 16>(&grains, flow, t, true), cluster::<f64, 16>(&grains, flow, t, false));
             proptest::prop_assert_eq!(cluster::<f32, 16>(&grains, flow, t, true), cluster::<f32, 16>(&grains, flow, t, false));

@@ -90,19 +90,14 @@ pub fn mass() -> f64 {
 
 /// A configuration with explicit normal constants; k_s and η_s follow (12)–(13).
 pub fn config(dt: f64, k_n: f64, eta_n: f64, mu: f64) -> SimConfig {
-    let two_one_plus_nu: f64 = 2.0 * 1.3;
+    let material = Material {
+        mu,
+        ..Material::default()
+    };
     SimConfig {
         step_dt: dt,
-        material: Material {
-            mu,
-            ..Material::default()
-        },
-        contact: ContactConstants {
-            k_n,
-            k_s: k_n / two_one_plus_nu,
-            eta_n,
-            eta_s: eta_n / two_one_plus_nu.sqrt(),
-        },
+        material,
+        contact: ContactConstants::from_normal(k_n, eta_n, material.nu),
         tension: Tension::Dashpot,
         gravity: [0.0, 0.0],
         width: 40.0 * D,
@@ -110,7 +105,7 @@ pub fn config(dt: f64, k_n: f64, eta_n: f64, mu: f64) -> SimConfig {
         y_max: 200.0 * D,
         skin: 0.1 * D,
         seed: 1,
-        slope: 0.0,
+        slope_angle: 0.0,
     }
 }
 
