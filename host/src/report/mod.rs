@@ -107,3 +107,91 @@ fn console_table(
     );
     text
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::work::beds::{BedRecord, BedStatus};
+    use crate::work::cell::{Block, CellResult};
+    use crate::work::experiment::aggregate;
+
+    /// A made-up cell: q* constant over its blocks.
+    fn cell(tau_star: f64, seed: u64, q_star: f64) -> CellResult {
+        CellResult {
+            tau_star,
+            seed,
+            q_star,
+            q_star_class: vec![],
+            blocks: vec![
+                Block {
+                    q_star,
+                    bed_level: 1e-3,
+                };
+                10
+            ],
+            window_s: 1.0,
+            target_reached: true,
+            bed_level: 1e-3,
+            grain_steps: 1_000,
+            bed: BedRecord {
+                status: BedStatus::AtRest,
+                settle_s: 0.1,
+                max_overlap_d: 0.01,
+            },
+            profile: None,
+        }
+    }
+
+    /// Every file of a run comes from its outcome alone: no cell is run,
+    /// and the table holds the seeds' mean per τ*.
+    #[test]
+    fn a_run_is_reported_from_its_outcome_alone() {
+        let config = Config::from_toml("[flow]\ntau_star = [0.1, 0.2]\n[run]\nseeds = [1, 2]\n")
+            .expect("valid");
+        let outcome = RunOutcome {
+            results: vec![
+                cell(0.1, 1, 0.02),
+                cell(0.1, 2, 0.04),
+                cell(0.2, 1, 0.2),
+                cell(0.2, 2, 0.4),
+            ],
+            reused: 1,
+            resumed: 0,
+            beds_settled: 2,
+            beds_resumed: 0,
+            bed_grain_steps: 500,
+            computed_grain_steps: 3_000,
+        };
+        let facts = RunFacts {
+            threads: 2,
+            wall_time_s: 2.0,
+            warnings: vec!["a warning".into()],
+        };
+        let rows = aggregate(&config, &outcome.results);
+        let dir = tempfile::tempdir().expect("temporary directory");
+        let console = write_run(dir.path(), &config, &outcome, &rows, &facts).expect("written");
+        for file in RUN_FILES {
+            // The cells carry no profiles: profiles.csv has nothing to say.
+            let len = std::fs::metadata(dir.path().join(file)).map(|m| m.len());
+            assert!(len.is_ok_and(|n| n > 0 || file == "profiles.csv"), "{file}");
+        }
+        let csv = std::fs::read_to_string(dir.path().join("transport.csv")).expect("csv");
+        let q: Vec<&str> = csv
+            .lines()
+            .skip(1)
+            .map(|l| l.split(',').nth(1).unwrap())
+            .collect();
+        assert_eq!(q, ["0.03", "0.30000000000000004"]);
+        let summary = std::fs::read_to_string(dir.path().join("summary.json")).expect("json");
+        assert!(summary.contains("\"cells_computed\": 3"), "{summary}");
+        assert!(
+            summary.contains("\"warnings\": [\n    \"a warning\"\n  ]"),
+            "{summary}"
+        );
+        // 3 cells and their beds computed in 2 s: 3500 grain-steps / 2 s.
+        assert!(
+            console.contains("4 cells, 3 computed in 2.0 s (1.750e3 grain-steps/s)"),
+            "{console}"
+        );
+    }
+}
