@@ -48,11 +48,10 @@ impl Log {
     /// the invocation's header.
     pub fn open(dir: &Path, header: Header<'_>) -> Result<Log, HostError> {
         let path = dir.join(LOG);
-        let file = std::fs::OpenOptions::new()
-            .create(true)
-            .append(true)
-            .open(&path)
-            .map_err(HostError::io(&path))?;
+        let file = crate::io::output::open_own(
+            &path,
+            std::fs::OpenOptions::new().create(true).append(true),
+        )?;
         let log = Log {
             file: Some(Mutex::new(file)),
             warnings: Mutex::default(),

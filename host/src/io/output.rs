@@ -58,13 +58,14 @@ pub struct DirLock(#[allow(dead_code)] std::fs::File);
 pub fn lock_dir(dir: &Path) -> Result<DirLock, HostError> {
     create_dir(dir)?;
     let path = dir.join(LOCK);
-    let mut file = std::fs::OpenOptions::new()
-        .read(true)
-        .write(true)
-        .create(true)
-        .truncate(false)
-        .open(&path)
-        .map_err(HostError::io(&path))?;
+    let mut file = open_own(
+        &path,
+        std::fs::OpenOptions::new()
+            .read(true)
+            .write(true)
+            .create(true)
+            .truncate(false),
+    )?;
     match file.try_lock() {
         Ok(()) => {
             file.set_len(0)
@@ -80,6 +81,47 @@ pub fn lock_dir(dir: &Path) -> Result<DirLock, HostError> {
         }),
         Err(std::fs::TryLockError::Error(e)) => Err(HostError::io(&path)(e)),
     }
+}
+
+/// Opens a file of mbs's own in an output directory (the lock, the store,
+/// the log) with `options`, never through a symbolic link: a link planted
+/// where mbs expects its own file would make it write outside the
+/// directory. A link there is refused (exit 2), naming the file; nothing is
+/// written. (Files written whole are renamed into place, which replaces a
+/// link instead of following it: [`write_atomic`].)
+pub fn open_own(
+    path: &Path,
+    options: &mut std::fs::OpenOptions,
+) -> Result<std::fs::File, HostError> {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::OpenOptionsExt;
+        options.custom_flags(libc::O_NOFOLLOW);
+    }
+    let is_link = |p: &Path| std::fs::symlink_metadata(p).is_ok_and(|m| m.file_type().is_symlink());
+    // Elsewhere, look first (a narrow race; unix has none).
+    if !cfg!(unix) && is_link(path) {
+        return Err(link_refused(path));
+    }
+    options.open(path).map_err(|e| {
+        if is_link(path) {
+            link_refused(path)
+        } else {
+            HostError::io(path)(e)
+        }
+    })
+}
+
+/// The error for a symbolic link where mbs writes its own file.
+fn link_refused(path: &Path) -> HostError {
+    crate::error::ConfigError::Invalid {
+        key: "--out".into(),
+        value: path.display().to_string(),
+        allowed: "a directory whose mbs files are not symbolic links (mbs writes only inside \
+                  its output directory; remove the link)"
+            .into(),
+    }
+    .into()
 }
 
 /// Creates `dir` (and parents) if missing.

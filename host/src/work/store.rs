@@ -7,6 +7,7 @@
 
 use crate::error::HostError;
 use crate::io::input::{read_line_bounded, Bound};
+use crate::io::output::open_own;
 use serde::{de::DeserializeOwned, Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::fs::{File, OpenOptions};
@@ -116,11 +117,7 @@ impl Store {
             .lock()
             .map_err(|_| io(std::io::Error::other("store lock poisoned")))?;
         if cells.1.is_none() {
-            let mut file = OpenOptions::new()
-                .create(true)
-                .append(true)
-                .open(&self.path)
-                .map_err(io)?;
+            let mut file = open_own(&self.path, OpenOptions::new().create(true).append(true))?;
             // After a crash mid-line, start on a fresh line so the torn
             // fragment does not swallow the next cell.
             if !ends_with_newline(&self.path).map_err(io)? {

@@ -12,6 +12,7 @@ mod coupled;
 mod figures;
 mod frames;
 mod hostile;
+mod links;
 mod log;
 mod paper_case;
 mod resume;
