@@ -68,6 +68,9 @@ pub fn lock_dir(dir: &Path) -> Result<DirLock, HostError> {
     )?;
     match file.try_lock() {
         Ok(()) => {
+            for own in OWN_DIRS {
+                refuse_link(&dir.join(own))?;
+            }
             file.set_len(0)
                 .and_then(|()| writeln!(file, "{}", std::process::id()))
                 .map_err(HostError::io(&path))?;
@@ -110,6 +113,19 @@ pub fn open_own(
             HostError::io(path)(e)
         }
     })
+}
+
+/// The folders mbs writes its own files into inside an output directory;
+/// each must be a folder of its own, not a link to one elsewhere.
+pub const OWN_DIRS: [&str; 3] = ["checkpoints", "beds", "frames"];
+
+/// Refuses `path` if it is a symbolic link (exit 2, naming it): a folder or
+/// file of mbs's own inside an output directory.
+pub fn refuse_link(path: &Path) -> Result<(), HostError> {
+    match std::fs::symlink_metadata(path) {
+        Ok(m) if m.file_type().is_symlink() => Err(link_refused(path)),
+        _ => Ok(()),
+    }
 }
 
 /// The error for a symbolic link where mbs writes its own file.

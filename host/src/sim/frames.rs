@@ -99,6 +99,7 @@ impl Images {
 impl FrameWriter {
     /// A writer of `dir/stem_NNNN.vtu` and `dir/stem.pvd`; creates `dir`.
     pub fn new(dir: &Path, stem: &str) -> Result<Self, HostError> {
+        crate::io::output::refuse_link(dir)?;
         create_dir(dir)?;
         Ok(FrameWriter {
             dir: dir.to_path_buf(),
