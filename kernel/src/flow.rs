@@ -130,13 +130,13 @@ impl FlowSpec {
     /// velocity is 0 at and below it.
     ///
     /// ```
-    /// use mbs_kernel::{flow::Profile, FlowConfig};
+    /// use mbs_kernel::{flow::LogLaw, FlowConfig};
     ///
     /// let flow = FlowConfig::new(0.04, 0.5e-3);
     /// let y0 = flow.spec.zero_velocity_height();
-    /// let profile = Profile::<f64>::new(&flow);
-    /// assert_eq!(profile.mean_velocity(y0 - 1e-9), 0.0);
-    /// assert!(profile.mean_velocity(y0 + 1e-9) > 0.0);
+    /// let log_law = LogLaw::<f64>::new(&flow);
+    /// assert_eq!(log_law.mean_velocity(y0 - 1e-9), 0.0);
+    /// assert!(log_law.mean_velocity(y0 + 1e-9) > 0.0);
     /// ```
     pub fn zero_velocity_height(&self) -> f64 {
         self.roughness / 30.1 - 0.25 * self.reference_diameter
@@ -266,22 +266,24 @@ pub fn uniform_flow_shields_number(depth: f64, slope: f64, s: f64, d: f64) -> f6
     depth * slope / ((s - 1.0) * d)
 }
 
-/// The flow profile in the working precision, evaluated per grain per step.
+/// The prescribed clear-water flow (docs/model.md): the log law (14), the
+/// turbulence intensity (15) and the sheltering (16), in the working
+/// precision, evaluated per grain per step.
 ///
 /// ```
-/// use mbs_kernel::{flow::Profile, FlowConfig};
+/// use mbs_kernel::{flow::LogLaw, FlowConfig};
 ///
 /// let d = 0.5e-3;
-/// let profile = Profile::<f64>::new(&FlowConfig::new(0.04, d));
+/// let log_law = LogLaw::<f64>::new(&FlowConfig::new(0.04, d));
 /// // (14): no flow below the zero level, faster higher up.
-/// assert_eq!(profile.mean_velocity(-d), 0.0);
-/// assert!(profile.mean_velocity(2.0 * d) > profile.mean_velocity(d));
+/// assert_eq!(log_law.mean_velocity(-d), 0.0);
+/// assert!(log_law.mean_velocity(2.0 * d) > log_law.mean_velocity(d));
 /// // (16): sheltered at the bed (ε0 = 0.4), exposed well above it.
-/// assert_eq!(profile.sheltering(-d), 0.4);
-/// assert!(profile.sheltering(10.0 * d) > 0.99);
+/// assert_eq!(log_law.sheltering(-d), 0.4);
+/// assert!(log_law.sheltering(10.0 * d) > 0.99);
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Profile<R: Real> {
+pub struct LogLaw<R: Real> {
     /// u*/κ.
     pub(crate) u_star_over_kappa: R,
     /// 2.30 u*.
@@ -300,9 +302,9 @@ pub struct Profile<R: Real> {
     pub(crate) turbulence: bool,
 }
 
-impl<R: Real> Profile<R> {
-    /// An all-zero profile (no flow).
-    pub const ZERO: Self = Profile {
+impl<R: Real> LogLaw<R> {
+    /// An all-zero log law (no flow).
+    pub const ZERO: Self = LogLaw {
         u_star_over_kappa: R::ZERO,
         rms_u0: R::ZERO,
         rms_v0: R::ZERO,
@@ -316,7 +318,7 @@ impl<R: Real> Profile<R> {
     /// Converts a validated [`FlowConfig`] to the working precision.
     pub fn new(c: &FlowConfig) -> Self {
         let f = &c.spec;
-        Profile {
+        LogLaw {
             u_star_over_kappa: R::from_f64(c.u_star / f.kappa),
             rms_u0: R::from_f64(2.30 * c.u_star),
             rms_v0: R::from_f64(1.27 * c.u_star),
@@ -397,14 +399,14 @@ pub fn fluctuation_draw(seed: u64, period: u64, id: u32) -> (f64, f64) {
 mod tests {
     use super::*;
 
-    fn profile() -> (FlowConfig, Profile<f64>) {
+    fn log_law() -> (FlowConfig, LogLaw<f64>) {
         let c = FlowConfig::new(0.03, 0.5e-3);
-        (c, Profile::new(&c))
+        (c, LogLaw::new(&c))
     }
 
     #[test]
     fn log_law_at_chosen_heights() {
-        let (c, p) = profile();
+        let (c, p) = log_law();
         let d = 0.5e-3;
         for &y in &[0.0f64, 0.5 * d, 2.0 * d, 10.0 * d] {
             let expect = c.u_star / 0.4 * (30.1 * (y + 0.25 * d) / d).ln();
@@ -420,7 +422,7 @@ mod tests {
 
     #[test]
     fn intensity_and_sheltering_at_chosen_heights() {
-        let (c, p) = profile();
+        let (c, p) = log_law();
         let (su, sv) = p.intensity(0.0);
         assert!((su - 2.30 * c.u_star).abs() < 1e-15 && (sv - 1.27 * c.u_star).abs() < 1e-15);
         let (su, _) = p.intensity(0.1);
@@ -436,7 +438,7 @@ mod tests {
 
     #[test]
     fn drag_on_a_grain_at_rest_points_downstream() {
-        let (_, p) = profile();
+        let (_, p) = log_law();
         let d = 0.5e-3;
         let coef = 0.5 * 1000.0 * 0.4 * core::f64::consts::FRAC_PI_4 * d * d;
         let y = 3.0 * d;

@@ -11,7 +11,7 @@
 use crate::config::Config;
 use crate::config::FLUID_CELLS;
 use crate::sim::sims::HostSim;
-use mbs_kernel::flow::Profile as LogLaw;
+use mbs_kernel::flow::LogLaw;
 use mbs_kernel::fluid::{Grid, Slabs};
 use mbs_kernel::Real;
 use serde::{Deserialize, Serialize};

@@ -46,10 +46,10 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
         }
         fluid.drag_sum.fill(R::ZERO);
         fluid.carried.fill(R::ZERO);
-        let (profile, bed_level) = (&self.profile, self.bed_level);
+        let (log_law, bed_level) = (&self.log_law, self.bed_level);
         fluid
             .column
-            .start(&fluid.slabs, |y| profile.mean_velocity(y - bed_level))?;
+            .start(&fluid.slabs, |y| log_law.mean_velocity(y - bed_level))?;
         self.refresh_coupling();
         if steady {
             self.steady_column()?;
@@ -182,7 +182,7 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
     /// bed level (`Coupling::refresh`): after an update of either, and
     /// after a restore.
     pub(crate) fn refresh_coupling(&mut self) {
-        let minus_inv_depth = self.profile.minus_inv_depth;
+        let minus_inv_depth = self.log_law.minus_inv_depth;
         self.fluid
             .refresh(&self.flow.fluid, minus_inv_depth, self.bed_level);
     }

@@ -65,7 +65,7 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
                 self.refresh_coupling();
             }
             let hold = u64::from(self.flow.spec.hold_steps.0.max(1));
-            if self.profile.turbulence && since.is_multiple_of(hold) {
+            if self.log_law.turbulence && since.is_multiple_of(hold) {
                 self.draw_fluctuations(since / hold);
                 events.turbulence_redraws = 1;
             }
@@ -76,9 +76,9 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
         let batched = if BATCHED {
             let flow = match (self.flow_on, coupled) {
                 (false, _) => batch::Flow::Off,
-                (true, false) => batch::Flow::Clear(self.profile, self.bed_level),
+                (true, false) => batch::Flow::Clear(self.log_law, self.bed_level),
                 (true, true) => batch::Flow::Coupled {
-                    turbulence: self.profile.turbulence,
+                    turbulence: self.log_law.turbulence,
                 },
             };
             let params = batch::Params {
@@ -102,9 +102,9 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
             }
             None => {
                 if coupled {
-                    scalar::add_coupled_drag(&mut self.grains, &mut self.fluid, &self.profile);
+                    scalar::add_coupled_drag(&mut self.grains, &mut self.fluid, &self.log_law);
                 } else if self.flow_on {
-                    scalar::add_drag(&mut self.grains, &self.profile, self.bed_level);
+                    scalar::add_drag(&mut self.grains, &self.log_law, self.bed_level);
                 }
                 self.index.history_to_slots(&mut self.nbrs.spring);
                 let (g, nb) = (&mut self.grains, &mut self.nbrs);

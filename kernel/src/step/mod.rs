@@ -1,7 +1,7 @@
 //! The step's two paths (docs/model.md §2: equations of motion (1)–(3),
 //! symplectic Euler), which give the same bits. They work on what they are
 //! handed (the grains, the neighbour slots or the pair index, the flow's
-//! profile or the coupled flow's cells, the contact law, the integrator)
+//! log law or the coupled flow's cells, the contact law, the integrator)
 //! and know nothing of [`crate::Sim`]; its `step` (`sim/step.rs`) does the
 //! bookkeeping and picks the path:
 //!

@@ -1,9 +1,9 @@
 //! The drag in lanes, the batched step's first pass: L mobile grains at a
 //! time, lane by lane the operations of the scalar step's drag.
 //!
-//! - Clear water (`drag_pass`): the drag (4)–(5) of the log-law profile
+//! - Clear water (`drag_pass`): the drag (4)–(5) of the log law
 //!   (14) with the held fluctuations (15) and the sheltering (16), as
-//!   [`Profile::drag`](crate::flow::Profile::drag), its scalar `ln` and
+//!   [`LogLaw::drag`](crate::flow::LogLaw::drag), its scalar `ln` and
 //!   `exp` only in the lanes that need them.
 //! - The coupled flow (`coupled_pass`, docs/model.md §13): each grain's
 //!   place between the column's cell centres, the column's u_f, scale of
@@ -34,7 +34,7 @@ macro_rules! drag {
             const BLOCK: usize = 64 / L;
 
             /// Adds the drag (4)–(5) to every mobile grain's force, L grains at a
-            /// time, lane by lane as [`Profile::drag`](crate::flow::Profile::drag)
+            /// time, lane by lane as [`LogLaw::drag`](crate::flow::LogLaw::drag)
             /// (its scalar `ln` and `exp` only in the lanes that need them).
             #[target_feature(enable = "avx2")]
             pub(super) fn drag_pass<const N: usize, const K: usize>(
@@ -42,7 +42,7 @@ macro_rules! drag {
                 d: &Drag<'_, R, N>,
             ) {
                 let zero = zero();
-                let p = &d.profile;
+                let p = &d.log_law;
                 let one = splat(1.0);
                 let (bed, shift, inv_ks) = (
                     splat(d.bed_level),
