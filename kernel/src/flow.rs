@@ -114,7 +114,7 @@ impl FlowSpec {
     }
 
     /// The kernel's flow at shear velocity `u_star` (m/s), its column the
-    /// defaults of [`FluidConfig::new`] without cells: a clear-water flow,
+    /// defaults of [`FluidConfig::new`] without fluid cells: a clear-water flow,
     /// or a coupled one whose column is still to be given
     /// ([`crate::Scenario::flow`] gives it).
     pub const fn at(&self, u_star: f64) -> FlowConfig {

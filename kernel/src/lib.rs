@@ -84,7 +84,7 @@
 //!    (C1)–(C7)).
 //! 3. **Storage and records**: `grains` (the grains, a structure of
 //!    arrays), `neighbours` (each grain's neighbour slots with their spring
-//!    history, and the cell-list search that fills them), and the records
+//!    history, and the binned search that fills them), and the records
 //!    a simulation takes or gives that need no [`Sim`]: `bed` ([`BedSpec`]
 //!    and what building and settling a bed made, §7), `observe`
 //!    ([`Observation`], [`q_star`], §8), `fields` ([`GrainField`]).

@@ -204,14 +204,14 @@ pub(crate) fn check_grain(c: &SimConfig, spec: &GrainSpec) -> Result<(), Error> 
 }
 
 /// A simulation of up to `N` grains with up to `K` neighbours (j > i) per grain,
-/// in precision `R` (`f32` or `f64`), with a column of up to `C` cells for
+/// in precision `R` (`f32` or `f64`), with a column of up to `C` fluid cells for
 /// the coupled flow (docs/model.md §13).
 ///
 /// `C` is a capacity as `N`: the column's arrays are inline, so the
 /// coupled flow needs no allocator, and a `Sim` keeps the all-zero
 /// property. It defaults to 0, no column: the clear-water simulations of
 /// the host and the board keep their size and their code; a coupled flow
-/// with more cells than `C` is refused by [`Sim::set_flow`] with
+/// with more fluid cells than `C` is refused by [`Sim::set_flow`] with
 /// [`Capacity::FluidCells`].
 ///
 /// All storage is inline; nothing is allocated. [`Sim::new`] is a `const fn`
@@ -452,7 +452,7 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
     /// Hold periods of the fluctuations, bed-level updates and the coupled
     /// flow's updates count from now. A coupled flow starts from the log
     /// law (14) of `u_star` above the mean bed level of now, with the solid
-    /// fractions of the grains of now; its cells must fit the capacity `C`
+    /// fractions of the grains of now; its fluid cells must fit the capacity `C`
     /// ([`Capacity::FluidCells`]). On an error nothing changes (the
     /// digest is the same), except when a coupled flow whose column refused
     /// the grains (a slab's solid fraction ≥ 1) replaces a coupled flow:

@@ -146,8 +146,8 @@ pub(crate) fn add_drag<R: Real, const N: usize>(
 /// falls inside the bed); the fluctuations (15) of the held draws with the
 /// local shear velocity of the column's Reynolds stress (C4) for u*, where
 /// u_f > 0 and the `log_law`'s turbulence is on; each read linear between
-/// the cell centres ([`Coupling::at`]). The streamwise drag is also summed
-/// per cell for the column's next update ([`Coupling::deposit`]), in grain
+/// the fluid cells' centres ([`Coupling::at`]). The streamwise drag is also summed
+/// per fluid cell for the column's next update ([`Coupling::deposit`]), in grain
 /// order. The batched step does the same in lanes (`batch::coupled_pass`).
 pub(crate) fn add_coupled_drag<R: Real, const N: usize, const C: usize>(
     g: &mut Grains<R, N>,
