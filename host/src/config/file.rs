@@ -292,7 +292,7 @@ pub struct FlowSection {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct FluidSection {
-    /// Largest cell height (largest diameters).
+    /// Largest fluid cell height (largest diameters).
     pub cell_d: f64,
     /// Kinematic viscosity ν (m²/s).
     pub viscosity_m2_s: f64,

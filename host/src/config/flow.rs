@@ -153,7 +153,7 @@ pub(super) fn flow_spec(file: &ConfigFile, d: f64, substeps: u32) -> Result<Flow
 
 /// `[fluid]` into the kernel's [`FluidSpec`], its update interval checked
 /// as written and converted to integration steps, and the largest height
-/// of the column's cells (m, [`Scenario::fluid_cell_height`]); checked
+/// of the column's fluid cells (m, [`Scenario::fluid_cell_height`]); checked
 /// whatever the model, so that a bad value is an error before it is used.
 pub(super) fn fluid_spec(
     f: &FluidSection,
