@@ -84,10 +84,10 @@ pub struct FlowSpec {
     /// Integration steps between recomputations of the mean bed level
     /// (docs/model.md §6, \[choice\] 100 steps of Δt).
     pub bed_level_interval: IntegrationSteps,
-    /// Width of the windows in which the mean bed level is found, in largest
-    /// diameters (docs/model.md §6 applied per window, \[choice\] 5: the paper's bed,
-    /// nld = 5, is one window). See [`crate::Sim::bed_level`].
-    pub bed_level_window: f64,
+    /// Width of the spans in which the mean bed level is found, in largest
+    /// diameters (docs/model.md §6 applied per span, \[choice\] 5: the paper's bed,
+    /// nld = 5, is one span). See [`crate::Sim::bed_level`].
+    pub bed_level_span: f64,
     /// Clear water (the default) or the coupled flow, whose column is
     /// [`FlowConfig::fluid`].
     pub model: FlowModel,
@@ -96,7 +96,7 @@ pub struct FlowSpec {
 impl FlowSpec {
     /// The defaults of docs/model.md §1 for grains of diameter `d`: κ = 0.4,
     /// h = 0.20 m, ε0 = 0.4, k_sr = d, fluctuations held and the bed level
-    /// recomputed every 100 integration steps, bed-level windows of 5
+    /// recomputed every 100 integration steps, bed-level spans of 5
     /// diameters, clear water.
     pub const fn new(d: f64) -> Self {
         FlowSpec {
@@ -108,7 +108,7 @@ impl FlowSpec {
             turbulence: true,
             hold_steps: IntegrationSteps(100),
             bed_level_interval: IntegrationSteps(100),
-            bed_level_window: 5.0,
+            bed_level_span: 5.0,
             model: FlowModel::ClearWater,
         }
     }
@@ -167,9 +167,9 @@ impl FlowSpec {
             ">= 1 integration step",
         )?;
         check(
-            self.bed_level_window.is_finite() && self.bed_level_window >= 1.0,
-            "flow.bed_level_window",
-            self.bed_level_window,
+            self.bed_level_span.is_finite() && self.bed_level_span >= 1.0,
+            "flow.bed_level_span",
+            self.bed_level_span,
             ">= 1 (largest diameters)",
         )
     }

@@ -274,8 +274,11 @@ pub struct FlowSection {
     pub hold_steps: u32,
     /// Bed-level interval (steps of constants_dt).
     pub bed_level_interval: u32,
-    /// Width of the bed-level windows, in largest diameters.
-    pub bed_level_window: f64,
+    /// Width of the bed-level spans, in largest diameters (read under its
+    /// old name `bed_level_window` too, for one release, with a warning:
+    /// [`DEPRECATED_KEYS`](super::DEPRECATED_KEYS)).
+    #[serde(alias = "bed_level_window")]
+    pub bed_level_span: f64,
     /// ρ (kg/m³).
     pub fluid_density: f64,
     /// C_D.

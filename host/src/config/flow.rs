@@ -126,9 +126,9 @@ pub(super) fn flow_spec(file: &ConfigFile, d: f64, substeps: u32) -> Result<Flow
         "in (0, 100]",
     )?;
     need(
-        f.bed_level_window.is_finite() && (1.0..=1e6).contains(&f.bed_level_window),
-        "flow.bed_level_window",
-        f.bed_level_window,
+        f.bed_level_span.is_finite() && (1.0..=1e6).contains(&f.bed_level_span),
+        "flow.bed_level_span",
+        f.bed_level_span,
         "in [1, 1e6] largest diameters",
     )?;
     for (key, steps) in [
@@ -146,7 +146,7 @@ pub(super) fn flow_spec(file: &ConfigFile, d: f64, substeps: u32) -> Result<Flow
         turbulence: f.turbulence,
         hold_steps: IntegrationSteps::from_constants_steps(f.hold_steps, substeps),
         bed_level_interval: IntegrationSteps::from_constants_steps(f.bed_level_interval, substeps),
-        bed_level_window: f.bed_level_window,
+        bed_level_span: f.bed_level_span,
         model: f.model.kernel(),
     })
 }

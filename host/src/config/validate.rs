@@ -269,6 +269,7 @@ pub(super) fn validate(mut file: ConfigFile, named: Named) -> Result<Config, Con
         precision: r.precision,
         capacity: r.capacity,
         measured,
+        renamed_keys: Vec::new(),
         file,
         scenario,
         contact,

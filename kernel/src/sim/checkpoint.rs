@@ -10,7 +10,7 @@
 //! |---|---|
 //! | magic `MBSK`, version u16, precision bytes u8 (4/8), 0 u8 | 8 |
 //! | `SimConfig`: step_dt, ρ, s, C_M, C_D, μ, ν, k_n, k_s, η_n, η_s, g_x, g_y, L, y_min, y_max, skin (f64), seed (u64), tension (u8: 0 the paper's rule (8), 1 none (8')), slope angle θ (f64) | 153 |
-//! | flow on (u8); `FlowConfig`: u*, and of its `FlowSpec` κ, h, ε0, k_sr, d (f64), turbulence (u8), hold, bed-level interval (u32, integration steps), bed-level window (f64), model (u8: 0 clear water, 1 coupled); `FluidConfig`: fluid cells (u32), bottom, surface, cross-section, ρ, ν, κ, φ_max, driving (f64), update steps (u32, integration steps), hindrance (f64) | 147 |
+//! | flow on (u8); `FlowConfig`: u*, and of its `FlowSpec` κ, h, ε0, k_sr, d (f64), turbulence (u8), hold, bed-level interval (u32, integration steps), bed-level span (f64), model (u8: 0 clear water, 1 coupled); `FluidConfig`: fluid cells (u32), bottom, surface, cross-section, ρ, ν, κ, φ_max, driving (f64), update steps (u32, integration steps), hindrance (f64) | 147 |
 //! | flow epoch, step (u64), bed level (R) | 16 + R |
 //! | grains n (u32); per grain x, y, u, v, ω, d/2, z_u, z_v, 1/m, 1/I, drag factor (R), fixed, class (u8) | 4 + n (11R + 2) |
 //! | contacts m (u32); per contact i, j (u32), e_n, e_s (R), in (i, j) order | 4 + m (8 + 2R) |
@@ -209,7 +209,7 @@ fn read_head<R: Real>(r: &mut Reader<'_>) -> Result<Head, Error> {
         turbulence: r.flag()?,
         hold_steps: IntegrationSteps(r.u32()?),
         bed_level_interval: IntegrationSteps(r.u32()?),
-        bed_level_window: r.f64()?,
+        bed_level_span: r.f64()?,
         model: FlowModel::ClearWater,
     };
     let flow = spec.at(g[0]);
@@ -344,7 +344,7 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
         w.uint(u64::from(f.turbulence), 1);
         w.uint(u64::from(f.hold_steps.0), 4);
         w.uint(u64::from(f.bed_level_interval.0), 4);
-        w.f64(f.bed_level_window);
+        w.f64(f.bed_level_span);
         w.uint(f.model as u64, 1);
         w.uint(fl.cells as u64, 4);
         for x in [

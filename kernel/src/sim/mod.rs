@@ -305,7 +305,7 @@ const ZERO_FLOW: FlowConfig = FlowConfig {
         turbulence: false,
         hold_steps: IntegrationSteps(0),
         bed_level_interval: IntegrationSteps(0),
-        bed_level_window: 0.0,
+        bed_level_span: 0.0,
         model: FlowModel::ClearWater,
     },
     fluid: ZERO_FLUID,
@@ -663,8 +663,8 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
     }
 
     /// Mean bed level y = 0 of the flow (docs/model.md §6), absolute (m): the mean
-    /// centre height of the surface grains, found per window of
-    /// `FlowSpec::bed_level_window` largest diameters so that it does not
+    /// centre height of the surface grains, found per span of
+    /// `FlowSpec::bed_level_span` largest diameters so that it does not
     /// depend on the width of the periodic bed (docs/findings/bed-width.md).
     pub fn bed_level(&self) -> f64 {
         self.bed_level.to_f64()
