@@ -95,7 +95,7 @@ impl Default for FlowSection {
         let p = Scenario::paper();
         let f = p.flow;
         FlowSection {
-            tau_star: vec![0.03, 0.06, 0.1, 0.2, 0.4],
+            tau_stars: vec![0.03, 0.06, 0.1, 0.2, 0.4],
             kappa: f.kappa,
             depth: f.depth,
             eps0: f.eps0,

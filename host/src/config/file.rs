@@ -251,8 +251,9 @@ impl<'de> Deserialize<'de> for Substeps {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct FlowSection {
-    /// Shields numbers.
-    pub tau_star: Vec<f64>,
+    /// Shields numbers (the key `flow.tau_star`).
+    #[serde(rename = "tau_star")]
+    pub tau_stars: Vec<f64>,
     /// Shear velocities u* (m/s), instead of `tau_star` ([`flow_forms`](super::flow_forms)).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub u_star_m_s: Option<Vec<f64>>,
