@@ -97,7 +97,7 @@ pub struct Config {
     /// `run.measured_profiles`, read, its heights shifted.
     pub measured: Option<MeasuredProfile>,
     /// Warnings about renamed keys the file used (accepted for one release:
-    /// [`DEPRECATED_KEYS`]), for [`warnings`].
+    /// [`DEPRECATED_KEYS`]), for [`warnings()`].
     pub renamed_keys: Vec<String>,
 }
 
