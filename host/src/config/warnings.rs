@@ -140,6 +140,30 @@ mod tests {
         assert!((frozen - 0.0625 * f64::from(f32::EPSILON) / 5e-6).abs() < 1e-12);
     }
 
+    /// `flow.bed_level_window`, the old name of `flow.bed_level_span`, in a
+    /// file or a `--set` (over the default, which names the new key): the
+    /// same configuration, and a warning naming the new key.
+    #[test]
+    fn the_old_bed_level_key_is_read_and_warned_about() {
+        let new = Config::from_toml("[flow]\nbed_level_span = 4.0\n").unwrap();
+        let old = Config::from_toml("[flow]\nbed_level_window = 4.0\n").unwrap();
+        let set = Config::load_with(None, &["flow.bed_level_window=4.0".into()]).unwrap();
+        let back = Config::load_with(None, &["flow.bed_level_span=4.0".into()]).unwrap();
+        let warning = "flow.bed_level_window is now flow.bed_level_span;";
+        assert!(!warnings(&new, true).iter().any(|w| w.starts_with(warning)));
+        assert!(!warnings(&back, true).iter().any(|w| w.starts_with(warning)));
+        for c in [&old, &set, &back] {
+            assert_eq!((&c.file, &c.scenario), (&new.file, &new.scenario));
+        }
+        for c in [&old, &set] {
+            assert!(
+                warnings(c, true)[0].starts_with(warning),
+                "{:?}",
+                warnings(c, true)
+            );
+        }
+    }
+
     #[test]
     fn a_bed_narrower_than_two_bed_level_spans_is_warned_about() {
         let warned = |columns: u32, span: f64, under_flow: bool| {
