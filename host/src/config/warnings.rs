@@ -152,9 +152,9 @@ mod tests {
         let warning = "flow.bed_level_window is now flow.bed_level_span;";
         assert!(!warnings(&new, true).iter().any(|w| w.starts_with(warning)));
         assert!(!warnings(&back, true).iter().any(|w| w.starts_with(warning)));
-        for c in [&old, &set, &back] {
-            assert_eq!((&c.file, &c.scenario), (&new.file, &new.scenario));
-        }
+        assert_eq!((&old.file, &old.scenario), (&new.file, &new.scenario));
+        assert_eq!((&set.file, &set.scenario), (&back.file, &back.scenario));
+        assert_eq!(set.scenario.flow.bed_level_span, 4.0);
         for c in [&old, &set] {
             assert!(
                 warnings(c, true)[0].starts_with(warning),

@@ -142,31 +142,31 @@ macro_rules! both_paths {
         mod $name {
             #[test]
             fn f64_batched() {
-                let n = crate::common::batched_steps(|| {
-                    super::$body::<f64, { crate::common::BATCHED }>(1e-9)
+                let n = $crate::common::batched_steps(|| {
+                    super::$body::<f64, { $crate::common::BATCHED }>(1e-9)
                 });
-                crate::common::assert_path(n, true);
+                $crate::common::assert_path(n, true);
             }
             #[test]
             fn f64_scalar() {
-                let n = crate::common::batched_steps(|| {
-                    super::$body::<f64, { crate::common::SCALAR }>(1e-9)
+                let n = $crate::common::batched_steps(|| {
+                    super::$body::<f64, { $crate::common::SCALAR }>(1e-9)
                 });
-                crate::common::assert_path(n, false);
+                $crate::common::assert_path(n, false);
             }
             #[test]
             fn f32_batched() {
-                let n = crate::common::batched_steps(|| {
-                    super::$body::<f32, { crate::common::BATCHED }>(1e-4)
+                let n = $crate::common::batched_steps(|| {
+                    super::$body::<f32, { $crate::common::BATCHED }>(1e-4)
                 });
-                crate::common::assert_path(n, true);
+                $crate::common::assert_path(n, true);
             }
             #[test]
             fn f32_scalar() {
-                let n = crate::common::batched_steps(|| {
-                    super::$body::<f32, { crate::common::SCALAR }>(1e-4)
+                let n = $crate::common::batched_steps(|| {
+                    super::$body::<f32, { $crate::common::SCALAR }>(1e-4)
                 });
-                crate::common::assert_path(n, false);
+                $crate::common::assert_path(n, false);
             }
         }
     };
