@@ -13,7 +13,7 @@ pub enum Capacity {
     NeighboursPerGrain,
     /// Size classes ([`crate::MAX_CLASSES`]).
     SizeClasses,
-    /// Cells of the coupled flow's column (`C` of [`crate::fluid::Column`]).
+    /// Fluid cells of the coupled flow's column (`C` of [`crate::fluid::Column`]).
     FluidCells,
 }
 

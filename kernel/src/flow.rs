@@ -84,10 +84,10 @@ pub struct FlowSpec {
     /// Integration steps between recomputations of the mean bed level
     /// (docs/model.md §6, \[choice\] 100 steps of Δt).
     pub bed_level_interval: IntegrationSteps,
-    /// Width of the windows in which the mean bed level is found, in largest
-    /// diameters (docs/model.md §6 applied per window, \[choice\] 5: the paper's bed,
-    /// nld = 5, is one window). See [`crate::Sim::bed_level`].
-    pub bed_level_window: f64,
+    /// Width of the spans in which the mean bed level is found, in largest
+    /// diameters (docs/model.md §6 applied per span, \[choice\] 5: the paper's bed,
+    /// nld = 5, is one span). See [`crate::Sim::bed_level`].
+    pub bed_level_span: f64,
     /// Clear water (the default) or the coupled flow, whose column is
     /// [`FlowConfig::fluid`].
     pub model: FlowModel,
@@ -96,7 +96,7 @@ pub struct FlowSpec {
 impl FlowSpec {
     /// The defaults of docs/model.md §1 for grains of diameter `d`: κ = 0.4,
     /// h = 0.20 m, ε0 = 0.4, k_sr = d, fluctuations held and the bed level
-    /// recomputed every 100 integration steps, bed-level windows of 5
+    /// recomputed every 100 integration steps, bed-level spans of 5
     /// diameters, clear water.
     pub const fn new(d: f64) -> Self {
         FlowSpec {
@@ -108,13 +108,13 @@ impl FlowSpec {
             turbulence: true,
             hold_steps: IntegrationSteps(100),
             bed_level_interval: IntegrationSteps(100),
-            bed_level_window: 5.0,
+            bed_level_span: 5.0,
             model: FlowModel::ClearWater,
         }
     }
 
     /// The kernel's flow at shear velocity `u_star` (m/s), its column the
-    /// defaults of [`FluidConfig::new`] without cells: a clear-water flow,
+    /// defaults of [`FluidConfig::new`] without fluid cells: a clear-water flow,
     /// or a coupled one whose column is still to be given
     /// ([`crate::Scenario::flow`] gives it).
     pub const fn at(&self, u_star: f64) -> FlowConfig {
@@ -130,13 +130,13 @@ impl FlowSpec {
     /// velocity is 0 at and below it.
     ///
     /// ```
-    /// use mbs_kernel::{flow::Profile, FlowConfig};
+    /// use mbs_kernel::{flow::LogLaw, FlowConfig};
     ///
     /// let flow = FlowConfig::new(0.04, 0.5e-3);
     /// let y0 = flow.spec.zero_velocity_height();
-    /// let profile = Profile::<f64>::new(&flow);
-    /// assert_eq!(profile.mean_velocity(y0 - 1e-9), 0.0);
-    /// assert!(profile.mean_velocity(y0 + 1e-9) > 0.0);
+    /// let log_law = LogLaw::<f64>::new(&flow);
+    /// assert_eq!(log_law.mean_velocity(y0 - 1e-9), 0.0);
+    /// assert!(log_law.mean_velocity(y0 + 1e-9) > 0.0);
     /// ```
     pub fn zero_velocity_height(&self) -> f64 {
         self.roughness / 30.1 - 0.25 * self.reference_diameter
@@ -167,9 +167,9 @@ impl FlowSpec {
             ">= 1 integration step",
         )?;
         check(
-            self.bed_level_window.is_finite() && self.bed_level_window >= 1.0,
-            "flow.bed_level_window",
-            self.bed_level_window,
+            self.bed_level_span.is_finite() && self.bed_level_span >= 1.0,
+            "flow.bed_level_span",
+            self.bed_level_span,
             ">= 1 (largest diameters)",
         )
     }
@@ -266,22 +266,24 @@ pub fn uniform_flow_shields_number(depth: f64, slope: f64, s: f64, d: f64) -> f6
     depth * slope / ((s - 1.0) * d)
 }
 
-/// The flow profile in the working precision, evaluated per grain per step.
+/// The prescribed clear-water flow (docs/model.md): the log law (14), the
+/// turbulence intensity (15) and the sheltering (16), in the working
+/// precision, evaluated per grain per step.
 ///
 /// ```
-/// use mbs_kernel::{flow::Profile, FlowConfig};
+/// use mbs_kernel::{flow::LogLaw, FlowConfig};
 ///
 /// let d = 0.5e-3;
-/// let profile = Profile::<f64>::new(&FlowConfig::new(0.04, d));
+/// let log_law = LogLaw::<f64>::new(&FlowConfig::new(0.04, d));
 /// // (14): no flow below the zero level, faster higher up.
-/// assert_eq!(profile.mean_velocity(-d), 0.0);
-/// assert!(profile.mean_velocity(2.0 * d) > profile.mean_velocity(d));
+/// assert_eq!(log_law.mean_velocity(-d), 0.0);
+/// assert!(log_law.mean_velocity(2.0 * d) > log_law.mean_velocity(d));
 /// // (16): sheltered at the bed (ε0 = 0.4), exposed well above it.
-/// assert_eq!(profile.sheltering(-d), 0.4);
-/// assert!(profile.sheltering(10.0 * d) > 0.99);
+/// assert_eq!(log_law.sheltering(-d), 0.4);
+/// assert!(log_law.sheltering(10.0 * d) > 0.99);
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Profile<R: Real> {
+pub struct LogLaw<R: Real> {
     /// u*/κ.
     pub(crate) u_star_over_kappa: R,
     /// 2.30 u*.
@@ -300,9 +302,9 @@ pub struct Profile<R: Real> {
     pub(crate) turbulence: bool,
 }
 
-impl<R: Real> Profile<R> {
-    /// An all-zero profile (no flow).
-    pub const ZERO: Self = Profile {
+impl<R: Real> LogLaw<R> {
+    /// An all-zero log law (no flow).
+    pub const ZERO: Self = LogLaw {
         u_star_over_kappa: R::ZERO,
         rms_u0: R::ZERO,
         rms_v0: R::ZERO,
@@ -316,7 +318,7 @@ impl<R: Real> Profile<R> {
     /// Converts a validated [`FlowConfig`] to the working precision.
     pub fn new(c: &FlowConfig) -> Self {
         let f = &c.spec;
-        Profile {
+        LogLaw {
             u_star_over_kappa: R::from_f64(c.u_star / f.kappa),
             rms_u0: R::from_f64(2.30 * c.u_star),
             rms_v0: R::from_f64(1.27 * c.u_star),
@@ -397,14 +399,14 @@ pub fn fluctuation_draw(seed: u64, period: u64, id: u32) -> (f64, f64) {
 mod tests {
     use super::*;
 
-    fn profile() -> (FlowConfig, Profile<f64>) {
+    fn log_law() -> (FlowConfig, LogLaw<f64>) {
         let c = FlowConfig::new(0.03, 0.5e-3);
-        (c, Profile::new(&c))
+        (c, LogLaw::new(&c))
     }
 
     #[test]
     fn log_law_at_chosen_heights() {
-        let (c, p) = profile();
+        let (c, p) = log_law();
         let d = 0.5e-3;
         for &y in &[0.0f64, 0.5 * d, 2.0 * d, 10.0 * d] {
             let expect = c.u_star / 0.4 * (30.1 * (y + 0.25 * d) / d).ln();
@@ -420,7 +422,7 @@ mod tests {
 
     #[test]
     fn intensity_and_sheltering_at_chosen_heights() {
-        let (c, p) = profile();
+        let (c, p) = log_law();
         let (su, sv) = p.intensity(0.0);
         assert!((su - 2.30 * c.u_star).abs() < 1e-15 && (sv - 1.27 * c.u_star).abs() < 1e-15);
         let (su, _) = p.intensity(0.1);
@@ -436,7 +438,7 @@ mod tests {
 
     #[test]
     fn drag_on_a_grain_at_rest_points_downstream() {
-        let (_, p) = profile();
+        let (_, p) = log_law();
         let d = 0.5e-3;
         let coef = 0.5 * 1000.0 * 0.4 * core::f64::consts::FRAC_PI_4 * d * d;
         let y = 3.0 * d;

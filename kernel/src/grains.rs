@@ -95,8 +95,8 @@ pub struct Grains<R: Real, const N: usize> {
     /// Scratch of the bed-level search: connected to the fixed layer.
     pub(crate) in_bed: [bool; N],
     _pad17: Pad,
-    /// Scratch of the bed-level search: highest bed-grain centre per window.
-    pub(crate) window_top: [R; N],
+    /// Scratch of the bed-level search: highest bed-grain centre per bed-level span.
+    pub(crate) span_top: [R; N],
 }
 
 impl<R: Real, const N: usize> Grains<R, N> {
@@ -138,7 +138,7 @@ impl<R: Real, const N: usize> Grains<R, N> {
             _pad16: PAD,
             in_bed: [false; N],
             _pad17: PAD,
-            window_top: [R::ZERO; N],
+            span_top: [R::ZERO; N],
         }
     }
 }

@@ -52,12 +52,12 @@
 //! | docs/model.md | what | where |
 //! |---|---|---|
 //! | (1)–(3) | equations of motion, symplectic Euler | [`Sim::step`] |
-//! | (4)–(5) | drag | [`flow::Profile::drag`] |
+//! | (4)–(5) | drag | [`flow::LogLaw::drag`] |
 //! | (6)–(9), (8') | contact law with history; what may pull, [`Tension`] | [`contact::ContactLaw::apply`] |
 //! | (10)–(13), (17), (18) | constants from Δt | [`contact_constants`] |
 //! | (12)–(13) | tangential constants from normal ones | [`ContactConstants::from_normal`] |
 //! | (11) | stability bound of the integration step | [`ContactConstants::stable_dt_limit`] |
-//! | (14)–(16) | log law, turbulence, sheltering | [`flow::Profile`] |
+//! | (14)–(16) | log law, turbulence, sheltering | [`flow::LogLaw`] |
 //! | §6 | mean bed level | [`Sim::bed_level`] |
 //! | §6 | the Shields relation, both ways | [`shear_velocity`], [`shields_number`] |
 //! | §7 | initial bed | [`Sim::build_bed`], [`Sim::settle`] |
@@ -78,13 +78,13 @@
 //!    kernel's intervals, counts of integration steps Δt/substeps).
 //! 2. **Model laws**: `constants` (material, and the contact constants from
 //!    Δt: [`contact_constants`]), [`contact`] (the contact law (6)–(9) and
-//!    its spring history), [`flow`] (the flow profile (14)–(16), the drag
+//!    its spring history), [`flow`] (the log law (14)–(16), the drag
 //!    (4)–(5), and the choice of clear water or the coupled flow,
 //!    [`FlowModel`]), [`fluid`] (the coupled flow's 1-D column, §13:
 //!    (C1)–(C7)).
 //! 3. **Storage and records**: `grains` (the grains, a structure of
 //!    arrays), `neighbours` (each grain's neighbour slots with their spring
-//!    history, and the cell-list search that fills them), and the records
+//!    history, and the binned search that fills them), and the records
 //!    a simulation takes or gives that need no [`Sim`]: `bed` ([`BedSpec`]
 //!    and what building and settling a bed made, §7), `observe`
 //!    ([`Observation`], [`q_star`], §8), `fields` ([`GrainField`]).

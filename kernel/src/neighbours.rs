@@ -3,17 +3,17 @@
 //! Each grain i owns `K` slots holding the grains j > i within the cut-off
 //! (d_i + d_j)/2 + skin, sorted by j, each with the pair's spring history.
 //! The contact loop therefore visits pairs in the fixed order (i ascending,
-//! j ascending), whatever the cell layout: that order, and skipping pairs that
+//! j ascending), whatever the binning: that order, and skipping pairs that
 //! do not overlap, make results independent of the skin, of when the list is
-//! rebuilt and of the cell grid, bit for bit.
+//! rebuilt and of the bins, bit for bit.
 //!
-//! The list is rebuilt from a cell list (cell side ≥ largest cut-off, periodic
-//! in x) when grains may have moved half a skin since the last build. Each
+//! The list is rebuilt by binning the grains (square bins, side ≥ largest
+//! cut-off, periodic in x) when grains may have moved half a skin since the last build. Each
 //! build sizes the skin from the fastest grain's speed, between a floor and
 //! the configured skin ([`adapted_skin`]): a still bed lists fewer pairs that
-//! are not in contact, a moving one rebuilds seldom. Cells are
+//! are not in contact, a moving one rebuilds seldom. Bins are
 //! hashed into one bucket per grain, so any bed height fits; a bucket shared by two
-//! cells only costs extra distance checks. History moves from the old slots to
+//! bins only costs extra distance checks. History moves from the old slots to
 //! the new ones by merging the two sorted lists, so no contact is lost.
 //!
 //! The batched step's pair index, built from these slots, is not kept here:
@@ -53,7 +53,7 @@ fn adapted_skin<R: Real>(largest: R, step_travel: R) -> R {
     }
 }
 
-/// Neighbour slots with spring history, and the cell-list scratch.
+/// Neighbour slots with spring history, and the binning scratch.
 #[derive(Debug, Clone)]
 pub struct Neighbours<R: Real, const N: usize, const K: usize> {
     /// Used slots per grain.
@@ -66,9 +66,9 @@ pub struct Neighbours<R: Real, const N: usize, const K: usize> {
     head: [u32; N],
     /// Next grain in the same bucket: index + 1, 0 = end.
     next: [u32; N],
-    /// Cell coordinates of each grain at the last build.
-    cell_x: [u32; N],
-    cell_y: [u32; N],
+    /// Bin coordinates of each grain at the last build.
+    bin_x: [u32; N],
+    bin_y: [u32; N],
     /// Largest distance any grain may have travelled since the last build.
     pub(crate) travel: R,
     /// Skin (m) of the last build, the configured (largest) skin, and the
@@ -93,8 +93,8 @@ impl<R: Real, const N: usize, const K: usize> Neighbours<R, N, K> {
             spring: [[Spring::ZERO; K]; N],
             head: [0; N],
             next: [0; N],
-            cell_x: [0; N],
-            cell_y: [0; N],
+            bin_x: [0; N],
+            bin_y: [0; N],
             travel: R::ZERO,
             skin: R::ZERO,
             skin_max: R::ZERO,
@@ -128,7 +128,7 @@ impl<R: Real, const N: usize, const K: usize> Neighbours<R, N, K> {
         }
     }
 
-    /// Bins the grains into cells and rebuilds every grain's slots, carrying
+    /// Bins the grains and rebuilds every grain's slots, carrying
     /// the history of pairs present in both lists. Fixed–fixed pairs are
     /// never listed (they exert no force). The slots must hold the history
     /// (the batched step's pair index gives it back first).
@@ -139,8 +139,8 @@ impl<R: Real, const N: usize, const K: usize> Neighbours<R, N, K> {
             r_max = R::max(r_max, r);
             max_v2 = R::max(max_v2, u * u + v * v);
         }
-        // At least three cells across, so the 3×3 stencil visits distinct
-        // cells, at any skin up to the largest.
+        // At least three bins across, so the 3×3 stencil of bins visits distinct
+        // bins, at any skin up to the largest.
         let fewest = libm::floor((width / (r_max + r_max + self.skin_max)).to_f64());
         if fewest.is_nan() || fewest < 3.0 {
             return Err(Error::InvalidParameter {
@@ -158,19 +158,19 @@ impl<R: Real, const N: usize, const K: usize> Neighbours<R, N, K> {
         } else {
             nx_f as u32
         };
-        let cell = width / R::from_f64(nx as f64);
-        let inv_cell = R::ONE / cell;
+        let bin = width / R::from_f64(nx as f64);
+        let inv_bin = R::ONE / bin;
 
         // About one bucket per grain (clearing costs O(n), not O(N)), a
-        // power of two so that a cell's bucket is a mask, not a division.
+        // power of two so that a bin's bucket is a mask, not a division.
         let buckets = bucket_count(n, N);
         self.head[..buckets].fill(0);
         for i in 0..n {
-            let cx = ((g.x[i] * inv_cell).to_f64() as u32).min(nx - 1);
-            let cy = (((g.y[i] - y_min) * inv_cell).to_f64() as u32).min(1 << 30);
-            self.cell_x[i] = cx;
-            self.cell_y[i] = cy;
-            let b = bucket(cx, cy, nx, buckets);
+            let bx = ((g.x[i] * inv_bin).to_f64() as u32).min(nx - 1);
+            let by = (((g.y[i] - y_min) * inv_bin).to_f64() as u32).min(1 << 30);
+            self.bin_x[i] = bx;
+            self.bin_y[i] = by;
+            let b = bucket(bx, by, nx, buckets);
             self.next[i] = self.head[b];
             self.head[b] = i as u32 + 1;
         }
@@ -178,20 +178,20 @@ impl<R: Real, const N: usize, const K: usize> Neighbours<R, N, K> {
         let half_width = width * R::HALF;
         for i in 0..n {
             let mut found = heapless::Vec::<u32, K>::new();
-            let (cx, cy) = (self.cell_x[i], self.cell_y[i]);
-            // The cell's column and its periodic neighbours (nx ≥ 3).
-            let left = if cx == 0 { nx - 1 } else { cx - 1 };
-            let right = if cx + 1 >= nx { 0 } else { cx + 1 };
+            let (bx, by) = (self.bin_x[i], self.bin_y[i]);
+            // The bins left and right, periodic in x (nx ≥ 3).
+            let left = if bx == 0 { nx - 1 } else { bx - 1 };
+            let right = if bx + 1 >= nx { 0 } else { bx + 1 };
             for dy in 0..3u32 {
-                let Some(ny) = (cy + dy).checked_sub(1) else {
+                let Some(nby) = (by + dy).checked_sub(1) else {
                     continue;
                 };
-                for nxc in [left, cx, right] {
-                    let mut link = self.head[bucket(nxc, ny, nx, buckets)];
+                for nbx in [left, bx, right] {
+                    let mut link = self.head[bucket(nbx, nby, nx, buckets)];
                     while link != 0 {
                         let j = (link - 1) as usize;
                         link = self.next[j];
-                        if j <= i || self.cell_x[j] != nxc || self.cell_y[j] != ny {
+                        if j <= i || self.bin_x[j] != nbx || self.bin_y[j] != nby {
                             continue;
                         }
                         if g.fixed[i] && g.fixed[j] {
@@ -318,10 +318,10 @@ fn bucket_count(n: usize, capacity: usize) -> usize {
         .min(fits)
 }
 
-/// Bucket of cell (cx, cy) among `buckets` (a power of two).
+/// Bucket of bin (bx, by) among `buckets` (a power of two).
 #[inline]
-fn bucket(cx: u32, cy: u32, nx: u32, buckets: usize) -> usize {
-    ((cy as u64 * nx as u64 + cx as u64) & (buckets as u64 - 1)) as usize
+fn bucket(bx: u32, by: u32, nx: u32, buckets: usize) -> usize {
+    ((by as u64 * nx as u64 + bx as u64) & (buckets as u64 - 1)) as usize
 }
 
 #[cfg(test)]

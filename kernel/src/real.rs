@@ -4,7 +4,7 @@
 //! Every transcendental call goes through [`libm`], a pure-software library, so
 //! the same inputs give the same bits on x86_64 and on a Cortex-M4F; `sqrt` is
 //! IEEE correctly rounded on every target. With the `micromath` feature the
-//! `f32` `exp` and `ln` (flow profile only, never contact geometry) use
+//! `f32` `exp` and `ln` (flow log law only, never contact geometry) use
 //! micromath instead: deterministic, but coarse (worst relative error about
 //! 2.4e-3 for exp and 5.8e-4 for ln; docs/board.md).
 //!

@@ -55,8 +55,8 @@ pub struct Scenario {
     /// [`Scenario::column`] adds what the bed gives. Read only with
     /// [`FlowModel::Coupled`].
     pub fluid: FluidSpec,
-    /// Largest height of a cell of the coupled flow's column Δy (m): the
-    /// column has the fewest equal cells no higher than this
+    /// Largest height of a fluid cell of the coupled flow's column Δy (m): the
+    /// column has the fewest equal fluid cells no higher than this
     /// ([`Scenario::column`]). Read only with [`FlowModel::Coupled`].
     pub fluid_cell_height: f64,
     /// Bed slope angle θ (rad), [`SimConfig::slope_angle`]: x runs down the
@@ -100,7 +100,7 @@ impl Scenario {
                 bed_level_interval: IntegrationSteps::from_constants_steps(100, SUBSTEPS),
                 ..FlowSpec::new(D)
             },
-            // \[choice\] cells of d/2; φ_max 0.6 of a packed bed, the
+            // \[choice\] fluid cells of d/2; φ_max 0.6 of a packed bed, the
             // largest mean solid fraction of the quasi-2-D beds of Frey
             // (2014) (0.58–0.60), so that the mixing length (C3) starts at
             // the bed's surface; the column updated every 10 Δt, a tenth of
@@ -125,7 +125,7 @@ impl Scenario {
     pub const PAPER_COUPLED_CELLS: usize = 100;
 
     /// The coupled golden scenario: [`Scenario::paper`] under the coupled
-    /// flow (docs/model.md §13) in a column of cells of 4 d, 100 cells from
+    /// flow (docs/model.md §13) in a column of fluid cells of 4 d, 100 fluid cells from
     /// the fixed grains' mean centre to the depth of 0.2 m, small enough
     /// for the boards. The golden test (tests/golden/coupled.txt), the firmware and
     /// `mbs digest --set flow.model=coupled --set fluid.cell_d=4` run it.
@@ -230,7 +230,7 @@ impl Scenario {
     /// (Maurin et al. 2015: below it the fixed layer holds the water at
     /// rest, and a column reaching below the fixed grains carries a
     /// spurious fast layer under them), to the top of the domain, the
-    /// depth h, in equal cells of at most [`Scenario::fluid_cell_height`];
+    /// depth h, in equal fluid cells of at most [`Scenario::fluid_cell_height`];
     /// its slabs as wide as the bed and one d_max thick; the
     /// [`Scenario::fluid`], the material's density and the flow's κ.
     ///
@@ -238,17 +238,17 @@ impl Scenario {
     /// use mbs_kernel::Scenario;
     ///
     /// let column = Scenario::paper().column();
-    /// assert_eq!((column.bottom, column.cells), (0.0, 800)); // 0.2 m in cells of d/2
+    /// assert_eq!((column.bottom, column.cells), (0.0, 800)); // 0.2 m in fluid cells of d/2
     /// assert_eq!(column.surface, 0.2);
     /// ```
     pub fn column(&self) -> FluidConfig {
         let d = self.bed.max_diameter();
         let bottom = 0.0;
         let surface = self.flow.depth;
-        let cells = libm::ceil((surface - bottom) / self.fluid_cell_height);
+        let fluid_cells = libm::ceil((surface - bottom) / self.fluid_cell_height);
         // A NaN or huge count fails `FluidConfig::validate`.
-        let cells = if cells.is_finite() && cells < 1e9 {
-            cells as usize
+        let fluid_cells = if fluid_cells.is_finite() && fluid_cells < 1e9 {
+            fluid_cells as usize
         } else {
             usize::MAX
         };
@@ -256,7 +256,7 @@ impl Scenario {
             spec: self.fluid,
             density: self.material.rho,
             kappa: self.flow.kappa,
-            ..FluidConfig::new(cells, bottom, surface, self.bed.width() * d)
+            ..FluidConfig::new(fluid_cells, bottom, surface, self.bed.width() * d)
         }
     }
 

@@ -76,39 +76,39 @@ fn builds_and_settles<R: Real>(_tol: f64) {
         "overlap {} too large",
         o.max_overlap
     );
-    // Mean bed level: per window of w diameters, the bed grains within one
-    // diameter of the window's top; the mean over all windows' such grains.
-    // A window as wide as the bed is docs/model.md §6 as written. Every grain of a
+    // Mean bed level: per span of w diameters, the bed grains within one
+    // diameter of the span's top; the mean over all spans' such grains.
+    // A span as wide as the bed is docs/model.md §6 as written. Every grain of a
     // settled bed rests on contacts, so every grain is a bed grain.
     let d = 0.5e-3;
-    for (window, windows) in [(5.0, 1usize), (1e6, 1), (2.0, 2), (1.0, 5)] {
+    for (span, spans) in [(5.0, 1usize), (1e6, 1), (2.0, 2), (1.0, 5)] {
         let mut level_flow = sc.flow(Scenario::PAPER_TAU_STAR);
         level_flow.u_star = 0.0;
-        level_flow.spec.bed_level_window = window;
+        level_flow.spec.bed_level_span = span;
         sim.set_flow(Some(&level_flow)).unwrap();
         sim.step().unwrap();
         let grains: Vec<_> = (0..sim.len()).map(|i| sim.grain(i).unwrap()).collect();
-        let window_of = |x: f64| ((x / info.width * windows as f64) as usize).min(windows - 1);
-        let mut top = vec![f64::MIN; windows];
+        let span_of = |x: f64| ((x / info.width * spans as f64) as usize).min(spans - 1);
+        let mut top = vec![f64::MIN; spans];
         for g in &grains {
-            top[window_of(g.x)] = top[window_of(g.x)].max(g.y);
+            top[span_of(g.x)] = top[span_of(g.x)].max(g.y);
         }
         let surface: Vec<f64> = grains
             .iter()
-            .filter(|g| g.y >= top[window_of(g.x)] - d)
+            .filter(|g| g.y >= top[span_of(g.x)] - d)
             .map(|g| g.y)
             .collect();
         let expect = surface.iter().sum::<f64>() / surface.len() as f64;
         assert!(
             (sim.bed_level() - expect).abs() < 1e-3 * d,
-            "window {window}: bed level {} vs {expect}",
+            "span {span}: bed level {} vs {expect}",
             sim.bed_level(),
         );
-        if windows == 5 {
+        if spans == 5 {
             let global = grains.iter().map(|g| g.y).fold(f64::MIN, f64::max);
             assert!(
                 sim.bed_level() < global - 0.5 * d,
-                "one-diameter windows average local tops: {} vs top {global}",
+                "one-diameter spans average local tops: {} vs top {global}",
                 sim.bed_level()
             );
         }

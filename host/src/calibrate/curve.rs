@@ -170,8 +170,8 @@ mod tests {
         assert_eq!(exact.mean_log_ratio(r, 0.1), (0.0, 0.0));
         let double = curve(&[2.0, 2.0], &[0.0, 0.3]);
         assert!((double.misfit(r, 0.1) - ln2 * ln2).abs() < 1e-12);
-        // A precise point off by 2 (weight 100) and a noisy exact one (σ_r
-        // 0.3: weight 10): the precise one dominates.
+        // A point of small error off by 2 (weight 100) and a noisy exact one (σ_r
+        // 0.3: weight 10): the one of small error dominates.
         let mixed = curve(&[2.0, 1.0], &[0.0, 0.3]);
         assert!((mixed.misfit(r, 0.1) - ln2 * ln2 * 100.0 / 110.0).abs() < 1e-12);
         let (mean, sigma) = mixed.mean_log_ratio(r, 0.1);

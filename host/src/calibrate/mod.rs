@@ -5,7 +5,7 @@
 //! |---|---|---|
 //! | 1 | α_m by the fastest settling of a packed bed (α_cn = 1, β = 1) | 20 |
 //! | 2 | α_cn the same way, α_m fixed | 1.3 |
-//! | 3 | β minimising the q*(τ*) misfit to a reference, coarse then precise | 15.8 |
+//! | 3 | β minimising the q*(τ*) misfit to a reference, coarse then fine | 15.8 |
 //! | 4 | constants_dt for other grain sizes d and layer thicknesses nvd | 9.0e-6 s at d = 0.1 mm |
 //! | 5 | a mixed bed: fractional transport per size class | — |
 //!

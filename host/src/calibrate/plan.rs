@@ -1,10 +1,10 @@
 //! The calibration's plan: its grids, durations and seed caps (full or
-//! quick), and how precisely a curve's points are computed.
+//! quick), and to what error a curve's points are computed.
 
 use serde::{Deserialize, Serialize};
 
-/// How precisely the points of a curve are computed (docs/calibration.md,
-/// "Precision-driven points"). A cell averages from `window_min` on, in
+/// To what error the points of a curve are computed (docs/calibration.md,
+/// "Error-driven points"). A cell averages from `window_min` on, in
 /// blocks of `window_min`/5, until its standard error reaches the base
 /// configuration's `[target]` or `window` is up; a point starts with
 /// `seeds` seeds (1, 2, …) and adds `seeds` more while the standard error
@@ -72,12 +72,12 @@ pub struct Plan {
     pub rest_speed: f64,
     /// Stage 3: the coarse grid of β.
     pub beta_grid: Vec<f64>,
-    /// Stage 3: the ratio between the first three precise β.
+    /// Stage 3: the ratio between the first three fine β.
     pub beta_step: f64,
     /// Stage 3: the search ends when the parabola's vertex is within this
-    /// ratio of a β already evaluated precisely.
+    /// ratio of a β already evaluated with a fine curve.
     pub beta_tolerance: f64,
-    /// Stage 3: the most precise curves.
+    /// Stage 3: the largest number of fine curves.
     pub beta_evaluations: usize,
     /// The worst factor to the reference the fit aims at; a point beyond it
     /// by twice its error adds no seeds (its verdict is clear).

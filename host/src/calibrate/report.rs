@@ -168,7 +168,7 @@ pub fn write_report(
         base.scenario.substeps,
         plan.pack_columns,
         base.scenario.bed.columns,
-        base.scenario.flow.bed_level_window,
+        base.scenario.flow.bed_level_span,
     );
     let dt01 = s
         .timestep

@@ -95,7 +95,7 @@ impl Default for FlowSection {
         let p = Scenario::paper();
         let f = p.flow;
         FlowSection {
-            tau_star: vec![0.03, 0.06, 0.1, 0.2, 0.4],
+            tau_stars: vec![0.03, 0.06, 0.1, 0.2, 0.4],
             kappa: f.kappa,
             depth: f.depth,
             eps0: f.eps0,
@@ -103,7 +103,7 @@ impl Default for FlowSection {
             turbulence: f.turbulence,
             hold_steps: f.hold_steps.to_constants_steps(p.substeps),
             bed_level_interval: f.bed_level_interval.to_constants_steps(p.substeps),
-            bed_level_window: f.bed_level_window,
+            bed_level_span: f.bed_level_span,
             fluid_density: p.material.rho,
             drag_coefficient: p.material.c_d,
             added_mass: p.material.c_m,

@@ -251,8 +251,9 @@ impl<'de> Deserialize<'de> for Substeps {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct FlowSection {
-    /// Shields numbers.
-    pub tau_star: Vec<f64>,
+    /// Shields numbers (the key `flow.tau_star`).
+    #[serde(rename = "tau_star")]
+    pub tau_stars: Vec<f64>,
     /// Shear velocities u* (m/s), instead of `tau_star` ([`flow_forms`](super::flow_forms)).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub u_star_m_s: Option<Vec<f64>>,
@@ -274,8 +275,11 @@ pub struct FlowSection {
     pub hold_steps: u32,
     /// Bed-level interval (steps of constants_dt).
     pub bed_level_interval: u32,
-    /// Width of the bed-level windows, in largest diameters.
-    pub bed_level_window: f64,
+    /// Width of the bed-level spans, in largest diameters (read under its
+    /// old name `bed_level_window` too, for one release, with a warning:
+    /// [`DEPRECATED_KEYS`](super::DEPRECATED_KEYS)).
+    #[serde(alias = "bed_level_window")]
+    pub bed_level_span: f64,
     /// ρ (kg/m³).
     pub fluid_density: f64,
     /// C_D.
@@ -292,7 +296,7 @@ pub struct FlowSection {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct FluidSection {
-    /// Largest cell height (largest diameters).
+    /// Largest fluid cell height (largest diameters).
     pub cell_d: f64,
     /// Kinematic viscosity ν (m²/s).
     pub viscosity_m2_s: f64,

@@ -75,12 +75,12 @@ pub fn flow_forms(file: &mut ConfigFile, s: f64, d: f64) -> Result<(), ConfigErr
         taus.push(tau);
     }
     need(
-        f.tau_star == FlowSection::default().tau_star || f.tau_star == taus,
+        f.tau_stars == FlowSection::default().tau_stars || f.tau_stars == taus,
         "flow.tau_star",
-        format!("{:?}", f.tau_star),
+        format!("{:?}", f.tau_stars),
         &format!("not given with {key} (or equal to its values {taus:?})"),
     )?;
-    file.flow.tau_star = taus;
+    file.flow.tau_stars = taus;
     Ok(())
 }
 
@@ -91,12 +91,12 @@ pub fn flow_forms(file: &mut ConfigFile, s: f64, d: f64) -> Result<(), ConfigErr
 pub(super) fn flow_spec(file: &ConfigFile, d: f64, substeps: u32) -> Result<FlowSpec, ConfigError> {
     let f = &file.flow;
     need(
-        !f.tau_star.is_empty() && f.tau_star.len() <= 1000,
+        !f.tau_stars.is_empty() && f.tau_stars.len() <= 1000,
         "flow.tau_star",
-        format!("{:?}", f.tau_star),
+        format!("{:?}", f.tau_stars),
         "a list of 1 to 1000 values",
     )?;
-    for (k, &t) in f.tau_star.iter().enumerate() {
+    for (k, &t) in f.tau_stars.iter().enumerate() {
         need(
             t.is_finite() && t > 0.0 && t <= 5.0,
             &format!("flow.tau_star[{k}]"),
@@ -104,13 +104,13 @@ pub(super) fn flow_spec(file: &ConfigFile, d: f64, substeps: u32) -> Result<Flow
             "in (0, 5]",
         )?;
     }
-    let mut sorted = f.tau_star.clone();
+    let mut sorted = f.tau_stars.clone();
     sorted.sort_by(f64::total_cmp);
     sorted.dedup();
     need(
-        sorted.len() == f.tau_star.len(),
+        sorted.len() == f.tau_stars.len(),
         "flow.tau_star",
-        format!("{:?}", f.tau_star),
+        format!("{:?}", f.tau_stars),
         "distinct values",
     )?;
     need(
@@ -126,9 +126,9 @@ pub(super) fn flow_spec(file: &ConfigFile, d: f64, substeps: u32) -> Result<Flow
         "in (0, 100]",
     )?;
     need(
-        f.bed_level_window.is_finite() && (1.0..=1e6).contains(&f.bed_level_window),
-        "flow.bed_level_window",
-        f.bed_level_window,
+        f.bed_level_span.is_finite() && (1.0..=1e6).contains(&f.bed_level_span),
+        "flow.bed_level_span",
+        f.bed_level_span,
         "in [1, 1e6] largest diameters",
     )?;
     for (key, steps) in [
@@ -146,14 +146,14 @@ pub(super) fn flow_spec(file: &ConfigFile, d: f64, substeps: u32) -> Result<Flow
         turbulence: f.turbulence,
         hold_steps: IntegrationSteps::from_constants_steps(f.hold_steps, substeps),
         bed_level_interval: IntegrationSteps::from_constants_steps(f.bed_level_interval, substeps),
-        bed_level_window: f.bed_level_window,
+        bed_level_span: f.bed_level_span,
         model: f.model.kernel(),
     })
 }
 
 /// `[fluid]` into the kernel's [`FluidSpec`], its update interval checked
 /// as written and converted to integration steps, and the largest height
-/// of the column's cells (m, [`Scenario::fluid_cell_height`]); checked
+/// of the column's fluid cells (m, [`Scenario::fluid_cell_height`]); checked
 /// whatever the model, so that a bad value is an error before it is used.
 pub(super) fn fluid_spec(
     f: &FluidSection,

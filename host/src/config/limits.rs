@@ -1,6 +1,6 @@
 //! Limits: the bounds a configuration's values are checked against that
 //! are not the kernel's (capacities, the longest file, the longest phase
-//! and cell, the smallest step and grain, the column's cells, the damping
+//! and cell, the smallest step and grain, the column's fluid cells, the damping
 //! number of automatic substeps) and the step speed estimates use.
 
 use crate::io::input::Bound;
@@ -77,7 +77,7 @@ pub const SUBSTEP_DAMPING_NUMBER: f64 = 0.36;
 
 /// Cells of the coupled flow's column at most: the fluid capacity `C` of
 /// every host simulation ([`crate::sim::sims::HostSim`]), 0.2 m of water over
-/// 0.5 mm grains in cells of d/4.
+/// 0.5 mm grains in fluid cells of d/4.
 pub const FLUID_CELLS: usize = 2048;
 
 #[cfg(test)]

@@ -11,6 +11,7 @@ use super::limits::CONFIG_BOUND;
 use super::overrides::apply_overrides;
 use super::validate::{validate, Named};
 use super::Config;
+use super::DEPRECATED_KEYS;
 use crate::error::ConfigError;
 use crate::io::input::read_text_bounded;
 use crate::science::measured::MeasuredProfile;
@@ -42,7 +43,9 @@ pub(super) fn load(source: Source<'_>, sets: &[String]) -> Result<Config, Config
             let text = apply_overrides(text, sets)?;
             let file: ConfigFile =
                 toml::from_str(&text).map_err(|e| ConfigError::Parse(parse_message(&text, &e)))?;
-            load(Source::Parsed(Box::new(file)), &[])
+            let mut config = load(Source::Parsed(Box::new(file)), &[])?;
+            config.renamed_keys = renamed_keys(&text);
+            Ok(config)
         }
         Source::File(p) => {
             let text = read_text_bounded(p, CONFIG_BOUND).map_err(|source| ConfigError::Read {
@@ -66,4 +69,26 @@ pub(super) fn load(source: Source<'_>, sets: &[String]) -> Result<Config, Config
             validate(*file, Named { measured })
         }
     }
+}
+
+/// A warning for each renamed key ([`DEPRECATED_KEYS`]) that `text` (a
+/// configuration that parsed) still uses.
+fn renamed_keys(text: &str) -> Vec<String> {
+    let Ok(table) = toml::from_str::<toml::Table>(text) else {
+        return Vec::new();
+    };
+    DEPRECATED_KEYS
+        .iter()
+        .filter(|(section, old, _)| {
+            (table.get(*section))
+                .and_then(toml::Value::as_table)
+                .is_some_and(|t| t.contains_key(*old))
+        })
+        .map(|(section, old, new)| {
+            format!(
+                "{section}.{old} is now {section}.{new}; the old key is read until the next \
+                 release: write {section}.{new}"
+            )
+        })
+        .collect()
 }

@@ -96,7 +96,15 @@ pub struct Config {
     pub capacity: usize,
     /// `run.measured_profiles`, read, its heights shifted.
     pub measured: Option<MeasuredProfile>,
+    /// Warnings about renamed keys the file used (accepted for one release:
+    /// [`DEPRECATED_KEYS`]), for [`warnings()`].
+    pub renamed_keys: Vec<String>,
 }
+
+/// Keys renamed in this release, `(section, old, new)`: the old key is still
+/// read (a serde alias) and warned about ([`Config::renamed_keys`]).
+pub const DEPRECATED_KEYS: &[(&str, &str, &str)] =
+    &[("flow", "bed_level_window", "bed_level_span")];
 
 /// Phase lengths of a transport cell, in integration steps.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

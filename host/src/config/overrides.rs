@@ -2,6 +2,7 @@
 //! text before it is parsed.
 
 use super::errors::parse_message;
+use super::DEPRECATED_KEYS;
 use crate::error::ConfigError;
 use crate::io::text::shown;
 
@@ -53,6 +54,13 @@ pub fn apply_overrides(text: &str, sets: &[String]) -> Result<String, ConfigErro
                 .or_insert_with(|| toml::Value::Table(toml::Table::new()))
                 .as_table_mut()
                 .ok_or_else(|| bad(format!("{section} is a key, not a section")))?;
+        }
+        // A renamed key set under either name replaces the other.
+        for (section, old, new) in DEPRECATED_KEYS {
+            if sections == [*section] && (*last == *old || *last == *new) {
+                at.remove(*old);
+                at.remove(*new);
+            }
         }
         at.insert(last.to_string(), value);
     }

@@ -181,8 +181,8 @@ pub(super) fn validate(mut file: ConfigFile, named: Named) -> Result<Config, Con
         (scenario.flow, scenario.fluid) = (flow, fluid);
     }
     stability(&scenario, &contact)?;
-    coupled_flow_fits(&scenario, &file.flow.tau_star)?;
-    for &tau_star in &file.flow.tau_star {
+    coupled_flow_fits(&scenario, &file.flow.tau_stars)?;
+    for &tau_star in &file.flow.tau_stars {
         scenario
             .flow(tau_star)
             .validate()
@@ -262,13 +262,14 @@ pub(super) fn validate(mut file: ConfigFile, named: Named) -> Result<Config, Con
         ),
     )?;
     Ok(Config {
-        tau_stars: file.flow.tau_star.clone(),
+        tau_stars: file.flow.tau_stars.clone(),
         seeds: r.seeds.clone(),
         durations,
         output: r.output.clone(),
         precision: r.precision,
         capacity: r.capacity,
         measured,
+        renamed_keys: Vec::new(),
         file,
         scenario,
         contact,

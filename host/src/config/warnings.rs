@@ -40,17 +40,17 @@ pub fn f32_width_warning(width: f64, step_dt: f64) -> Option<String> {
 pub const CONVERGED_WIDTH_D: f64 = 40.0;
 
 /// The warning for a bed too narrow for width-independent q*: narrower than
-/// two bed-level windows the whole periodic bed moves collectively, and
+/// two bed-level spans the whole periodic bed moves collectively, and
 /// narrower than [`CONVERGED_WIDTH_D`] its surface locks near the threshold.
 pub fn narrow_bed_warning(bed: &BedSpec, flow: &FlowSpec) -> Option<String> {
     let d = bed.max_diameter();
-    let needed = (2.0 * flow.bed_level_window).max(CONVERGED_WIDTH_D) * d;
+    let needed = (2.0 * flow.bed_level_span).max(CONVERGED_WIDTH_D) * d;
     let width = bed.width();
     (width < needed).then(|| {
         let columns = (needed / bed.pitch()).ceil();
         format!(
             "bed {:.2} mm wide ({} columns) is narrower than {:.0} grain diameters: on narrower \
-             periodic beds q* depends on the width (below two bed-level windows the whole bed \
+             periodic beds q* depends on the width (below two bed-level spans the whole bed \
              moves, near the threshold its surface locks); bed.columns = {columns} or more gives \
              width-independent q*",
             width * 1e3,
@@ -94,7 +94,7 @@ pub fn long_run_warning(config: &Config, cores: usize) -> Option<String> {
 /// flow (`under_flow`) or without.
 pub fn warnings(config: &Config, under_flow: bool) -> Vec<String> {
     let sc = &config.scenario;
-    let mut out = Vec::new();
+    let mut out = config.renamed_keys.clone();
     if under_flow {
         out.extend(narrow_bed_warning(&sc.bed, &sc.flow));
     }
@@ -140,10 +140,34 @@ mod tests {
         assert!((frozen - 0.0625 * f64::from(f32::EPSILON) / 5e-6).abs() < 1e-12);
     }
 
+    /// `flow.bed_level_window`, the old name of `flow.bed_level_span`, in a
+    /// file or a `--set` (over the default, which names the new key): the
+    /// same configuration, and a warning naming the new key.
     #[test]
-    fn a_bed_narrower_than_two_bed_level_windows_is_warned_about() {
-        let warned = |columns: u32, window: f64, under_flow: bool| {
-            let text = format!("[bed]\ncolumns = {columns}\n[flow]\nbed_level_window = {window}\n");
+    fn the_old_bed_level_key_is_read_and_warned_about() {
+        let new = Config::from_toml("[flow]\nbed_level_span = 4.0\n").unwrap();
+        let old = Config::from_toml("[flow]\nbed_level_window = 4.0\n").unwrap();
+        let set = Config::load_with(None, &["flow.bed_level_window=4.0".into()]).unwrap();
+        let back = Config::load_with(None, &["flow.bed_level_span=4.0".into()]).unwrap();
+        let warning = "flow.bed_level_window is now flow.bed_level_span;";
+        assert!(!warnings(&new, true).iter().any(|w| w.starts_with(warning)));
+        assert!(!warnings(&back, true).iter().any(|w| w.starts_with(warning)));
+        assert_eq!((&old.file, &old.scenario), (&new.file, &new.scenario));
+        assert_eq!((&set.file, &set.scenario), (&back.file, &back.scenario));
+        assert_eq!(set.scenario.flow.bed_level_span, 4.0);
+        for c in [&old, &set] {
+            assert!(
+                warnings(c, true)[0].starts_with(warning),
+                "{:?}",
+                warnings(c, true)
+            );
+        }
+    }
+
+    #[test]
+    fn a_bed_narrower_than_two_bed_level_spans_is_warned_about() {
+        let warned = |columns: u32, span: f64, under_flow: bool| {
+            let text = format!("[bed]\ncolumns = {columns}\n[flow]\nbed_level_span = {span}\n");
             let config = Config::from_toml(&text).unwrap();
             warnings(&config, under_flow)
                 .iter()
@@ -154,7 +178,7 @@ mod tests {
         assert!(!warned(5, 5.0, false), "packing has no flow");
         assert!(warned(38, 5.0, true));
         assert!(!warned(39, 5.0, true));
-        // Two windows of 25 d are 50 d: 48 columns (50.4 d) suffice.
+        // Two spans of 25 d are 50 d: 48 columns (50.4 d) suffice.
         assert!(warned(47, 25.0, true));
         assert!(!warned(48, 25.0, true));
     }

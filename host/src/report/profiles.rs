@@ -62,7 +62,7 @@ fn heights(config: &Config) -> Vec<f64> {
     (0..grid.cells()).map(|j| grid.centre(j) / d).collect()
 }
 
-/// Writes `profiles.csv`: per τ* and cell of the column, bottom up, the
+/// Writes `profiles.csv`: per τ* and fluid cell of the column, bottom up, the
 /// height y/d of its centre, φ, u_p and u_f, each the mean over the seeds.
 pub fn write_profiles(
     path: &Path,

@@ -1,5 +1,5 @@
 //! Statistics of the measured q*: the mean and its standard error, the
-//! precision target a cell's window runs to, and the steadiness check of a
+//! error target a cell's window runs to, and the steadiness check of a
 //! τ*'s time series.
 //!
 //! Block means (batch means): the window is cut into blocks of

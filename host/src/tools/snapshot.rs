@@ -9,7 +9,7 @@ use crate::sim::frames::{self, FrameWriter};
 use crate::sim::sims::{with_sim, HostSim, SimJob};
 use crate::work::beds::BedJob;
 use indicatif::ProgressBar;
-use mbs_kernel::flow::Profile;
+use mbs_kernel::flow::LogLaw;
 use mbs_kernel::{FlowConfig, GrainSpec, Real};
 use std::path::Path;
 use std::sync::atomic::AtomicBool;
@@ -114,7 +114,7 @@ fn flow_profile(frame: &Frame) -> Vec<(f64, f64)> {
     let (Some(flow), Some(bed)) = (frame.flow, frame.bed_level) else {
         return Vec::new();
     };
-    let profile = Profile::<f64>::new(&flow);
+    let log_law = LogLaw::<f64>::new(&flow);
     let top = frame
         .grains
         .iter()
@@ -127,7 +127,7 @@ fn flow_profile(frame: &Frame) -> Vec<(f64, f64)> {
         .map(|k| {
             let f = f64::from(k) / f64::from(POINTS);
             let y = zero + (top - bed - zero) * f * f;
-            (bed + y, profile.mean_velocity(y))
+            (bed + y, log_law.mean_velocity(y))
         })
         .collect()
 }

@@ -48,7 +48,7 @@ impl BedKey {
     /// The bed of `config` with `seed`.
     pub fn new(config: &ConfigFile, seed: u64) -> BedKey {
         let mut config = crate::config::canonical(config);
-        config.flow.tau_star = Vec::new();
+        config.flow.tau_stars = Vec::new();
         // Beds settle without flow: clear water and the coupled flow share them.
         config.flow.model = Default::default();
         config.fluid = Default::default();

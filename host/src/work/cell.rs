@@ -373,7 +373,7 @@ impl TransportSpec {
     /// The cell of `config` at `tau_star` and `seed`.
     pub fn new(config: &ConfigFile, tau_star: f64, seed: u64) -> Self {
         let mut config = canonical(config);
-        config.flow.tau_star = vec![tau_star];
+        config.flow.tau_stars = vec![tau_star];
         config.run.seeds = vec![seed];
         TransportSpec {
             kind: "transport",

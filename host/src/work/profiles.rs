@@ -11,7 +11,7 @@
 use crate::config::Config;
 use crate::config::FLUID_CELLS;
 use crate::sim::sims::HostSim;
-use mbs_kernel::flow::Profile as LogLaw;
+use mbs_kernel::flow::LogLaw;
 use mbs_kernel::fluid::{Grid, Slabs};
 use mbs_kernel::Real;
 use serde::{Deserialize, Serialize};
@@ -34,12 +34,12 @@ pub struct ProfileSums {
     pub fluid: Vec<f64>,
 }
 
-/// Cells of the profiles at most: the column's [`FLUID_CELLS`] and as many
+/// Fluid cells of the profiles at most: the column's [`FLUID_CELLS`] and as many
 /// again below it.
 const PROFILE_CELLS: usize = 2 * FLUID_CELLS;
 
-/// The profiles' cells: those of the coupled flow's column (for clear water
-/// over fine grains, as many equal cells over the same heights as fit
+/// The profiles' fluid cells: those of the coupled flow's column (for clear water
+/// over fine grains, as many equal fluid cells over the same heights as fit
 /// [`FLUID_CELLS`]; the coupled flow's column must fit them), continued
 /// downwards to the lowest fixed grain's bottom, −(2 `fixed_spread` + ½)
 /// d_max, where the column's water is at rest.
@@ -52,7 +52,7 @@ pub struct ProfileGrid {
 }
 
 impl ProfileGrid {
-    /// The profiles' cells of `config`.
+    /// The profiles' fluid cells of `config`.
     pub fn of(config: &Config) -> ProfileGrid {
         let sc = &config.scenario;
         let mut column = sc.column();
@@ -69,7 +69,7 @@ impl ProfileGrid {
     }
 }
 
-/// Slab sums of the grains on the profiles' cells, reused between samples
+/// Slab sums of the grains on the profiles' fluid cells, reused between samples
 /// (one allocation per cell, not per sample).
 pub struct Sampler {
     cells: ProfileGrid,
@@ -142,7 +142,7 @@ impl ProfileSums {
     }
 }
 
-/// A cell's profiles over its window, per cell of the column, bottom up.
+/// A cell's profiles over its window, per fluid cell of the column, bottom up.
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 pub struct CellProfile {
     /// φ.

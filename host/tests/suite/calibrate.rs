@@ -109,7 +109,7 @@ fn quick_calibration_writes_every_stage_and_the_report() {
         .collect();
     assert_eq!(before.len(), after.len());
     assert!(s3["misfit"].as_f64().unwrap() < s3["coarse"][0][1].as_f64().unwrap());
-    // Precision-driven points: every point of the fitted curve reached its
+    // Error-driven points: every point of the fitted curve reached its
     // target (or a clear verdict) or used the most seeds of the plan.
     let plan = json(dir.path(), "plan.json");
     let fine = &plan["fine"];

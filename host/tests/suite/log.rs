@@ -183,3 +183,43 @@ fn pack_and_snapshot_log_too() {
         assert_eq!(log.last().unwrap(), "done (exit 0)");
     }
 }
+
+/// `flow.bed_level_window`, the old name of `flow.bed_level_span`, is read
+/// for one release: the same run, and a warning that names the new key on
+/// standard error, in `mbs.log` and in `summary.json`; `DIR/config.toml`
+/// holds the new key only.
+#[test]
+fn the_old_bed_level_key_gives_the_same_run_and_a_warning() {
+    let dir = tempfile::tempdir().unwrap();
+    let small = SMALL.replace("tau_star = [0.1, 0.3]", "tau_star = [0.3]");
+    let run = |key: &str| {
+        let text = small.replace("[flow]\n", &format!("[flow]\n{key} = 4.0\n"));
+        let cfg = write(dir.path(), &format!("{key}.toml"), &text);
+        let out = dir.path().join(key);
+        let done = run_into(&cfg, &out).assert().success();
+        let stderr = String::from_utf8_lossy(&done.get_output().stderr).to_string();
+        (out, stderr)
+    };
+    let (new, new_err) = run("bed_level_span");
+    let (old, old_err) = run("bed_level_window");
+    let read = |dir: &Path, name: &str| std::fs::read_to_string(dir.join(name)).unwrap();
+    assert_eq!(read(&old, "transport.csv"), read(&new, "transport.csv"));
+    assert_eq!(read(&old, "config.toml"), read(&new, "config.toml"));
+    assert!(read(&new, "config.toml").contains("bed_level_span = 4.0"));
+    assert!(!read(&old, "config.toml").contains("bed_level_window"));
+    let warning = "flow.bed_level_window is now flow.bed_level_span;";
+    assert!(!new_err.contains(warning), "{new_err}");
+    assert!(
+        old_err.contains(&format!("warning: {warning}")),
+        "{old_err}"
+    );
+    let warnings = summary(&old)["warnings"].to_string();
+    assert!(warnings.contains(warning), "{warnings}");
+    assert!(!summary(&new)["warnings"].to_string().contains(warning));
+    let log = events(&old);
+    assert!(
+        log.iter()
+            .any(|e| e.starts_with(&format!("warning {warning}"))),
+        "{log:?}"
+    );
+}

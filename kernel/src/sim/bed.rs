@@ -212,21 +212,21 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
     }
 
     /// Recomputes the mean bed level (docs/model.md §6, \[choice\]): the paper's
-    /// definition applied in windows of the paper's width, so that the level
+    /// definition applied in spans of the paper's width, so that the level
     /// does not depend on the width of the periodic bed.
     /// - The grains of the bed are those connected to a fixed grain through
     ///   contacts (saltating grains are not).
-    /// - The width L is cut into `floor(L / (w d_max))` windows (at least
-    ///   one, at most `N`), w = `bed_level_window` (default 5: the paper's
-    ///   bed of nld = 5 columns is one window).
-    /// - The surface grains of a window are its bed grains whose centre lies
-    ///   within d_max below the window's highest bed-grain centre.
+    /// - The width L is cut into `floor(L / (w d_max))` spans (at least
+    ///   one, at most `N`), w = `bed_level_span` (default 5: the paper's
+    ///   bed of nld = 5 columns is one span).
+    /// - The surface grains of a span are its bed grains whose centre lies
+    ///   within d_max below the span's highest bed-grain centre.
     /// - The level is the mean centre height of all surface grains.
     ///
     /// Over the whole width (docs/model.md §6 as written) the highest bed grain is an
     /// extreme value that rises with the number of columns and lifted the
     /// zero of the log law above the surface of wide beds: q* fell 1.7× per
-    /// doubling of the width. Per window it converges (docs/findings/bed-width.md).
+    /// doubling of the width. Per span it converges (docs/findings/bed-width.md).
     /// Without fixed grains the level is y = 0.
     pub(crate) fn update_bed_level(&mut self) {
         if !self.label_bed_grains() {
@@ -239,23 +239,23 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
         for i in 0..n {
             d_max = R::max(d_max, g.r[i] + g.r[i]);
         }
-        let window = self.flow.spec.bed_level_window * d_max.to_f64();
-        let windows = window_count(self.width.to_f64(), window, N);
-        let per_metre = R::from_f64(windows as f64) / self.width;
-        let window_of = |x: R| ((x * per_metre).to_f64() as usize).min(windows - 1);
-        let Some(top) = g.window_top.get_mut(..windows) else {
+        let span = self.flow.spec.bed_level_span * d_max.to_f64();
+        let spans = span_count(self.width.to_f64(), span, N);
+        let per_metre = R::from_f64(spans as f64) / self.width;
+        let span_of = |x: R| ((x * per_metre).to_f64() as usize).min(spans - 1);
+        let Some(top) = g.span_top.get_mut(..spans) else {
             return;
         };
         top.fill(self.y_min - R::ONE);
         for i in 0..n {
-            let k = window_of(g.x[i]);
+            let k = span_of(g.x[i]);
             if g.in_bed[i] && g.y[i] > top[k] {
                 top[k] = g.y[i];
             }
         }
         let (mut sum, mut count) = (R::ZERO, R::ZERO);
         for i in 0..n {
-            if g.in_bed[i] && g.y[i] >= top[window_of(g.x[i])] - d_max {
+            if g.in_bed[i] && g.y[i] >= top[span_of(g.x[i])] - d_max {
                 sum += g.y[i];
                 count += R::ONE;
             }
@@ -293,11 +293,11 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
     }
 }
 
-/// Number of bed-level windows over a width `width`: as many as fit at
-/// least `window` wide, at least one, at most `capacity` (a bed with fewer
-/// grain slots than windows has no continuous surface; its windows are then
+/// Number of bed-level spans over a width `width`: as many as fit at
+/// least `span` wide, at least one, at most `capacity` (a bed with fewer
+/// grain slots than spans has no continuous surface; its spans are then
 /// wider).
-fn window_count(width: f64, window: f64, capacity: usize) -> usize {
-    let fit = if window > 0.0 { width / window } else { 1.0 };
+fn span_count(width: f64, span: f64, capacity: usize) -> usize {
+    let fit = if span > 0.0 { width / span } else { 1.0 };
     (fit as usize).min(capacity).max(1)
 }

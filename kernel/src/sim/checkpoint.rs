@@ -10,11 +10,11 @@
 //! |---|---|
 //! | magic `MBSK`, version u16, precision bytes u8 (4/8), 0 u8 | 8 |
 //! | `SimConfig`: step_dt, ρ, s, C_M, C_D, μ, ν, k_n, k_s, η_n, η_s, g_x, g_y, L, y_min, y_max, skin (f64), seed (u64), tension (u8: 0 the paper's rule (8), 1 none (8')), slope angle θ (f64) | 153 |
-//! | flow on (u8); `FlowConfig`: u*, and of its `FlowSpec` κ, h, ε0, k_sr, d (f64), turbulence (u8), hold, bed-level interval (u32, integration steps), bed-level window (f64), model (u8: 0 clear water, 1 coupled); `FluidConfig`: cells (u32), bottom, surface, cross-section, ρ, ν, κ, φ_max, driving (f64), update steps (u32, integration steps), hindrance (f64) | 147 |
+//! | flow on (u8); `FlowConfig`: u*, and of its `FlowSpec` κ, h, ε0, k_sr, d (f64), turbulence (u8), hold, bed-level interval (u32, integration steps), bed-level span (f64), model (u8: 0 clear water, 1 coupled); `FluidConfig`: fluid cells (u32), bottom, surface, cross-section, ρ, ν, κ, φ_max, driving (f64), update steps (u32, integration steps), hindrance (f64) | 147 |
 //! | flow epoch, step (u64), bed level (R) | 16 + R |
 //! | grains n (u32); per grain x, y, u, v, ω, d/2, z_u, z_v, 1/m, 1/I, drag factor (R), fixed, class (u8) | 4 + n (11R + 2) |
 //! | contacts m (u32); per contact i, j (u32), e_n, e_s (R), in (i, j) order | 4 + m (8 + 2R) |
-//! | coupled flow only: per cell u_f, φ, the stabiliser's force carried, the grains' drag summed since the last update (R) | cells 4R |
+//! | coupled flow only: per fluid cell u_f, φ, the stabiliser's force carried, the grains' drag summed since the last update (R) | fluid cells 4R |
 //!
 //! The fluid section is checked as the rest: its configuration by
 //! [`FlowConfig::validate`] and the capacity, every value finite, each φ
@@ -209,7 +209,7 @@ fn read_head<R: Real>(r: &mut Reader<'_>) -> Result<Head, Error> {
         turbulence: r.flag()?,
         hold_steps: IntegrationSteps(r.u32()?),
         bed_level_interval: IntegrationSteps(r.u32()?),
-        bed_level_window: r.f64()?,
+        bed_level_span: r.f64()?,
         model: FlowModel::ClearWater,
     };
     let flow = spec.at(g[0]);
@@ -219,7 +219,7 @@ fn read_head<R: Real>(r: &mut Reader<'_>) -> Result<Head, Error> {
             fault: CheckpointFault::Value,
             offset: at,
         })?;
-        let cells = r.u32()? as usize;
+        let fluid_cells = r.u32()? as usize;
         let mut c = [0.0; 8];
         for x in c.iter_mut() {
             *x = r.f64()?;
@@ -231,7 +231,7 @@ fn read_head<R: Real>(r: &mut Reader<'_>) -> Result<Head, Error> {
                 update_steps: IntegrationSteps(r.u32()?),
                 hindrance: r.f64()?,
             },
-            cells,
+            cells: fluid_cells,
             bottom: c[0],
             surface: c[1],
             cross_section: c[2],
@@ -289,10 +289,10 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
             .saturating_add(contact_bytes)
     }
 
-    /// The length of the fluid section of a coupled checkpoint of `cells`
-    /// cells (saturating); a clear-water checkpoint has none.
-    pub const fn fluid_len(cells: usize) -> usize {
-        cells.saturating_mul(4 * R::BYTES)
+    /// The length of the fluid section of a coupled checkpoint of `fluid_cells`
+    /// fluid cells (saturating); a clear-water checkpoint has none.
+    pub const fn fluid_len(fluid_cells: usize) -> usize {
+        fluid_cells.saturating_mul(4 * R::BYTES)
     }
 
     /// Writes the complete state to `sink` in the format of this module.
@@ -344,7 +344,7 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
         w.uint(u64::from(f.turbulence), 1);
         w.uint(u64::from(f.hold_steps.0), 4);
         w.uint(u64::from(f.bed_level_interval.0), 4);
-        w.f64(f.bed_level_window);
+        w.f64(f.bed_level_span);
         w.uint(f.model as u64, 1);
         w.uint(fl.cells as u64, 4);
         for x in [
@@ -394,8 +394,10 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
         }
         if let Some(column) = self.fluid_column() {
             let f = &self.fluid;
-            let cells = column.velocities().iter().zip(column.solid_fractions());
-            for ((&u, &phi), (&carried, &drag)) in cells.zip(f.carried.iter().zip(&f.drag_sum)) {
+            let fluid_cells = column.velocities().iter().zip(column.solid_fractions());
+            for ((&u, &phi), (&carried, &drag)) in
+                fluid_cells.zip(f.carried.iter().zip(&f.drag_sum))
+            {
                 w.real(u);
                 w.real(phi);
                 w.real(carried);
@@ -508,7 +510,7 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
     }
 
     /// Reads the fluid section of a coupled checkpoint (`flow`, validated,
-    /// fits `C`): each cell's u_f, φ, carried force and summed drag;
+    /// fits `C`): each fluid cell's u_f, φ, carried force and summed drag;
     /// applies it (after the flow was started by `set_flow`) only if `apply`.
     fn read_fluid(
         &mut self,
@@ -516,12 +518,12 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
         flow: &FlowConfig,
         apply: bool,
     ) -> Result<(), Error> {
-        let cells = flow.fluid.cells.min(C);
+        let fluid_cells = flow.fluid.cells.min(C);
         let mut u = [R::ZERO; C];
         let mut phi = [R::ZERO; C];
         let mut carried = [R::ZERO; C];
         let mut drag = [R::ZERO; C];
-        for j in 0..cells {
+        for j in 0..fluid_cells {
             u[j] = r.real::<R>()?;
             phi[j] = r.real::<R>()?;
             carried[j] = r.real::<R>()?;
@@ -532,7 +534,9 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
         }
         if apply {
             let fluid = &mut self.fluid;
-            fluid.column.set_state(&u[..cells], &phi[..cells])?;
+            fluid
+                .column
+                .set_state(&u[..fluid_cells], &phi[..fluid_cells])?;
             (fluid.carried, fluid.drag_sum) = (carried, drag);
         }
         Ok(())

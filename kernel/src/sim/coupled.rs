@@ -20,12 +20,12 @@ const STEADY_DT: f64 = 0.1;
 const STEADY_TOLERANCE: f64 = 1e-7;
 
 /// [`STEADY_TOLERANCE`] in f32, about 80 units of its last place: the
-/// differences of neighbouring cells' velocities in the eddy viscosity (C4)
+/// differences of neighbouring fluid cells' velocities in the eddy viscosity (C4)
 /// leave the f32 column's steady state defined to about 1e-3.
 const STEADY_TOLERANCE_F32: f64 = 1e-5;
 
 impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
-    /// Starts the coupled flow of `self.flow` (validated, its cells fit `C`):
+    /// Starts the coupled flow of `self.flow` (validated, its fluid cells fit `C`):
     /// the column at the solid fractions of the grains of now, its velocity
     /// the log law (14) of u* above the mean bed level of now, brought to
     /// its steady state over the grains held at rest if `steady`
@@ -46,10 +46,10 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
         }
         fluid.drag_sum.fill(R::ZERO);
         fluid.carried.fill(R::ZERO);
-        let (profile, bed_level) = (&self.profile, self.bed_level);
+        let (log_law, bed_level) = (&self.log_law, self.bed_level);
         fluid
             .column
-            .start(&fluid.slabs, |y| profile.mean_velocity(y - bed_level))?;
+            .start(&fluid.slabs, |y| log_law.mean_velocity(y - bed_level))?;
         self.refresh_coupling();
         if steady {
             self.steady_column()?;
@@ -95,8 +95,8 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
                 let xi = g.drag_coef[i] * at.hindrance * R::abs(at.u);
                 fluid.slabs.add_grain(g.y[i], g.r[i], R::ZERO, xi)?;
             }
-            let cells = fluid.column.grid().cells().min(C);
-            fluid.previous[..cells].copy_from_slice(fluid.column.velocities());
+            let fluid_cells = fluid.column.grid().cells().min(C);
+            fluid.previous[..fluid_cells].copy_from_slice(fluid.column.velocities());
             fluid.column.advance(&fluid.slabs, dt)?;
             let (mut change, mut largest) = (R::ZERO, R::ZERO);
             for (&u, &before) in fluid.column.velocities().iter().zip(&fluid.previous) {
@@ -120,7 +120,7 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
 
     /// The update of the column after M grain steps (docs/model.md §13):
     ///
-    /// 1. the drag the grains received over the M steps, summed per cell
+    /// 1. the drag the grains received over the M steps, summed per fluid cell
     ///    (`Coupling::deposit`) and averaged, as an explicit sink: the
     ///    fluid loses exactly what the grains gained; the slabs from the
     ///    grains of now (docs/model.md (C1)–(C2)) and, to keep the step
@@ -144,7 +144,7 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
         let fluid = &mut self.fluid;
         let g = &mut self.grains;
         let n = g.len.min(N);
-        let cells = fluid.column.grid().cells().min(C);
+        let fluid_cells = fluid.column.grid().cells().min(C);
         fluid.slabs.clear(fluid.column.grid())?;
         for i in 0..n {
             let (y, r, u) = (g.y[i], g.r[i], g.u[i]);
@@ -155,7 +155,7 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
             }
         }
         let velocities = fluid.column.velocities();
-        for j in 0..cells {
+        for j in 0..fluid_cells {
             let k = fluid.slabs.drag_factor(j);
             let u = velocities.get(j).copied().unwrap_or(R::ZERO);
             (fluid.stabiliser[j], fluid.previous[j]) = (k, u);
@@ -171,7 +171,13 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
             }
         }
         fluid.column.advance(&fluid.slabs, fluid.exchange_dt)?;
-        for (j, &u) in fluid.column.velocities().iter().enumerate().take(cells) {
+        for (j, &u) in fluid
+            .column
+            .velocities()
+            .iter()
+            .enumerate()
+            .take(fluid_cells)
+        {
             fluid.carried[j] = fluid.stabiliser[j] * (u - fluid.previous[j]);
         }
         fluid.drag_sum.fill(R::ZERO);
@@ -182,7 +188,7 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
     /// bed level (`Coupling::refresh`): after an update of either, and
     /// after a restore.
     pub(crate) fn refresh_coupling(&mut self) {
-        let minus_inv_depth = self.profile.minus_inv_depth;
+        let minus_inv_depth = self.log_law.minus_inv_depth;
         self.fluid
             .refresh(&self.flow.fluid, minus_inv_depth, self.bed_level);
     }

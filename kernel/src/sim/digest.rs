@@ -12,7 +12,7 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
     /// diameter, fixed, class, held fluctuation draws), the contacts in
     /// (i, j) order with their spring history, the generator state (seed and
     /// flow epoch; draws are keyed by these), the bed level and, with the
-    /// coupled flow, its state (per cell: u_f, φ, the carried force, the
+    /// coupled flow, its state (per fluid cell: u_f, φ, the carried force, the
     /// grains' drag summed since the last update).
     ///
     /// ```
@@ -53,15 +53,17 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
         h.finish()
     }
 
-    /// Adds the coupled flow's state to `h`: each cell's u_f, φ, the
+    /// Adds the coupled flow's state to `h`: each fluid cell's u_f, φ, the
     /// stabiliser's force carried to the next update and the grains' drag
     /// summed since the last; nothing with clear water (its digests are
     /// those of before the coupled flow).
     fn fluid_digest(&self, h: &mut Fnv1a) {
         if let Some(column) = self.fluid_column() {
             let f = &self.fluid;
-            let cells = column.velocities().iter().zip(column.solid_fractions());
-            for ((&u, &phi), (&carried, &drag)) in cells.zip(f.carried.iter().zip(&f.drag_sum)) {
+            let fluid_cells = column.velocities().iter().zip(column.solid_fractions());
+            for ((&u, &phi), (&carried, &drag)) in
+                fluid_cells.zip(f.carried.iter().zip(&f.drag_sum))
+            {
                 h.real(u);
                 h.real(phi);
                 h.real(carried);

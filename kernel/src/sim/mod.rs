@@ -40,7 +40,7 @@ use crate::constants::{ContactConstants, Material, A2};
 use crate::contact::{ContactLaw, Spring, Tension};
 use crate::error::{check, finite, positive, Capacity, Error};
 use crate::events::Events;
-use crate::flow::{FlowConfig, FlowModel, FlowSpec, Profile};
+use crate::flow::{FlowConfig, FlowModel, FlowSpec, LogLaw};
 use crate::fluid::{Coupling, FluidConfig, FluidSpec};
 use crate::grains::{GrainSpec, Grains, MAX_CLASSES};
 use crate::neighbours::Neighbours;
@@ -204,14 +204,14 @@ pub(crate) fn check_grain(c: &SimConfig, spec: &GrainSpec) -> Result<(), Error> 
 }
 
 /// A simulation of up to `N` grains with up to `K` neighbours (j > i) per grain,
-/// in precision `R` (`f32` or `f64`), with a column of up to `C` cells for
+/// in precision `R` (`f32` or `f64`), with a column of up to `C` fluid cells for
 /// the coupled flow (docs/model.md §13).
 ///
 /// `C` is a capacity as `N`: the column's arrays are inline, so the
 /// coupled flow needs no allocator, and a `Sim` keeps the all-zero
 /// property. It defaults to 0, no column: the clear-water simulations of
 /// the host and the board keep their size and their code; a coupled flow
-/// with more cells than `C` is refused by [`Sim::set_flow`] with
+/// with more fluid cells than `C` is refused by [`Sim::set_flow`] with
 /// [`Capacity::FluidCells`].
 ///
 /// All storage is inline; nothing is allocated. [`Sim::new`] is a `const fn`
@@ -252,7 +252,7 @@ pub struct Sim<R: Real, const N: usize, const K: usize, const C: usize = 0> {
     pub(crate) y_max: R,
     pub(crate) flow: FlowConfig,
     pub(crate) flow_on: bool,
-    pub(crate) profile: Profile<R>,
+    pub(crate) log_law: LogLaw<R>,
     /// Step at which the flow was switched on: hold periods count from here.
     pub(crate) flow_epoch: u64,
     /// Mean bed level (docs/model.md §6), absolute height (m).
@@ -305,7 +305,7 @@ const ZERO_FLOW: FlowConfig = FlowConfig {
         turbulence: false,
         hold_steps: IntegrationSteps(0),
         bed_level_interval: IntegrationSteps(0),
-        bed_level_window: 0.0,
+        bed_level_span: 0.0,
         model: FlowModel::ClearWater,
     },
     fluid: ZERO_FLUID,
@@ -351,7 +351,7 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
             y_max: R::ZERO,
             flow: ZERO_FLOW,
             flow_on: false,
-            profile: Profile::ZERO,
+            log_law: LogLaw::ZERO,
             flow_epoch: 0,
             bed_level: R::ZERO,
             step: 0,
@@ -390,7 +390,7 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
         self.flow = ZERO_FLOW;
         self.flow_on = false;
         self.fluid.on = false;
-        self.profile = Profile::ZERO;
+        self.log_law = LogLaw::ZERO;
         self.flow_epoch = 0;
         self.bed_level = R::ZERO;
         self.step = 0;
@@ -452,7 +452,7 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
     /// Hold periods of the fluctuations, bed-level updates and the coupled
     /// flow's updates count from now. A coupled flow starts from the log
     /// law (14) of `u_star` above the mean bed level of now, with the solid
-    /// fractions of the grains of now; its cells must fit the capacity `C`
+    /// fractions of the grains of now; its fluid cells must fit the capacity `C`
     /// ([`Capacity::FluidCells`]). On an error nothing changes (the
     /// digest is the same), except when a coupled flow whose column refused
     /// the grains (a slab's solid fraction ≥ 1) replaces a coupled flow:
@@ -478,13 +478,13 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
                 let was_coupled = self.flow_on && self.fluid.on;
                 let before = (
                     self.flow,
-                    self.profile,
+                    self.log_law,
                     self.flow_on,
                     self.flow_epoch,
                     self.bed_level,
                 );
                 self.flow = *f;
-                self.profile = Profile::new(f);
+                self.log_law = LogLaw::new(f);
                 self.flow_on = true;
                 self.flow_epoch = self.step;
                 self.fluid.on = false;
@@ -499,7 +499,7 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
                     } else {
                         (
                             self.flow,
-                            self.profile,
+                            self.log_law,
                             self.flow_on,
                             self.flow_epoch,
                             self.bed_level,
@@ -510,7 +510,7 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
             }
             None => {
                 self.flow = ZERO_FLOW;
-                self.profile = Profile::ZERO;
+                self.log_law = LogLaw::ZERO;
                 self.flow_on = false;
                 self.fluid.on = false;
             }
@@ -649,7 +649,7 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
         if self.fluid.on {
             // The coupled flow's (15): u*_loc for u*, where u_f > 0.
             let at = self.fluid.at(g.y[i]);
-            if !(self.profile.turbulence && at.u > R::ZERO) {
+            if !(self.log_law.turbulence && at.u > R::ZERO) {
                 return Some((0.0, 0.0));
             }
             let u = g.z_u[i] * (R::from_f64(2.30) * at.scale);
@@ -657,14 +657,14 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
             return Some((u.to_f64(), v.to_f64()));
         }
         let y = g.y[i] - self.bed_level;
-        let p = &self.profile;
+        let p = &self.log_law;
         let (u, v) = p.fluctuation(p.mean_velocity(y), y, g.z_u[i], g.z_v[i]);
         Some((u.to_f64(), v.to_f64()))
     }
 
     /// Mean bed level y = 0 of the flow (docs/model.md §6), absolute (m): the mean
-    /// centre height of the surface grains, found per window of
-    /// `FlowSpec::bed_level_window` largest diameters so that it does not
+    /// centre height of the surface grains, found per span of
+    /// `FlowSpec::bed_level_span` largest diameters so that it does not
     /// depend on the width of the periodic bed (docs/findings/bed-width.md).
     pub fn bed_level(&self) -> f64 {
         self.bed_level.to_f64()

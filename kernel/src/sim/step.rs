@@ -65,7 +65,7 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
                 self.refresh_coupling();
             }
             let hold = u64::from(self.flow.spec.hold_steps.0.max(1));
-            if self.profile.turbulence && since.is_multiple_of(hold) {
+            if self.log_law.turbulence && since.is_multiple_of(hold) {
                 self.draw_fluctuations(since / hold);
                 events.turbulence_redraws = 1;
             }
@@ -76,9 +76,9 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
         let batched = if BATCHED {
             let flow = match (self.flow_on, coupled) {
                 (false, _) => batch::Flow::Off,
-                (true, false) => batch::Flow::Clear(self.profile, self.bed_level),
+                (true, false) => batch::Flow::Clear(self.log_law, self.bed_level),
                 (true, true) => batch::Flow::Coupled {
-                    turbulence: self.profile.turbulence,
+                    turbulence: self.log_law.turbulence,
                 },
             };
             let params = batch::Params {
@@ -102,9 +102,9 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
             }
             None => {
                 if coupled {
-                    scalar::add_coupled_drag(&mut self.grains, &mut self.fluid, &self.profile);
+                    scalar::add_coupled_drag(&mut self.grains, &mut self.fluid, &self.log_law);
                 } else if self.flow_on {
-                    scalar::add_drag(&mut self.grains, &self.profile, self.bed_level);
+                    scalar::add_drag(&mut self.grains, &self.log_law, self.bed_level);
                 }
                 self.index.history_to_slots(&mut self.nbrs.spring);
                 let (g, nb) = (&mut self.grains, &mut self.nbrs);
@@ -286,8 +286,8 @@ mod tests {
         let d = sc.bed.max_diameter();
         let bottom = info.y_min + 1.5 * d;
         let depth = flow.spec.depth;
-        let cells = ((depth - bottom) / (0.5 * d)) as usize;
-        let mut fluid = crate::fluid::FluidConfig::new(cells, bottom, depth, info.width * d);
+        let fluid_cells = ((depth - bottom) / (0.5 * d)) as usize;
+        let mut fluid = crate::fluid::FluidConfig::new(fluid_cells, bottom, depth, info.width * d);
         fluid.driving = crate::fluid::FluidConfig::driving_for(flow.u_star, depth);
         fluid.spec.hindrance = 3.1;
         (flow.spec.model, flow.fluid) = (crate::FlowModel::Coupled, fluid);
@@ -390,7 +390,7 @@ mod tests {
 
     /// An empty 0.02 m wide box of the paper's constants and the `tension`
     /// rule, floor at −0.01 m, room for 64 grains of up to 16 neighbours
-    /// (and C cells of a coupled flow).
+    /// (and C fluid cells of a coupled flow).
     fn small_box<R: Real, const C: usize>(tension: Tension) -> Sim<R, 64, 16, C> {
         let mut sim = Sim::new();
         let mut config = Scenario::paper().sim_config().unwrap();
@@ -493,7 +493,7 @@ mod tests {
 
         /// Random clusters under the coupled flow, its column from below
         /// the grains or from among them, to among them or above them (so
-        /// that grains lie below the first cell centre, between the
+        /// that grains lie below the first fluid cell's centre, between the
         /// centres and above the last), hindrance on or off, the
         /// fluctuations on or off, an update every few steps: the batched
         /// step gives the scalar step's bits step after step, or the same
@@ -503,14 +503,14 @@ mod tests {
             grains in cluster_grains(),
             bottom in -0.002..0.001f64,
             height in 0.0005..0.004f64,
-            cells in 2..16usize,
+            fluid_cells in 2..16usize,
             hindered: bool,
             turbulence: bool,
             update_steps in 1..8u32,
         ) {
             let mut flow = Scenario::paper().flow(Scenario::PAPER_TAU_STAR);
             flow.spec.turbulence = turbulence;
-            let mut fluid = crate::fluid::FluidConfig::new(cells, bottom, bottom + height, 0.02 * 0.5e-3);
+            let mut fluid = crate::fluid::FluidConfig::new(fluid_cells, bottom, bottom + height, 0.02 * 0.5e-3);
             fluid.driving = crate::fluid::FluidConfig::driving_for(flow.u_star, flow.spec.depth);
             fluid.spec.hindrance = if hindered { 3.1 } else { 0.0 };
             fluid.spec.update_steps = crate::IntegrationSteps(update_steps);

@@ -1,7 +1,7 @@
 //! The step's two paths (docs/model.md §2: equations of motion (1)–(3),
 //! symplectic Euler), which give the same bits. They work on what they are
 //! handed (the grains, the neighbour slots or the pair index, the flow's
-//! profile or the coupled flow's cells, the contact law, the integrator)
+//! log law or the coupled flow's fluid cells, the contact law, the integrator)
 //! and know nothing of [`crate::Sim`]; its `step` (`sim/step.rs`) does the
 //! bookkeeping and picks the path:
 //!
@@ -18,7 +18,7 @@
 //! every mobile grain from the column as it finds the clear-water drag,
 //! the batched step in lanes, the scalar step one grain at a time
 //! ([`scalar::add_coupled_drag`]), and adds each grain's streamwise drag to
-//! the cells' sums in grain order.
+//! the fluid cells' sums in grain order.
 
 #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
 pub(crate) mod batch;

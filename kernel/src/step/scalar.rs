@@ -12,7 +12,7 @@ use super::mover::Mover;
 use crate::contact::{ContactLaw, Spring};
 use crate::error::Error;
 use crate::events::Events;
-use crate::flow::Profile;
+use crate::flow::LogLaw;
 use crate::fluid::Coupling;
 use crate::grains::Grains;
 use crate::neighbours::Neighbours;
@@ -120,14 +120,14 @@ pub(crate) fn step<R: Real, const N: usize, const K: usize, const BUFFER: usize>
 /// level `bed_level` (docs/model.md §6).
 pub(crate) fn add_drag<R: Real, const N: usize>(
     g: &mut Grains<R, N>,
-    profile: &Profile<R>,
+    log_law: &LogLaw<R>,
     bed_level: R,
 ) {
     for i in 0..g.len.min(N) {
         if g.fixed[i] {
             continue;
         }
-        let (fx, fy) = profile.drag(
+        let (fx, fy) = log_law.drag(
             g.drag_coef[i],
             g.y[i] - bed_level,
             g.u[i],
@@ -145,14 +145,14 @@ pub(crate) fn add_drag<R: Real, const N: usize>(
 /// hindrance (C7), without sheltering (16) (the column's velocity already
 /// falls inside the bed); the fluctuations (15) of the held draws with the
 /// local shear velocity of the column's Reynolds stress (C4) for u*, where
-/// u_f > 0 and the `profile`'s turbulence is on; each read linear between
-/// the cell centres ([`Coupling::at`]). The streamwise drag is also summed
-/// per cell for the column's next update ([`Coupling::deposit`]), in grain
+/// u_f > 0 and the `log_law`'s turbulence is on; each read linear between
+/// the fluid cells' centres ([`Coupling::at`]). The streamwise drag is also summed
+/// per fluid cell for the column's next update ([`Coupling::deposit`]), in grain
 /// order. The batched step does the same in lanes (`batch::coupled_pass`).
 pub(crate) fn add_coupled_drag<R: Real, const N: usize, const C: usize>(
     g: &mut Grains<R, N>,
     fluid: &mut Coupling<R, C>,
-    profile: &Profile<R>,
+    log_law: &LogLaw<R>,
 ) {
     let (rms_u, rms_v) = (R::from_f64(2.30), R::from_f64(1.27));
     for i in 0..g.len.min(N) {
@@ -160,7 +160,7 @@ pub(crate) fn add_coupled_drag<R: Real, const N: usize, const C: usize>(
             continue;
         }
         let at = fluid.at(g.y[i]);
-        let (fluct_u, fluct_v) = if profile.turbulence && at.u > R::ZERO {
+        let (fluct_u, fluct_v) = if log_law.turbulence && at.u > R::ZERO {
             (g.z_u[i] * (rms_u * at.scale), g.z_v[i] * (rms_v * at.scale))
         } else {
             (R::ZERO, R::ZERO)

@@ -25,7 +25,7 @@ pub struct BetaStage {
     pub coarse: Vec<(f64, f64)>,
     /// (β, misfit) of the precise curves, in the order evaluated.
     pub fine: Vec<(f64, f64)>,
-    /// The parabola through the best precise misfit and its neighbours,
+    /// The parabola through the best fine misfit and its neighbours,
     /// in x = ln β (`None` when not convex: β is then the best evaluated).
     pub parabola: Option<Parabola>,
     /// The fitted β.

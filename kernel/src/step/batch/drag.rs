@@ -1,16 +1,16 @@
 //! The drag in lanes, the batched step's first pass: L mobile grains at a
 //! time, lane by lane the operations of the scalar step's drag.
 //!
-//! - Clear water (`drag_pass`): the drag (4)–(5) of the log-law profile
+//! - Clear water (`drag_pass`): the drag (4)–(5) of the log law
 //!   (14) with the held fluctuations (15) and the sheltering (16), as
-//!   [`Profile::drag`](crate::flow::Profile::drag), its scalar `ln` and
+//!   [`LogLaw::drag`](crate::flow::LogLaw::drag), its scalar `ln` and
 //!   `exp` only in the lanes that need them.
 //! - The coupled flow (`coupled_pass`, docs/model.md §13): each grain's
-//!   place between the column's cell centres, the column's u_f, scale of
+//!   place between the column's fluid cell centres, the column's u_f, scale of
 //!   the fluctuations (15) and hindrance (C7) interpolated there, the drag
 //!   (4)–(5) from them, as
 //!   [`add_coupled_drag`](crate::step::scalar::add_coupled_drag); each
-//!   grain's streamwise drag then goes to the cells' sums in grain order.
+//!   grain's streamwise drag then goes to the fluid cells' sums in grain order.
 //!
 //! Each grain's drag is added to its sums (+0 for fixed grains). Written
 //! once for both precisions: `drag!` writes the module `drag` into each
@@ -29,12 +29,12 @@ macro_rules! drag {
             use crate::step::batch::params::{BatchStep, Drag};
             use crate::step::index::PairIndex;
 
-            /// Groups of L grains whose cells the coupled flow's drag finds
+            /// Groups of L grains whose fluid cells the coupled flow's drag finds
             /// ahead ([`coupled_pass`]).
             const BLOCK: usize = 64 / L;
 
             /// Adds the drag (4)–(5) to every mobile grain's force, L grains at a
-            /// time, lane by lane as [`Profile::drag`](crate::flow::Profile::drag)
+            /// time, lane by lane as [`LogLaw::drag`](crate::flow::LogLaw::drag)
             /// (its scalar `ln` and `exp` only in the lanes that need them).
             #[target_feature(enable = "avx2")]
             pub(super) fn drag_pass<const N: usize, const K: usize>(
@@ -42,7 +42,7 @@ macro_rules! drag {
                 d: &Drag<'_, R, N>,
             ) {
                 let zero = zero();
-                let p = &d.profile;
+                let p = &d.log_law;
                 let one = splat(1.0);
                 let (bed, shift, inv_ks) = (
                     splat(d.bed_level),
@@ -104,15 +104,15 @@ macro_rules! drag {
             /// Adds the coupled flow's drag to every mobile grain's force, L
             /// grains at a time, lane by lane as
             /// [`add_coupled_drag`](crate::step::scalar::add_coupled_drag):
-            /// each grain's place between the cell centres
+            /// each grain's place between the fluid cells' centres
             /// ([`Coupling::place`](crate::fluid::Coupling::place)) in lanes,
-            /// the two rows of its cell
+            /// the two rows of its fluid cell
             /// ([`Coupling::centres`](crate::fluid::Coupling::centres),
             /// [`Coupling::slopes`](crate::fluid::Coupling::slopes)) loaded
             /// and transposed to lanes, the drag in lanes; then each grain's
-            /// streamwise drag to the cells' sums
+            /// streamwise drag to the fluid cells' sums
             /// ([`Coupling::deposit`](crate::fluid::Coupling::deposit)) in
-            /// grain order. The cell indices are exact in f32: the caller
+            /// grain order. The fluid cell indices are exact in f32: the caller
             /// takes fewer than 2^24 cells
             /// ([`batched_step`](crate::step::batch::batched_step)).
             #[target_feature(enable = "avx2")]

@@ -7,7 +7,7 @@
 
 use crate::contact::ContactLaw;
 use crate::events::Events;
-use crate::flow::Profile;
+use crate::flow::LogLaw;
 use crate::grains::Grains;
 use crate::real::Real;
 use crate::step::index::PairIndex;
@@ -31,10 +31,10 @@ pub(crate) struct Params<R: Real> {
 pub(crate) enum Flow<R: Real> {
     /// No flow: no drag.
     Off,
-    /// The clear-water flow: its profile and the mean bed level.
-    Clear(Profile<R>, R),
+    /// The clear-water flow: its log law and the mean bed level.
+    Clear(LogLaw<R>, R),
     /// The coupled flow, from its column (the `Coupling` passed along);
-    /// the fluctuations (15) on or off (`Profile::turbulence`).
+    /// the fluctuations (15) on or off (`LogLaw::turbulence`).
     Coupled { turbulence: bool },
 }
 
@@ -83,8 +83,8 @@ impl<'a, R: Real, const N: usize, const K: usize> BatchStep<'a, R, N, K> {
             mover: p.mover,
             batch,
             drag: match p.flow {
-                Flow::Clear(profile, bed_level) => Some(Drag {
-                    profile,
+                Flow::Clear(log_law, bed_level) => Some(Drag {
+                    log_law,
                     bed_level,
                     coef: &g.drag_coef,
                     z_u: &g.z_u,
@@ -97,12 +97,12 @@ impl<'a, R: Real, const N: usize, const K: usize> BatchStep<'a, R, N, K> {
     }
 }
 
-/// What the drag (4)–(5) of [`Profile::drag`] reads: the profile, the mean
+/// What the drag (4)–(5) of [`LogLaw::drag`] reads: the log law, the mean
 /// bed level heights are measured from, and per grain ½ρC_D A2 d² and the
 /// held fluctuation draws.
 #[derive(Clone, Copy)]
 pub(super) struct Drag<'a, R: Real, const N: usize> {
-    pub(super) profile: Profile<R>,
+    pub(super) log_law: LogLaw<R>,
     pub(super) bed_level: R,
     pub(super) coef: &'a [R; N],
     pub(super) z_u: &'a [R; N],
