@@ -27,8 +27,8 @@
 //! benches/Cargo.toml --bench coupled`.
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
-use mbs::tools::bench::{prepare, BenchBed, TAU_STAR};
 use mbs::sim::sims::{boxed_sim, NEIGHBOURS};
+use mbs::tools::bench::{prepare, BenchBed, TAU_STAR};
 use mbs_kernel::fluid::FluidConfig;
 use mbs_kernel::{Error, FlowModel, IntegrationSteps, Real, Sim};
 use std::path::{Path, PathBuf};

@@ -22,8 +22,8 @@ use criterion::measurement::WallTime;
 use criterion::{
     criterion_group, criterion_main, BenchmarkGroup, BenchmarkId, Criterion, Throughput,
 };
-use mbs::tools::bench::{BenchBed, Case, Prepared};
 use mbs::sim::sims::{with_sim, HostSim, SimJob};
+use mbs::tools::bench::{BenchBed, Case, Prepared};
 use mbs::Precision;
 use mbs_kernel::Real;
 use std::path::{Path, PathBuf};
