@@ -45,12 +45,20 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
             h.real(s.e_n);
             h.real(s.e_s);
         }
+        self.flow_state_digest(&mut h);
+        h.finish()
+    }
+
+    /// Adds the seed and the flow's state to `h`: the flow's epoch, whether
+    /// it is on, the mean bed level and the coupled flow's column
+    /// ([`Sim::digest`] and the flow group of [`Sim::group_digest`] end
+    /// with it).
+    fn flow_state_digest(&self, h: &mut Fnv1a) {
         h.word(self.config.seed);
         h.word(self.flow_epoch);
         h.word(u64::from(self.flow_on));
         h.real(self.bed_level);
-        self.fluid_digest(&mut h);
-        h.finish()
+        self.fluid_digest(h);
     }
 
     /// Adds the coupled flow's state to `h`: each fluid cell's u_f, φ, the
@@ -120,11 +128,7 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
                     h.real(g.z_u[i]);
                     h.real(g.z_v[i]);
                 });
-                h.word(self.config.seed);
-                h.word(self.flow_epoch);
-                h.word(u64::from(self.flow_on));
-                h.real(self.bed_level);
-                self.fluid_digest(&mut h);
+                self.flow_state_digest(&mut h);
             }
         }
         h.finish()
