@@ -185,6 +185,25 @@ pub fn run(
     })
 }
 
+/// The whole command that resumes a run stopped in `dir`: `--resume DIR`
+/// with the options the directory does not keep (the slice of a shard,
+/// the frames' and the checkpoints' intervals), so that following the hint
+/// loses nothing.
+pub fn resume_command(dir: &Path, options: &RunOptions) -> String {
+    let mut command = format!("mbs run --resume {}", dir.display());
+    if !options.shard.is_all() {
+        let Shard { index, count } = options.shard;
+        command += &format!(" --shard {}/{count}", index + 1);
+    }
+    if let Some(s) = options.dump_every {
+        command += &format!(" --dump-every {}", crate::io::text::number(s));
+    }
+    if let Some(s) = options.checkpoint_every {
+        command += &format!(" --checkpoint-every {}", crate::io::text::number(s));
+    }
+    command
+}
+
 /// [`run`] once its directory is locked and its log open.
 fn run_logged(
     config: &Config,
@@ -266,10 +285,10 @@ fn run_logged(
     let outcome = match outcome {
         Err(HostError::Interrupted { jobs }) => {
             print_err(&format!(
-                "stopped: {jobs} settling bed(s) or running cell(s) checkpointed in {}/beds and {}/checkpoints; resume with `mbs run --resume {}`",
+                "stopped: {jobs} settling bed(s) or running cell(s) checkpointed in {}/beds and {}/checkpoints; resume with `{}`",
                 dir.display(),
                 dir.display(),
-                dir.display()
+                resume_command(dir, &options)
             ));
             return Err(HostError::Interrupted { jobs });
         }
@@ -301,4 +320,30 @@ fn run_logged(
         print(&console)?;
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The hint after Ctrl-C gives every option the directory does not
+    /// keep: following it, a shard stays a shard and frames go on.
+    #[test]
+    fn the_resume_hint_is_the_whole_command() {
+        let dir = Path::new("out");
+        assert_eq!(
+            resume_command(dir, &RunOptions::default()),
+            "mbs run --resume out"
+        );
+        let options = RunOptions {
+            shard: Shard { index: 1, count: 3 },
+            dump_every: Some(0.01),
+            checkpoint_every: Some(30.0),
+            ..RunOptions::default()
+        };
+        assert_eq!(
+            resume_command(dir, &options),
+            "mbs run --resume out --shard 2/3 --dump-every 0.01 --checkpoint-every 30"
+        );
+    }
 }
