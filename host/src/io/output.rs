@@ -101,17 +101,15 @@ pub fn open_own(
         use std::os::unix::fs::OpenOptionsExt;
         options.custom_flags(libc::O_NOFOLLOW);
     }
-    let is_link = |p: &Path| std::fs::symlink_metadata(p).is_ok_and(|m| m.file_type().is_symlink());
     // Elsewhere, look first (a narrow race; unix has none).
-    if !cfg!(unix) && is_link(path) {
-        return Err(link_refused(path));
+    if !cfg!(unix) {
+        refuse_link(path)?;
     }
+    // On unix a link makes the open fail (ELOOP): say why.
     options.open(path).map_err(|e| {
-        if is_link(path) {
-            link_refused(path)
-        } else {
-            HostError::io(path)(e)
-        }
+        refuse_link(path)
+            .err()
+            .unwrap_or_else(|| HostError::io(path)(e))
     })
 }
 
