@@ -154,7 +154,7 @@ pub use fields::GrainField;
 pub use flow::{
     shear_velocity, shields_number, uniform_flow_shields_number, FlowConfig, FlowModel, FlowSpec,
 };
-pub use fluid::FluidSpec;
+pub use fluid::{DragLaw, Fluctuations, FluidSpec};
 pub use grains::{GrainSpec, MAX_CLASSES};
 pub use observe::{q_star, transport_scale, Observation};
 pub use real::Real;

@@ -166,8 +166,11 @@ impl Scenario {
     }
 
     /// The simulation configuration: [`Scenario::contact`], gravity (0, −g),
-    /// top of the domain at the flow depth. Width and y_min are set by
-    /// [`Sim::build_bed`].
+    /// the free surface at the flow depth h, the domain from 10 d_max below
+    /// the fixed grains' mean centre to as far above the surface (a grain
+    /// leaving the water vertically at √(2 g (h + 10 d_max)) would reach
+    /// it: more than twice the fastest grain of Frey's (2014) runs at
+    /// h = 5.3 cm). Width and y_min are set by [`Sim::build_bed`].
     pub fn sim_config(&self) -> Result<SimConfig, Error> {
         let d = self.bed.max_diameter();
         Ok(SimConfig {
@@ -178,7 +181,8 @@ impl Scenario {
             gravity: [0.0, -G],
             width: self.bed.width(),
             y_min: -10.0 * d,
-            y_max: self.flow.depth,
+            y_max: 2.0 * self.flow.depth + 10.0 * d,
+            surface: self.flow.depth,
             skin: self.skin * d,
             seed: self.seed,
             slope_angle: self.slope_angle,
@@ -231,7 +235,8 @@ impl Scenario {
     /// rest, and a column reaching below the fixed grains carries a
     /// spurious fast layer under them), to the top of the domain, the
     /// depth h, in equal fluid cells of at most [`Scenario::fluid_cell_height`];
-    /// its slabs as wide as the bed and one d_max thick; the
+    /// its slabs as wide as the bed and [`Scenario::slice_thickness`]
+    /// thick; the
     /// [`Scenario::fluid`], the material's density and the flow's κ.
     ///
     /// ```
@@ -242,7 +247,6 @@ impl Scenario {
     /// assert_eq!(column.surface, 0.2);
     /// ```
     pub fn column(&self) -> FluidConfig {
-        let d = self.bed.max_diameter();
         let bottom = 0.0;
         let surface = self.flow.depth;
         let fluid_cells = libm::ceil((surface - bottom) / self.fluid_cell_height);
@@ -256,7 +260,36 @@ impl Scenario {
             spec: self.fluid,
             density: self.material.rho,
             kappa: self.flow.kappa,
-            ..FluidConfig::new(fluid_cells, bottom, surface, self.bed.width() * d)
+            ..FluidConfig::new(
+                fluid_cells,
+                bottom,
+                surface,
+                self.bed.width() * self.slice_thickness(),
+            )
+        }
+    }
+
+    /// The thickness b of the simulated slice (m): the channel's width W
+    /// with side walls (the coupled flow's `FluidSpec::channel_width`,
+    /// docs/model.md (C10)), else one largest diameter (docs/model.md §13).
+    /// The fluid's slabs are L b, and q* is per unit of b (docs/model.md
+    /// §8): with walls, φ and q* are the channel's, as Frey (2014) measured
+    /// them.
+    ///
+    /// ```
+    /// use mbs_kernel::{FlowModel, Scenario};
+    ///
+    /// let mut sc = Scenario::paper_coupled();
+    /// assert_eq!(sc.slice_thickness(), 0.5e-3);
+    /// sc.fluid.channel_width = 0.6e-3;
+    /// assert_eq!(sc.slice_thickness(), 0.6e-3);
+    /// ```
+    pub fn slice_thickness(&self) -> f64 {
+        let width = self.fluid.channel_width;
+        if self.flow.model == FlowModel::Coupled && width > 0.0 {
+            width
+        } else {
+            self.bed.max_diameter()
         }
     }
 

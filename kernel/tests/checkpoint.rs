@@ -3,7 +3,7 @@
 //! refused with a named fault and leaves the simulation unchanged.
 
 use mbs_kernel::{
-    Capacity, CheckpointFault, Error, Real, Scenario, Sim, Tension, CHECKPOINT_VERSION,
+    Capacity, CheckpointFault, Error, Real, Scenario, Sim, SimConfig, Tension, CHECKPOINT_VERSION,
 };
 
 type Big<R> = Sim<R, 256, 8>;
@@ -129,10 +129,10 @@ fn damaged_checkpoints_are_refused_and_change_nothing() {
     let mut bad = good.clone();
     bad[8 + 144] = 2;
     assert_eq!(fault(refused(&mut sim, &bad)), CheckpointFault::Value);
-    // A NaN where the first grain's x is: after the header (8 + 153 + 147
-    // (flow) + 16 + 8 (bed level) + 4 (grain count)) bytes.
+    // A NaN where the first grain's x is: after the header (8 + 161 + 157
+    // (flow) + 32 + 8 (bed level) + 4 (grain count)) bytes.
     let mut bad = good.clone();
-    let x0 = 8 + 153 + 147 + 16 + 8 + 4;
+    let x0 = 8 + 161 + 157 + 32 + 8 + 4;
     bad[x0..x0 + 8].copy_from_slice(&f64::NAN.to_bits().to_le_bytes());
     assert_eq!(fault(refused(&mut sim, &bad)), CheckpointFault::Value);
     // Every single flipped byte is refused or restores to a valid state:
@@ -226,27 +226,44 @@ fn the_tension_rule_is_restored() {
 
     let mut paper = Box::new(Big::<f64>::new());
     run(&mut *paper, 1500, 0);
-    for version in [3, 2] {
+    for version in [4, 3, 2] {
         let old = downgrade(&bytes(&*paper), version);
         let mut restored = Box::new(Other::<f64>::new());
         restored.restore(&old).unwrap();
-        assert_eq!(restored.config(), paper.config());
+        // Before version 5 the free surface was the domain's top.
+        let expected = SimConfig {
+            surface: paper.config().y_max,
+            ..*paper.config()
+        };
+        assert_eq!(*restored.config(), expected);
         assert_eq!(restored.digest(), paper.digest());
     }
 }
 
-/// A clear-water checkpoint of the current version as version 3 (no slope,
-/// no flow model, no fluid configuration) or 2 (no tension byte either).
+/// A clear-water checkpoint of the current version as version 4 (no free
+/// surface, no side walls, drag law, fluctuation model or redraw
+/// schedule), 3 (no slope, no flow model, no fluid configuration either)
+/// or 2 (no tension byte either).
 fn downgrade(bytes: &[u8], version: u16) -> Vec<u8> {
     let mut old = bytes.to_vec();
-    // The flow model and the fluid's configuration after the 66 bytes of
-    // the flow, then the slope after the tension byte.
+    // Version 5's additions: the redraw schedule after the flow epoch and
+    // the step, the side walls, drag law and fluctuations after the
+    // fluid's configuration, the free surface after the slope.
+    let flow_end = 8 + 161 + 66;
+    let redraw = flow_end + 91 + 16;
+    old.drain(redraw..redraw + 16);
+    old.drain(flow_end + 81..flow_end + 91);
+    old.drain(8 + 153..8 + 161);
     let flow_end = 8 + 153 + 66;
-    assert_eq!(old[flow_end], 0, "clear water");
-    old.drain(flow_end..flow_end + 81);
-    let slope = f64::from_le_bytes(old[8 + 145..8 + 153].try_into().unwrap());
-    assert_eq!(slope, 0.0);
-    old.drain(8 + 145..8 + 153);
+    if version <= 3 {
+        // The flow model and the fluid's configuration after the 66 bytes of
+        // the flow, then the slope after the tension byte.
+        assert_eq!(old[flow_end], 0, "clear water");
+        old.drain(flow_end..flow_end + 81);
+        let slope = f64::from_le_bytes(old[8 + 145..8 + 153].try_into().unwrap());
+        assert_eq!(slope, 0.0);
+        old.drain(8 + 145..8 + 153);
+    }
     if version == 2 {
         assert_eq!(old.remove(8 + 144), 0);
     }

@@ -164,6 +164,14 @@ fn log_law() {
 fn momentum_balance_with_a_drag_sink<R: Real>(dt: f64, steps: usize, tol: f64) {
     let (h, u_star) = (0.1, 0.03);
     let config = rough_config(h, u_star);
+    balance::<R>(&config, dt, steps, tol);
+}
+
+/// [`momentum_balance_with_a_drag_sink`] for the column of `config`; with
+/// side walls (C10) their stress joins the bottom's and the drag, and it
+/// is Blasius's (2/W)(f/8) u² summed over the cells.
+fn balance<R: Real>(config: &FluidConfig, dt: f64, steps: usize, tol: f64) {
+    let config = *config;
     let mut column = Box::new(Col::<R>::new());
     column.reset(&config).unwrap();
     let mut slabs = Box::new(Slabs::<R, CAP>::new());
@@ -191,17 +199,45 @@ fn momentum_balance_with_a_drag_sink<R: Real>(dt: f64, steps: usize, tol: f64) {
     let driving = column.driving_stress().to_f64();
     let depth = config.surface - config.bottom;
     let nominal = RHO * config.driving * depth;
-    let exact = (bed + drag - driving).abs() / driving;
-    let brief = (bed + drag - nominal).abs() / nominal;
+    let walls = column.side_wall_stress().to_f64();
+    let width = config.spec.channel_width;
+    let mut blasius = 0.0;
+    if width > 0.0 {
+        for (&u, &phi) in column.velocities().iter().zip(column.solid_fractions()) {
+            let u = u.to_f64();
+            let re = (u.abs() * width / config.spec.viscosity).max(1e-10);
+            let f = 0.3164 * re.powf(-0.25);
+            blasius += RHO * (1.0 - phi.to_f64()) * dy * (2.0 / width) * (f / 8.0) * u * u;
+        }
+    }
+    let exact = (bed + drag + walls - driving).abs() / driving;
+    let brief = (bed + drag + walls - nominal).abs() / nominal;
     std::println!(
-        "{}: bed stress {bed:.5} Pa + drag {drag:.5} Pa = {:.5} Pa; driving ρ g S Σ(1 − φ)Δy {driving:.5} Pa (error {:.1e}), ρ g S h {nominal:.5} Pa (error {:.2} %)",
+        "{}: bed stress {bed:.5} Pa + drag {drag:.5} Pa + side walls {walls:.5} Pa = {:.5} Pa; driving ρ g S Σ(1 − φ)Δy {driving:.5} Pa (error {:.1e}), ρ g S h {nominal:.5} Pa (error {:.2} %)",
         R::NAME,
-        bed + drag,
+        bed + drag + walls,
         exact,
         brief * 100.0
     );
-    assert!(drag > 0.1 * driving, "the drag sink is not exercised");
+    assert!(
+        drag.abs() > 0.05 * driving,
+        "the drag sink is not exercised"
+    );
     assert!(exact < tol, "momentum balance: {exact:e}");
+    if width > 0.0 {
+        assert!(
+            walls > 0.2 * driving,
+            "the walls are not exercised: {walls}"
+        );
+        let off = (walls - blasius).abs() / blasius;
+        assert!(
+            off < tol.max(1e-12),
+            "side walls {walls} vs Blasius {blasius}"
+        );
+        return;
+    }
+    assert_eq!(walls, 0.0);
+    assert!(drag > 0.1 * driving, "the grains hold the water back");
     assert!(brief < 0.01, "against ρ g h S: {brief}");
     // Above the grains (from face 7, 3.5 d up): the stress carries the
     // driving of the water above, ρ g S (surface − y).
@@ -219,6 +255,17 @@ fn momentum_balance_with_a_drag_sink<R: Real>(dt: f64, steps: usize, tol: f64) {
 fn momentum_balance() {
     momentum_balance_with_a_drag_sink::<f64>(0.5, 6000, 1e-9);
     momentum_balance_with_a_drag_sink::<f32>(0.02, 60_000, 2e-3);
+}
+
+/// In a channel 6.5 mm wide (Frey 2014), at steady state, the driving
+/// equals the bottom's stress plus the drag plus the side walls' stress
+/// (C10), which is Blasius's friction summed over the cells.
+#[test]
+fn side_walls_take_their_share() {
+    let mut config = rough_config(0.02, 0.03);
+    config.spec.channel_width = 0.0065;
+    balance::<f64>(&config, 0.05, 20_000, 1e-9);
+    balance::<f32>(&config, 0.01, 60_000, 2e-3);
 }
 
 /// Slice volumes (C1): a grain inside one slab, a grain cut in two, caps,

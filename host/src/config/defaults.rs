@@ -3,8 +3,9 @@
 //! [`DEFAULT_COLUMNS`].
 
 use super::file::{
-    BedSection, ContactSection, FlowModelKey, FlowSection, FluidSection, FractionBasis,
-    GrainsSection, RunSection, SettleUntil, Substeps, TargetSection, TensionRule, TimeSection,
+    BedSection, ContactSection, DragKey, FlowModelKey, FlowSection, FluctuationsKey, FluidSection,
+    FractionBasis, GrainsSection, RunSection, SettleUntil, Substeps, TargetSection, TensionRule,
+    TimeSection,
 };
 use super::Precision;
 use mbs_kernel::Scenario;
@@ -124,6 +125,8 @@ impl Default for FluidSection {
             phi_max: f.phi_max,
             update_steps: f.update_steps.to_constants_steps(p.substeps),
             hindrance: f.hindrance,
+            drag: DragKey::Paper,
+            fluctuations: FluctuationsKey::Paper,
         }
     }
 }

@@ -4,7 +4,7 @@
 //! defaults are in `defaults.rs`.
 
 use super::Precision;
-use mbs_kernel::{FlowModel, Tension};
+use mbs_kernel::{DragLaw, FlowModel, Fluctuations, Tension};
 use serde::{Deserialize, Serialize};
 use std::fmt;
 use std::path::PathBuf;
@@ -122,6 +122,60 @@ impl FlowModelKey {
     /// stay as they were.
     fn is_paper(&self) -> bool {
         *self == FlowModelKey::ClearWater
+    }
+}
+
+/// `fluid.drag`: the grains' drag law in the coupled flow, the kernel's
+/// [`DragLaw`] (docs/model.md (C8)).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum DragKey {
+    /// The paper's (4)–(5), C_D constant.
+    #[default]
+    Paper,
+    /// Dallavalle's, as HydroForceEngine: C_D = 0.44 + 24.4/Re_p.
+    Dallavalle,
+}
+
+impl DragKey {
+    /// The kernel's law.
+    pub fn kernel(self) -> DragLaw {
+        match self {
+            DragKey::Paper => DragLaw::Paper,
+            DragKey::Dallavalle => DragLaw::Dallavalle,
+        }
+    }
+
+    /// Not written out at the paper's: the keys of cells stay as they were.
+    fn is_paper(&self) -> bool {
+        *self == DragKey::Paper
+    }
+}
+
+/// `fluid.fluctuations`: the turbulent fluctuations in the coupled flow,
+/// the kernel's [`Fluctuations`] (docs/model.md (C9)).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum FluctuationsKey {
+    /// The paper's (15) with the local shear velocity.
+    #[default]
+    Paper,
+    /// HydroForceEngine's discrete random walk.
+    Hfe,
+}
+
+impl FluctuationsKey {
+    /// The kernel's model.
+    pub fn kernel(self) -> Fluctuations {
+        match self {
+            FluctuationsKey::Paper => Fluctuations::Paper,
+            FluctuationsKey::Hfe => Fluctuations::Hfe,
+        }
+    }
+
+    /// Not written out at the paper's: the keys of cells stay as they were.
+    fn is_paper(&self) -> bool {
+        *self == FluctuationsKey::Paper
     }
 }
 
@@ -306,6 +360,21 @@ pub struct FluidSection {
     pub update_steps: u32,
     /// Exponent n of the hindrance (C7).
     pub hindrance: f64,
+    /// The grains' drag law (C8).
+    #[serde(skip_serializing_if = "DragKey::is_paper")]
+    pub drag: DragKey,
+    /// The turbulent fluctuations (C9).
+    #[serde(skip_serializing_if = "FluctuationsKey::is_paper")]
+    pub fluctuations: FluctuationsKey,
+}
+
+/// `[channel]`: side walls that hold the coupled flow's water back
+/// (docs/model.md (C10)); absent: an unbounded slice.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ChannelSection {
+    /// The channel's width W between its side walls (m).
+    pub width_m: f64,
 }
 
 /// `[run]`.
@@ -348,6 +417,9 @@ pub struct ConfigFile {
     /// as they were).
     #[serde(skip_serializing_if = "FluidSection::is_default")]
     pub fluid: FluidSection,
+    /// `[channel]`, with the coupled flow only; absent: no side walls.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub channel: Option<ChannelSection>,
     /// `[target]`.
     pub target: TargetSection,
     /// `[run]`.

@@ -12,7 +12,9 @@
 //! error quotes the key and the value of the file.
 
 use super::errors::need;
-use super::file::{ConfigFile, FlowSection, FluidSection};
+use super::file::{
+    ChannelSection, ConfigFile, DragKey, FlowModelKey, FlowSection, FluctuationsKey, FluidSection,
+};
 use super::limits::FLUID_CELLS;
 use crate::error::ConfigError;
 use mbs_kernel::{
@@ -151,12 +153,13 @@ pub(super) fn flow_spec(file: &ConfigFile, d: f64, substeps: u32) -> Result<Flow
     })
 }
 
-/// `[fluid]` into the kernel's [`FluidSpec`], its update interval checked
-/// as written and converted to integration steps, and the largest height
+/// `[fluid]` and `[channel]` into the kernel's [`FluidSpec`], its update
+/// interval checked as written and converted to integration steps, and the largest height
 /// of the column's fluid cells (m, [`Scenario::fluid_cell_height`]); checked
 /// whatever the model, so that a bad value is an error before it is used.
 pub(super) fn fluid_spec(
     f: &FluidSection,
+    channel: Option<&ChannelSection>,
     d: f64,
     substeps: u32,
 ) -> Result<(FluidSpec, f64), ConfigError> {
@@ -190,13 +193,54 @@ pub(super) fn fluid_spec(
         f.hindrance,
         "in [0, 10] (Richardson-Zaki: 3.1; 0: off)",
     )?;
+    let channel_width = match channel {
+        Some(c) => {
+            need(
+                c.width_m.is_finite() && c.width_m > 0.0 && c.width_m <= 100.0,
+                "channel.width_m",
+                c.width_m,
+                "in (0, 100] m (Frey 2014: 0.0065)",
+            )?;
+            c.width_m
+        }
+        None => 0.0,
+    };
     let spec = FluidSpec {
         viscosity: f.viscosity_m2_s,
         phi_max: f.phi_max,
         update_steps: IntegrationSteps::from_constants_steps(f.update_steps, substeps),
         hindrance: f.hindrance,
+        channel_width,
+        drag: f.drag.kernel(),
+        fluctuations: f.fluctuations.kernel(),
     };
     Ok((spec, f.cell_d * d))
+}
+
+/// `[channel]`, `fluid.drag` and `fluid.fluctuations` act on the coupled
+/// flow only (docs/model.md (C8)–(C10)): with clear water each is an error,
+/// not a setting silently ignored.
+pub(super) fn closures_need_coupled(file: &ConfigFile) -> Result<(), ConfigError> {
+    if file.flow.model == FlowModelKey::Coupled {
+        return Ok(());
+    }
+    let only = "absent with flow.model = \"clear-water\" (it acts on the coupled flow only)";
+    if let Some(c) = &file.channel {
+        need(false, "channel.width_m", c.width_m, only)?;
+    }
+    let f = &file.fluid;
+    need(
+        f.drag == DragKey::Paper,
+        "fluid.drag",
+        format!("{:?}", f.drag).to_lowercase(),
+        only,
+    )?;
+    need(
+        f.fluctuations == FluctuationsKey::Paper,
+        "fluid.fluctuations",
+        format!("{:?}", f.fluctuations).to_lowercase(),
+        only,
+    )
 }
 
 /// The coupled flow of `scenario` at each τ* fits the host's column and is

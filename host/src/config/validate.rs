@@ -4,7 +4,7 @@
 
 use super::errors::need;
 use super::file::{ConfigFile, Substeps};
-use super::flow::{coupled_flow_fits, flow_forms, flow_spec, fluid_spec};
+use super::flow::{closures_need_coupled, coupled_flow_fits, flow_forms, flow_spec, fluid_spec};
 use super::limits::{
     capacities_listed, CAPACITIES, GRAIN_STEPS_PER_S_PER_CORE, MAX_CELL_STEPS, MAX_PHASE_S,
     PHASE_REASON,
@@ -54,7 +54,8 @@ pub(super) fn validate(mut file: ConfigFile, named: Named) -> Result<Config, Con
         Substeps::Auto => 1,
     };
     let mut flow = flow_spec(&file, d, substeps)?;
-    let (mut fluid, fluid_cell_height) = fluid_spec(&file.fluid, d, substeps)?;
+    let (mut fluid, fluid_cell_height) =
+        fluid_spec(&file.fluid, file.channel.as_ref(), d, substeps)?;
     // A window holds at least one step; settling and spin-up may be skipped.
     for (key, value, zero_allowed) in [
         ("time.settle", t.settle, true),
@@ -144,13 +145,18 @@ pub(super) fn validate(mut file: ConfigFile, named: Named) -> Result<Config, Con
         &format!(">= the bed's {grains} grains (a larger capacity or a smaller bed)"),
     )?;
     // The kernel's bound (`Sim::build_bed`): the highest fixed grain (2σ),
-    // the lattice and one d_max.
+    // the lattice and one d_max below the domain's top, 2 h + 10 d_max
+    // (`Scenario::sim_config`). The lattice may reach above the free
+    // surface: those grains fall into the water as the bed settles.
     let bed_top = (2.0 * bed.fixed_spread + 1.0) * d + f64::from(bed.rows) * bed.pitch();
+    let least = 0.5 * (bed_top - 10.0 * d);
     need(
-        flow.depth > bed_top,
+        flow.depth > least,
         "flow.depth",
         flow.depth,
-        &format!("> the bed's height {bed_top:e} m"),
+        &format!(
+            "> {least:e} m (the initial lattice, {bed_top:e} m high, must lie below the domain's top, 2 flow.depth + 10 d)"
+        ),
     )?;
     let mut scenario = Scenario {
         material,
@@ -176,12 +182,13 @@ pub(super) fn validate(mut file: ConfigFile, named: Named) -> Result<Config, Con
             scenario.rule.constants_dt,
         );
         flow = flow_spec(&file, d, substeps)?;
-        (fluid, _) = fluid_spec(&file.fluid, d, substeps)?;
+        (fluid, _) = fluid_spec(&file.fluid, file.channel.as_ref(), d, substeps)?;
         scenario.substeps = substeps;
         (scenario.flow, scenario.fluid) = (flow, fluid);
     }
     stability(&scenario, &contact)?;
     coupled_flow_fits(&scenario, &file.flow.tau_stars)?;
+    closures_need_coupled(&file)?;
     for &tau_star in &file.flow.tau_stars {
         scenario
             .flow(tau_star)

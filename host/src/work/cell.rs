@@ -497,6 +497,9 @@ impl SimJob for CellJob<'_> {
         };
         let kernel_error = |e| fail()(e);
         let (d_max, s) = (sc.bed.max_diameter(), sc.material.s);
+        // q* per unit of the slice's thickness b (a channel's width with
+        // side walls): the kernel's is per d_max (docs/model.md §8).
+        let per_slice = d_max / sc.slice_thickness();
         let mut sampler = Sampler::new(self.config);
         let mut checkpoints = Checkpoints::new(self.control);
         let mut stepped = 0u64;
@@ -539,12 +542,12 @@ impl SimJob for CellJob<'_> {
                 let sample = durations.sample;
                 advance(sim, dumps.as_mut(), sample, &kernel_error)?;
                 let o = sim.observe();
-                let q = o.q_star(d_max, s, G);
+                let q = o.q_star(d_max, s, G) * per_slice;
                 state.total += q;
                 state.block_sum += q;
                 for (c, sum) in state.per_class.iter_mut().enumerate() {
                     // Each class on the total's scale d_max: the classes add up to q*.
-                    *sum += o.q_star_class(c, d_max, s, G);
+                    *sum += o.q_star_class(c, d_max, s, G) * per_slice;
                 }
                 state.samples += 1;
                 if state.samples % PROFILE_SAMPLES == 0 {

@@ -219,10 +219,15 @@ fn ctrl_c_checkpoints_and_says_how_to_resume() {
 
 #[test]
 fn grains_leaving_the_domain_are_a_named_error_not_nan() {
-    // Unsoftened contacts (β = 1) at τ* = 5 throw grains above a 3.7 mm deep flow.
+    // Unsoftened, elastic, frictionless contacts (β = 1, α_cn = 0, μ = 0)
+    // at τ* = 5 throw a grain out of a 3.7 mm deep flow and beyond the
+    // domain's top, as far above the surface as its bottom lies below.
     let text = SMALL
         .replace("tau_star = [0.1, 0.3]", "tau_star = [5.0]\ndepth = 0.0037")
-        .replace("[time]", "[contact]\nbeta = 1.0\n[time]");
+        .replace(
+            "[time]",
+            "[contact]\nbeta = 1.0\nalpha_cn = 0.0\nfriction = 0.0\n[time]",
+        );
     let (dir, cfg) = setup_with(&text);
     let out = dir.path().join("out");
     run_into(&cfg, &out).assert().code(1).stderr(

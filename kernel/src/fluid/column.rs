@@ -53,6 +53,13 @@ pub struct Column<R: Real, const C: usize> {
     phi_max: R,
     /// g S (m/s²).
     driving: R,
+    /// The channel's width W (m), 0 without side walls (C10).
+    channel_width: R,
+    /// 2/W (1/m), 0 without side walls.
+    walls: R,
+    /// The stress the side walls took in the last step, per unit area of
+    /// the bed (Pa).
+    side_stress: R,
     /// u_f at each cell's centre (m/s): state.
     u: [R; C],
     /// φ of each cell at the last step: state.
@@ -79,6 +86,9 @@ impl<R: Real, const C: usize> Column<R, C> {
             kappa: R::ZERO,
             phi_max: R::ZERO,
             driving: R::ZERO,
+            channel_width: R::ZERO,
+            walls: R::ZERO,
+            side_stress: R::ZERO,
             u: [R::ZERO; C],
             phi: [R::ZERO; C],
             mixing: [R::ZERO; C],
@@ -98,6 +108,10 @@ impl<R: Real, const C: usize> Column<R, C> {
         self.kappa = R::from_f64(config.kappa);
         self.phi_max = R::from_f64(config.spec.phi_max);
         self.driving = R::from_f64(config.driving);
+        let width = config.spec.channel_width;
+        self.channel_width = R::from_f64(width);
+        self.walls = R::from_f64(if width > 0.0 { 2.0 / width } else { 0.0 });
+        self.side_stress = R::ZERO;
         self.refresh_mixing();
         Ok(())
     }
@@ -110,7 +124,9 @@ impl<R: Real, const C: usize> Column<R, C> {
     /// One implicit Euler step of `dt` seconds of docs/model.md (C5) as (C6),
     /// with the grains of `slabs`: their solid fraction and drag at the end of
     /// the step, the eddy viscosity (C4) from the velocities at its start (lagged),
-    /// the drag sink implicit in u_f. On an error the velocities are
+    /// the drag sink implicit in u_f, the side walls' friction (C10) half
+    /// implicit, half explicit, its factor from the velocities at the
+    /// start (as HydroForceEngine). On an error the velocities are
     /// unchanged (the solid fractions may be those of `slabs`).
     pub fn advance(&mut self, slabs: &Slabs<R, C>, dt: R) -> Result<(), Error> {
         positive("fluid.dt", dt.to_f64())?;
@@ -155,13 +171,44 @@ impl<R: Real, const C: usize> Column<R, C> {
             self.system.diag[j] = open * inv_dt + below + above + k * inv_density;
             self.system.upper[j] = -above;
             self.system.rhs[j] = open * inv_dt * self.u[j] + open * self.driving + m * inv_density;
+            if self.walls > R::ZERO {
+                let half = R::HALF * open * self.wall_rate(self.u[j]);
+                self.system.diag[j] += half;
+                self.system.rhs[j] -= half * self.u[j];
+            }
         }
         let solution = self.system.solve(n)?;
         for &x in solution {
             check(R::is_finite(x), "fluid.velocity", x.to_f64(), "finite")?;
         }
+        let mut side = R::ZERO;
+        if self.walls > R::ZERO {
+            let walls = (self.walls, self.channel_width, self.viscosity);
+            for (j, &new) in solution.iter().enumerate() {
+                let (old, open) = (self.u[j], R::ONE - self.phi[j]);
+                side += open * wall_rate(walls, old) * R::HALF * (old + new);
+            }
+        }
+        self.side_stress = self.density * self.grid.dy * side;
         self.u[..n].copy_from_slice(solution);
         Ok(())
+    }
+
+    /// The side walls' friction rate (2/W)(f/8)|u| (1/s) at velocity `u`
+    /// (docs/model.md (C10)), with Blasius's f = 0.3164 Re^(−1/4),
+    /// Re = max(|u| W/ν, 1e-10), as HydroForceEngine's default
+    /// (`wallFrictionModel = 0`); 0 without walls.
+    pub fn wall_rate(&self, u: R) -> R {
+        wall_rate((self.walls, self.channel_width, self.viscosity), u)
+    }
+
+    /// The stress the side walls took in the last [`Column::advance`], per
+    /// unit area of the bed (Pa): Σ_j ρ (1 − φ_j) Δy (2/W)(f/8)|u_j⁰| times
+    /// the mean of u_j⁰ and u_j, the term of (C10) as the step applied it,
+    /// so that the momentum of the step balances exactly; 0 without walls
+    /// or before the first step.
+    pub fn side_wall_stress(&self) -> R {
+        self.side_stress
     }
 
     /// Starts the column from the solid fractions of `slabs` and the
@@ -335,6 +382,17 @@ impl<R: Real, const C: usize> Column<R, C> {
             &mut self.mixing[..n],
         );
     }
+}
+
+/// [`Column::wall_rate`] of `(2/W, W, ν)`.
+fn wall_rate<R: Real>((walls, width, viscosity): (R, R, R), u: R) -> R {
+    if walls <= R::ZERO {
+        return R::ZERO;
+    }
+    let speed = R::abs(u);
+    let re = R::max(speed * width / viscosity, R::from_f64(1e-10));
+    let f = R::from_f64(0.3164) / R::sqrt(R::sqrt(re));
+    walls * f * R::from_f64(0.125) * speed
 }
 
 /// Checks a cell's solid fraction: in [0, 1).

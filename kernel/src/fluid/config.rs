@@ -20,6 +20,58 @@ use crate::error::{check, finite, non_negative, positive, Capacity, Error};
 use crate::real::Real;
 use crate::steps::IntegrationSteps;
 
+/// The drag law of the coupled flow's grains (docs/model.md (C8)).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[repr(u8)]
+pub enum DragLaw {
+    /// The paper's (4)–(5): a constant drag coefficient C_D (the default).
+    #[default]
+    Paper = 0,
+    /// Dallavalle's, as HydroForceEngine codes it: C_D = 0.44 + 24.4/Re_p,
+    /// Re_p = |u_r| d/ν, i.e. Ξ = ½ρ A2 d² (0.44 |u_r| + 24.4 ν/d).
+    Dallavalle = 1,
+}
+
+/// The turbulent fluctuations of the coupled flow (docs/model.md (C9)).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[repr(u8)]
+pub enum Fluctuations {
+    /// The paper's (15) with the local shear velocity u*_loc: independent
+    /// u and v of rms (2.30, 1.27) u*_loc exp(−y/h), held
+    /// [`crate::FlowSpec::hold_steps`] (the default).
+    #[default]
+    Paper = 0,
+    /// HydroForceEngine's discrete random walk: v' = r₁ u*_loc,
+    /// u' = (r₂ − r₁) u*_loc (rms √2 u*_loc, ⟨u'v'⟩ = −u*_loc²), none below
+    /// the mean bed level, all redrawn at once every eddy turnover
+    /// (h − y_bed)/⟨u_f⟩ of the water above the bed.
+    Hfe = 1,
+}
+
+impl DragLaw {
+    /// The law of a checkpoint byte.
+    pub(crate) fn from_code(code: u8) -> Option<Self> {
+        match code {
+            0 => Some(DragLaw::Paper),
+            1 => Some(DragLaw::Dallavalle),
+            _ => None,
+        }
+    }
+}
+
+impl Fluctuations {
+    /// The model of a checkpoint byte.
+    pub(crate) fn from_code(code: u8) -> Option<Self> {
+        match code {
+            0 => Some(Fluctuations::Paper),
+            1 => Some(Fluctuations::Hfe),
+            _ => None,
+        }
+    }
+}
+
 /// The coupled flow's parameters a user chooses (docs/model.md §13): the
 /// same whatever the bed; the rest of a [`FluidConfig`] follows from the
 /// bed, the material and the flow ([`crate::Scenario::flow`]).
@@ -50,18 +102,30 @@ pub struct FluidSpec {
     /// docs/model.md (C7); 0 (the default) turns it off, Richardson–Zaki
     /// give about 3.1.
     pub hindrance: f64,
+    /// Width W of a channel whose two side walls hold the water back
+    /// (m), docs/model.md (C10); 0 (the default): no walls, an unbounded
+    /// slice.
+    pub channel_width: f64,
+    /// The grains' drag law (docs/model.md (C8)).
+    pub drag: DragLaw,
+    /// The turbulent fluctuations (docs/model.md (C9)).
+    pub fluctuations: Fluctuations,
 }
 
 impl FluidSpec {
     /// Water (ν = 1.0e-6 m²/s), φ_max = π/4 (docs/model.md §13: the largest
     /// solid fraction of a slab of spheres in a slice one diameter thick),
-    /// updates every 100 integration steps, no hindrance (C7).
+    /// updates every 100 integration steps, no hindrance (C7), no side walls
+    /// (C10), the paper's drag and fluctuations.
     pub const fn new() -> Self {
         FluidSpec {
             viscosity: 1.0e-6,
             phi_max: core::f64::consts::FRAC_PI_4,
             update_steps: IntegrationSteps(100),
             hindrance: 0.0,
+            channel_width: 0.0,
+            drag: DragLaw::Paper,
+            fluctuations: Fluctuations::Paper,
         }
     }
 }
@@ -182,6 +246,13 @@ impl FluidConfig {
             "fluid.hindrance",
             spec.hindrance,
             "in [0, 10]",
+        )?;
+        check(
+            spec.channel_width == 0.0
+                || (spec.channel_width.is_finite() && spec.channel_width > 0.0),
+            "channel.width",
+            spec.channel_width,
+            "> 0 m (0: no side walls)",
         )
     }
 }

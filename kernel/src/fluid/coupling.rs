@@ -3,7 +3,7 @@
 //! the tables the grains read between two updates.
 
 use super::column::Column;
-use super::config::FluidConfig;
+use super::config::{DragLaw, Fluctuations, FluidConfig};
 use super::slabs::Slabs;
 use crate::real::Real;
 
@@ -44,6 +44,66 @@ pub(crate) struct Coupling<R: Real, const C: usize> {
     pub(crate) exchange_dt: R,
     /// 1/M, the average of the drag summed over M grain steps.
     pub(crate) inv_steps: R,
+    /// The grains' drag law and fluctuations ([`Coupling::configure`]).
+    pub(crate) closures: Closures<R>,
+}
+
+/// What the coupled flow's closures need in a step (docs/model.md (C8),
+/// (C9)): the drag law's two terms, the fluctuations' model, the free
+/// surface. Set from the configuration when the flow starts.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Closures<R: Real> {
+    /// Dallavalle's drag (C8): Ξ = coef h (a |u_r| + b/r); else the
+    /// paper's, coef h |u_r|.
+    pub(crate) viscous: bool,
+    /// a = 0.44/C_D.
+    pub(crate) inertial: R,
+    /// b = 24.4 ν/(2 C_D) (m²/s), over the radius r.
+    pub(crate) viscous_term: R,
+    /// HydroForceEngine's fluctuations (C9); else the paper's (15).
+    pub(crate) hfe: bool,
+    /// The free surface: no drag on a grain whose centre is above it.
+    pub(crate) surface: R,
+}
+
+impl<R: Real> Closures<R> {
+    /// All zero: the paper's drag and fluctuations, a surface at 0.
+    pub(crate) const ZERO: Self = Closures {
+        viscous: false,
+        inertial: R::ZERO,
+        viscous_term: R::ZERO,
+        hfe: false,
+        surface: R::ZERO,
+    };
+
+    /// The drag factor Ξ (kg/s) of a grain of radius `r` with
+    /// `coef` = ½ρC_D A2 d², hindrance `hindrance` (C7), at relative speed
+    /// `speed`: the paper's (5) coef h |u_r|, or Dallavalle's (C8)
+    /// coef h (0.44 |u_r| + 24.4 ν/d)/C_D.
+    #[inline]
+    pub(crate) fn drag_factor(&self, coef: R, r: R, hindrance: R, speed: R) -> R {
+        if self.viscous {
+            coef * hindrance * (self.inertial * speed + self.viscous_term / r)
+        } else {
+            coef * hindrance * speed
+        }
+    }
+
+    /// The fluctuation (u', v') (m/s) of held standard-normal draws
+    /// (z_u, z_v) where the fluctuations' scale is `scale` (docs/model.md
+    /// §13): the paper's (15), (2.30 z_u, 1.27 z_v) scale, or
+    /// HydroForceEngine's (C9), (z_u − z_v, z_v) scale.
+    #[inline]
+    pub(crate) fn fluctuation(&self, scale: R, z_u: R, z_v: R) -> (R, R) {
+        if self.hfe {
+            ((z_u - z_v) * scale, z_v * scale)
+        } else {
+            (
+                z_u * (R::from_f64(2.30) * scale),
+                z_v * (R::from_f64(1.27) * scale),
+            )
+        }
+    }
 }
 
 /// Where a grain lies between the cell centres ([`Coupling::place`]):
@@ -95,6 +155,8 @@ pub(crate) struct Cells<'a, R: Real> {
     pub(crate) count: usize,
     pub(crate) centres: &'a [[R; 4]],
     pub(crate) slopes: &'a [[R; 4]],
+    /// The drag law, the fluctuations and the free surface.
+    pub(crate) closures: Closures<R>,
     drag_sum: &'a mut [R],
 }
 
@@ -132,7 +194,25 @@ impl<R: Real, const C: usize> Coupling<R, C> {
             previous: [R::ZERO; C],
             exchange_dt: R::ZERO,
             inv_steps: R::ZERO,
+            closures: Closures::ZERO,
         }
+    }
+
+    /// Sets the closures of `config` (docs/model.md (C8), (C9)) with the
+    /// material's drag coefficient `c_d` and the free surface `surface`.
+    pub(crate) fn configure(&mut self, config: &FluidConfig, c_d: f64, surface: f64) {
+        let viscous = config.spec.drag == DragLaw::Dallavalle;
+        self.closures = Closures {
+            viscous,
+            inertial: R::from_f64(if viscous { 0.44 / c_d } else { 0.0 }),
+            viscous_term: R::from_f64(if viscous {
+                24.4 * config.spec.viscosity / (2.0 * c_d)
+            } else {
+                0.0
+            }),
+            hfe: config.spec.fluctuations == Fluctuations::Hfe,
+            surface: R::from_f64(surface),
+        };
     }
 
     /// The stabiliser's momentum in transit (N s): taken from the fluid at
@@ -207,6 +287,20 @@ impl<R: Real, const C: usize> Coupling<R, C> {
         }
     }
 
+    /// The drag factor Ξ (kg/s) of a grain at rest at height `y`, of radius
+    /// `r` and ½ρC_D A2 d² `coef` ([`Closures::drag_factor`] at |u_f|): the
+    /// bed's resistance of a fixed grain, or of a grain held at rest while
+    /// a column starts; 0 out of the water.
+    #[inline]
+    pub(crate) fn rest_drag_factor(&self, coef: R, y: R, r: R) -> R {
+        if y > self.closures.surface {
+            return R::ZERO;
+        }
+        let at = self.at(y);
+        self.closures
+            .drag_factor(coef, r, at.hindrance, R::abs(at.u))
+    }
+
     /// Adds the streamwise drag `force` (N) a grain received at a place
     /// ([`Coupling::place`]: `cell`, `frac`) to the cells' sums
     /// ([`Cells::deposit`]).
@@ -225,6 +319,7 @@ impl<R: Real, const C: usize> Coupling<R, C> {
             count: grid.cells().min(C),
             centres: &self.centres,
             slopes: &self.slopes,
+            closures: self.closures,
             drag_sum: &mut self.drag_sum,
         }
     }
@@ -232,7 +327,8 @@ impl<R: Real, const C: usize> Coupling<R, C> {
     /// Recomputes the table of each cell centre from the state
     /// ([`Coupling::centres`], [`Coupling::slopes`]): u_f, the scale of the
     /// fluctuations u*_loc exp(−(y − `bed_level`)/h) (`minus_inv_depth` =
-    /// −1/h) and the hindrance (1 − φ)^(−n) with exponent
+    /// −1/h; HydroForceEngine's (C9): u*_loc at and above `bed_level`, 0
+    /// below) and the hindrance (1 − φ)^(−n) with exponent
     /// `config.spec.hindrance` (f64 `libm::pow`). After every update of the
     /// column or of the bed level, and after a restore.
     pub(crate) fn refresh(&mut self, config: &FluidConfig, minus_inv_depth: R, bed_level: R) {
@@ -247,8 +343,14 @@ impl<R: Real, const C: usize> Coupling<R, C> {
                 R::from_f64(libm::pow(1.0 - phi.to_f64(), -n))
             };
             let y = grid.centre(j);
-            let decay = R::exp((y - bed_level) * minus_inv_depth);
-            let scale = self.column.shear_velocity_at(y) * decay;
+            let scale = if !self.closures.hfe {
+                let decay = R::exp((y - bed_level) * minus_inv_depth);
+                self.column.shear_velocity_at(y) * decay
+            } else if y >= bed_level {
+                self.column.shear_velocity_at(y)
+            } else {
+                R::ZERO
+            };
             self.centres[j] = [u, scale, hindrance, R::ZERO];
         }
         let cells = grid.cells().min(C);

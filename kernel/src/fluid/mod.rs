@@ -34,7 +34,7 @@ mod slice;
 mod tridiagonal;
 
 pub use column::Column;
-pub use config::{FluidConfig, FluidSpec};
+pub use config::{DragLaw, Fluctuations, FluidConfig, FluidSpec};
 #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
 pub(crate) use coupling::Cells;
 pub(crate) use coupling::Coupling;

@@ -2,16 +2,18 @@
 //!
 //! Little-endian whatever the machine, floats as their raw IEEE bits in the
 //! working precision, so a checkpoint written on x86_64 restores on a
-//! Cortex-M and continues bit for bit. Layout (version 4; version 3, read
-//! too, has no slope, no flow model and no fluid: a horizontal bed and
-//! clear water; version 2 not even the tension byte: the paper's rule):
+//! Cortex-M and continues bit for bit. Layout (version 5; version 4, read
+//! too, has no free surface below the domain's top, no side walls, the
+//! paper's drag and fluctuations and no redraw schedule; version 3 no
+//! slope, no flow model and no fluid: a horizontal bed and clear water;
+//! version 2 not even the tension byte: the paper's rule):
 //!
 //! | field | bytes |
 //! |---|---|
 //! | magic `MBSK`, version u16, precision bytes u8 (4/8), 0 u8 | 8 |
-//! | `SimConfig`: step_dt, ρ, s, C_M, C_D, μ, ν, k_n, k_s, η_n, η_s, g_x, g_y, L, y_min, y_max, skin (f64), seed (u64), tension (u8: 0 the paper's rule (8), 1 none (8')), slope angle θ (f64) | 153 |
-//! | flow on (u8); `FlowConfig`: u*, and of its `FlowSpec` κ, h, ε0, k_sr, d (f64), turbulence (u8), hold, bed-level interval (u32, integration steps), bed-level span (f64), model (u8: 0 clear water, 1 coupled); `FluidConfig`: fluid cells (u32), bottom, surface, cross-section, ρ, ν, κ, φ_max, driving (f64), update steps (u32, integration steps), hindrance (f64) | 147 |
-//! | flow epoch, step (u64), bed level (R) | 16 + R |
+//! | `SimConfig`: step_dt, ρ, s, C_M, C_D, μ, ν, k_n, k_s, η_n, η_s, g_x, g_y, L, y_min, y_max, skin (f64), seed (u64), tension (u8: 0 the paper's rule (8), 1 none (8')), slope angle θ, free surface (f64) | 161 |
+//! | flow on (u8); `FlowConfig`: u*, and of its `FlowSpec` κ, h, ε0, k_sr, d (f64), turbulence (u8), hold, bed-level interval (u32, integration steps), bed-level span (f64), model (u8: 0 clear water, 1 coupled); `FluidConfig`: fluid cells (u32), bottom, surface, cross-section, ρ, ν, κ, φ_max, driving (f64), update steps (u32, integration steps), hindrance, channel width (f64), drag law (u8: 0 paper, 1 Dallavalle), fluctuations (u8: 0 paper, 1 HydroForceEngine's) | 157 |
+//! | flow epoch, step, next redraw step, redraw period (u64), bed level (R) | 32 + R |
 //! | grains n (u32); per grain x, y, u, v, ω, d/2, z_u, z_v, 1/m, 1/I, drag factor (R), fixed, class (u8) | 4 + n (11R + 2) |
 //! | contacts m (u32); per contact i, j (u32), e_n, e_s (R), in (i, j) order | 4 + m (8 + 2R) |
 //! | coupled flow only: per fluid cell u_f, φ, the stabiliser's force carried, the grains' drag summed since the last update (R) | fluid cells 4R |
@@ -33,14 +35,14 @@ use crate::constants::{ContactConstants, Material};
 use crate::contact::{Spring, Tension};
 use crate::error::{Capacity, CheckpointFault, Error};
 use crate::flow::{FlowConfig, FlowModel, FlowSpec};
-use crate::fluid::{FluidConfig, FluidSpec};
+use crate::fluid::{DragLaw, Fluctuations, FluidConfig, FluidSpec};
 use crate::grains::{GrainSpec, MAX_CLASSES};
 use crate::real::Real;
-use crate::sim::{check_grain, Sim, SimConfig};
+use crate::sim::{check_grain, Redraw, Sim, SimConfig};
 use crate::steps::IntegrationSteps;
 
 /// Format version written by [`Sim::checkpoint`].
-pub const CHECKPOINT_VERSION: u16 = 4;
+pub const CHECKPOINT_VERSION: u16 = 5;
 
 const MAGIC: [u8; 4] = *b"MBSK";
 
@@ -139,6 +141,7 @@ struct Head {
     flow: Option<FlowConfig>,
     flow_epoch: u64,
     step: u64,
+    redraw: Redraw,
 }
 
 fn read_head<R: Real>(r: &mut Reader<'_>) -> Result<Head, Error> {
@@ -189,6 +192,8 @@ fn read_head<R: Real>(r: &mut Reader<'_>) -> Result<Head, Error> {
         skin: f[16],
         seed,
         slope_angle: if version >= 4 { r.f64()? } else { 0.0 },
+        // Before version 5 the domain ended at the free surface.
+        surface: if version >= 5 { r.f64()? } else { f[15] },
     };
     let at = r.at;
     config.validate().map_err(|_| Error::BadCheckpoint {
@@ -224,12 +229,30 @@ fn read_head<R: Real>(r: &mut Reader<'_>) -> Result<Head, Error> {
         for x in c.iter_mut() {
             *x = r.f64()?;
         }
+        let update_steps = IntegrationSteps(r.u32()?);
+        let hindrance = r.f64()?;
+        let (channel_width, drag, fluctuations) = if version >= 5 {
+            let width = r.f64()?;
+            let at = r.at;
+            let bad = || Error::BadCheckpoint {
+                fault: CheckpointFault::Value,
+                offset: at,
+            };
+            let drag = DragLaw::from_code(r.u8()?).ok_or_else(bad)?;
+            let fluctuations = Fluctuations::from_code(r.u8()?).ok_or_else(bad)?;
+            (width, drag, fluctuations)
+        } else {
+            (0.0, DragLaw::Paper, Fluctuations::Paper)
+        };
         let fluid = FluidConfig {
             spec: FluidSpec {
                 viscosity: c[4],
                 phi_max: c[6],
-                update_steps: IntegrationSteps(r.u32()?),
-                hindrance: r.f64()?,
+                update_steps,
+                hindrance,
+                channel_width,
+                drag,
+                fluctuations,
             },
             cells: fluid_cells,
             bottom: c[0],
@@ -259,18 +282,29 @@ fn read_head<R: Real>(r: &mut Reader<'_>) -> Result<Head, Error> {
             offset: at,
         });
     }
+    let (flow_epoch, step) = (r.u64()?, r.u64()?);
+    let redraw = if version >= 5 {
+        Redraw {
+            next: r.u64()?,
+            period: r.u64()?,
+        }
+    } else {
+        Redraw::default()
+    };
     Ok(Head {
         config,
         flow: flow_on.then_some(flow),
-        flow_epoch: r.u64()?,
-        step: r.u64()?,
+        flow_epoch,
+        step,
+        redraw,
     })
 }
 
-/// Bytes of a checkpoint before its grains: header 8, `SimConfig` 153 (with
-/// the tension rule and the slope), flow 147 (with the fluid's
-/// configuration), flow epoch and step 16 (the bed level, `R`, follows).
-const HEAD_LEN: usize = 8 + 153 + 147 + 16;
+/// Bytes of a checkpoint before its grains: header 8, `SimConfig` 161 (with
+/// the tension rule, the slope and the free surface), flow 157 (with the
+/// fluid's configuration), flow epoch, step and redraw schedule 32 (the
+/// bed level, `R`, follows).
+const HEAD_LEN: usize = 8 + 161 + 157 + 32;
 
 impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
     /// The length of the largest checkpoint this simulation can write or
@@ -329,6 +363,7 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
         w.uint(c.seed, 8);
         w.uint(u64::from(c.tension.code()), 1);
         w.f64(c.slope_angle);
+        w.f64(c.surface);
         let (u_star, f, fl) = (self.flow.u_star, &self.flow.spec, &self.flow.fluid);
         w.uint(u64::from(self.flow_on), 1);
         for x in [
@@ -361,8 +396,13 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
         }
         w.uint(u64::from(fl.spec.update_steps.0), 4);
         w.f64(fl.spec.hindrance);
+        w.f64(fl.spec.channel_width);
+        w.uint(fl.spec.drag as u64, 1);
+        w.uint(fl.spec.fluctuations as u64, 1);
         w.uint(self.flow_epoch, 8);
         w.uint(self.step, 8);
+        w.uint(self.redraw.next, 8);
+        w.uint(self.redraw.period, 8);
         w.real(self.bed_level);
         let g = &self.grains;
         w.uint(g.len as u64, 4);
@@ -501,6 +541,7 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
             self.nbrs.stale = true;
             self.flow_epoch = head.flow_epoch;
             self.step = head.step;
+            self.redraw = head.redraw;
             self.bed_level = bed_level;
             if self.fluid.on {
                 self.refresh_coupling();

@@ -38,6 +38,8 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
         config.driving += self.config.slope_driving();
         let fluid = &mut self.fluid;
         fluid.column.reset(&config)?;
+        let (c_d, surface) = (self.config.material.c_d, self.config.surface);
+        fluid.configure(&config, c_d, surface);
         fluid.slabs.clear(fluid.column.grid())?;
         let g = &mut self.grains;
         let n = g.len.min(N);
@@ -91,8 +93,7 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
             let g = &self.grains;
             fluid.slabs.clear(fluid.column.grid())?;
             for i in 0..n {
-                let at = fluid.at(g.y[i]);
-                let xi = g.drag_coef[i] * at.hindrance * R::abs(at.u);
+                let xi = fluid.rest_drag_factor(g.drag_coef[i], g.y[i], g.r[i]);
                 fluid.slabs.add_grain(g.y[i], g.r[i], R::ZERO, xi)?;
             }
             let fluid_cells = fluid.column.grid().cells().min(C);
@@ -126,7 +127,8 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
     ///    grains of now (docs/model.md (C1)–(C2)) and, to keep the step
     ///    stable where the grains hold the fluid tightly, each mobile
     ///    grain's drag factor of now
-    ///    Ξ = ½ρC_D A2 d² (1 − φ)^(−n) |u_f − u_p| as an implicit
+    ///    Ξ = ½ρC_D A2 d² (1 − φ)^(−n) |u_f − u_p| (or Dallavalle's (C8);
+    ///    0 out of the water) as an implicit
     ///    stabiliser: the sink k (u_f − u_f⁰), balanced so that it takes
     ///    no momentum at u_f = u_f⁰ (u_f⁰ the velocity before the step);
     /// 2. the stabiliser's force of the previous update, k (u_f − u_f⁰),
@@ -150,7 +152,12 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
             let (y, r, u) = (g.y[i], g.r[i], g.u[i]);
             if !g.fixed[i] {
                 let at = fluid.at(y);
-                let xi = g.drag_coef[i] * at.hindrance * R::abs(at.u - u);
+                let closures = &fluid.closures;
+                let xi = if y > closures.surface {
+                    R::ZERO
+                } else {
+                    closures.drag_factor(g.drag_coef[i], r, at.hindrance, R::abs(at.u - u))
+                };
                 fluid.slabs.add_exchange(y, r, u, xi)?;
             }
         }
@@ -165,8 +172,7 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
         for i in 0..n {
             let (y, r) = (g.y[i], g.r[i]);
             if g.fixed[i] {
-                let at = fluid.at(y);
-                let xi = g.drag_coef[i] * at.hindrance * R::abs(at.u);
+                let xi = fluid.rest_drag_factor(g.drag_coef[i], y, r);
                 fluid.slabs.add_grain(y, r, R::ZERO, xi)?;
             }
         }
@@ -182,6 +188,35 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
         }
         fluid.drag_sum.fill(R::ZERO);
         Ok(())
+    }
+
+    /// One eddy turnover of the water above the bed, in integration steps
+    /// (docs/model.md (C9)): (h − y_bed)/⟨u_f⟩, the mean over the fluid
+    /// cells whose centre lies at or above the mean bed level y_bed,
+    /// rounded up; `FlowSpec::hold_steps` where that water does not flow
+    /// downstream or the bed lies above the surface.
+    pub(crate) fn eddy_turnover_steps(&self) -> u64 {
+        let column = &self.fluid.column;
+        let grid = column.grid();
+        let bed = self.bed_level;
+        let (mut sum, mut count) = (0.0, 0u32);
+        for (j, &u) in column.velocities().iter().enumerate() {
+            if grid.centre(j) >= bed {
+                sum += u.to_f64();
+                count += 1;
+            }
+        }
+        let fallback = u64::from(self.flow.spec.hold_steps.0.max(1));
+        if count == 0 || sum.is_nan() || sum <= 0.0 {
+            return fallback;
+        }
+        let depth = self.flow.fluid.surface - bed.to_f64();
+        let steps = libm::ceil(depth / (sum / f64::from(count)) / self.config.step_dt);
+        if (1.0..1e15).contains(&steps) {
+            steps as u64
+        } else {
+            fallback
+        }
     }
 
     /// Recomputes the coupled flow's tables from its state and the mean

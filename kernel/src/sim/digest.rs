@@ -50,7 +50,8 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
     }
 
     /// Adds the seed and the flow's state to `h`: the flow's epoch, whether
-    /// it is on, the mean bed level and the coupled flow's column
+    /// it is on, the mean bed level, HydroForceEngine's redraw schedule
+    /// (only with those fluctuations) and the coupled flow's column
     /// ([`Sim::digest`] and the flow group of [`Sim::group_digest`] end
     /// with it).
     fn flow_state_digest(&self, h: &mut Fnv1a) {
@@ -58,6 +59,10 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
         h.word(self.flow_epoch);
         h.word(u64::from(self.flow_on));
         h.real(self.bed_level);
+        if self.fluid.on && self.fluid.closures.hfe {
+            h.word(self.redraw.next);
+            h.word(self.redraw.period);
+        }
         self.fluid_digest(h);
     }
 

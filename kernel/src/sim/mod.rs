@@ -41,7 +41,7 @@ use crate::contact::{ContactLaw, Spring, Tension};
 use crate::error::{check, finite, positive, Capacity, Error};
 use crate::events::Events;
 use crate::flow::{FlowConfig, FlowModel, FlowSpec, LogLaw};
-use crate::fluid::{Coupling, FluidConfig, FluidSpec};
+use crate::fluid::{Coupling, DragLaw, Fluctuations, FluidConfig, FluidSpec};
 use crate::grains::{GrainSpec, Grains, MAX_CLASSES};
 use crate::neighbours::Neighbours;
 use crate::real::Real;
@@ -83,8 +83,15 @@ pub struct SimConfig {
     pub width: f64,
     /// Lowest allowed grain height (m): below it a grain has left the domain.
     pub y_min: f64,
-    /// Highest allowed grain height (m).
+    /// Highest allowed grain height (m): above it a grain has left the
+    /// domain. [`crate::Scenario`] puts it as far above the free surface as
+    /// y_min lies below it.
     pub y_max: f64,
+    /// Height of the free surface (m) (docs/model.md §2): a grain whose
+    /// centre lies above it is out of the water, with no drag, no buoyancy
+    /// and no added mass, as HydroForceEngine treats a grain above its last
+    /// fluid cell; at or above `y_max`, none is.
+    pub surface: f64,
     /// Largest neighbour-list skin (m); each rebuild sizes the skin from the
     /// fastest grain, down to 0.3 of it. Results do not depend on it; speed does.
     pub skin: f64,
@@ -120,6 +127,12 @@ impl SimConfig {
             self.y_max,
             "finite and > y_min",
         )?;
+        check(
+            self.surface.is_finite() && self.surface > self.y_min,
+            "surface",
+            self.surface,
+            "finite and > y_min",
+        )?;
         crate::error::non_negative("skin", self.skin)?;
         check(
             self.slope_angle.is_finite() && (0.0..0.5).contains(&self.slope_angle),
@@ -150,6 +163,27 @@ impl SimConfig {
             g * libm::sin(self.slope_angle) * m.s / (m.s + m.c_m),
             self.gravity[1] * libm::cos(self.slope_angle) * reduce,
         ]
+    }
+
+    /// The acceleration of the whole weight (m/s²) along x and y, of a grain
+    /// out of the water (above [`SimConfig::surface`]): (g_x, g_y); with a
+    /// slope θ, (g sin θ, −g cos θ), g = −g_y.
+    pub fn air_gravity(&self) -> [f64; 2] {
+        if self.slope_angle == 0.0 {
+            return self.gravity;
+        }
+        let g = -self.gravity[1];
+        [
+            g * libm::sin(self.slope_angle),
+            self.gravity[1] * libm::cos(self.slope_angle),
+        ]
+    }
+
+    /// m'/m_s = (s + C_M)/s: a force's acceleration out of the water over
+    /// its acceleration in it (docs/model.md (2): no added mass in air).
+    pub fn air_inertia_ratio(&self) -> f64 {
+        let m = &self.material;
+        (m.s + m.c_m) / m.s
     }
 
     /// g sin θ (m/s²): gravity along the bed slope, which drives the
@@ -250,11 +284,20 @@ pub struct Sim<R: Real, const N: usize, const K: usize, const C: usize = 0> {
     pub(crate) width: R,
     pub(crate) y_min: R,
     pub(crate) y_max: R,
+    /// [`SimConfig::surface`].
+    pub(crate) surface: R,
+    /// [`SimConfig::air_gravity`].
+    pub(crate) g_air: [R; 2],
+    /// [`SimConfig::air_inertia_ratio`].
+    pub(crate) air_ratio: R,
     pub(crate) flow: FlowConfig,
     pub(crate) flow_on: bool,
     pub(crate) log_law: LogLaw<R>,
     /// Step at which the flow was switched on: hold periods count from here.
     pub(crate) flow_epoch: u64,
+    /// When HydroForceEngine's fluctuations are next redrawn
+    /// ([`crate::Fluctuations::Hfe`]).
+    pub(crate) redraw: Redraw,
     /// Mean bed level (docs/model.md §6), absolute height (m).
     pub(crate) bed_level: R,
     pub(crate) step: u64,
@@ -265,6 +308,18 @@ pub struct Sim<R: Real, const N: usize, const K: usize, const C: usize = 0> {
     pub(crate) count_events: bool,
     /// The coupled flow (docs/model.md §13), off with clear water.
     pub(crate) fluid: Coupling<R, C>,
+}
+
+/// The schedule of HydroForceEngine's fluctuations (docs/model.md (C9)):
+/// the step of the next redraw and the period it draws (the key of its
+/// draws). Set when a flow is switched on; state (in a checkpoint, and in
+/// the digest with that model).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub(crate) struct Redraw {
+    /// The step at which every grain's fluctuation is redrawn next.
+    pub(crate) next: u64,
+    /// The period of that redraw, 0 for the first after the flow started.
+    pub(crate) period: u64,
 }
 
 const ZERO_MATERIAL: Material = Material {
@@ -283,6 +338,9 @@ const ZERO_FLUID: FluidConfig = FluidConfig {
         phi_max: 0.0,
         update_steps: IntegrationSteps(0),
         hindrance: 0.0,
+        channel_width: 0.0,
+        drag: DragLaw::Paper,
+        fluctuations: Fluctuations::Paper,
     },
     cells: 0,
     bottom: 0.0,
@@ -338,6 +396,7 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
                 width: 0.0,
                 y_min: 0.0,
                 y_max: 0.0,
+                surface: 0.0,
                 skin: 0.0,
                 seed: 0,
                 slope_angle: 0.0,
@@ -349,10 +408,14 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
             width: R::ZERO,
             y_min: R::ZERO,
             y_max: R::ZERO,
+            surface: R::ZERO,
+            g_air: [R::ZERO; 2],
+            air_ratio: R::ZERO,
             flow: ZERO_FLOW,
             flow_on: false,
             log_law: LogLaw::ZERO,
             flow_epoch: 0,
+            redraw: Redraw { next: 0, period: 0 },
             bed_level: R::ZERO,
             step: 0,
             events: Events::ZERO,
@@ -387,11 +450,15 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
         self.width = R::from_f64(config.width);
         self.y_min = R::from_f64(config.y_min);
         self.y_max = R::from_f64(config.y_max);
+        self.surface = R::from_f64(config.surface);
+        self.g_air = config.air_gravity().map(R::from_f64);
+        self.air_ratio = R::from_f64(config.air_inertia_ratio());
         self.flow = ZERO_FLOW;
         self.flow_on = false;
         self.fluid.on = false;
         self.log_law = LogLaw::ZERO;
         self.flow_epoch = 0;
+        self.redraw = Redraw::default();
         self.bed_level = R::ZERO;
         self.step = 0;
         self.events = Events::ZERO;
@@ -480,13 +547,17 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
                     self.flow,
                     self.log_law,
                     self.flow_on,
-                    self.flow_epoch,
+                    (self.flow_epoch, self.redraw),
                     self.bed_level,
                 );
                 self.flow = *f;
                 self.log_law = LogLaw::new(f);
                 self.flow_on = true;
                 self.flow_epoch = self.step;
+                self.redraw = Redraw {
+                    next: self.step,
+                    period: 0,
+                };
                 self.fluid.on = false;
                 if let Err(e) = if coupled {
                     self.start_coupling(steady)
@@ -501,7 +572,7 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
                             self.flow,
                             self.log_law,
                             self.flow_on,
-                            self.flow_epoch,
+                            (self.flow_epoch, self.redraw),
                             self.bed_level,
                         ) = before;
                     }
@@ -635,8 +706,9 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
 
     /// The turbulent fluctuation (u, v) (m/s) grain `i` currently feels
     /// (docs/model.md (15)): its held draws times the rms at its height, zero where
-    /// U = 0, for fixed grains, or without flow or turbulence; with the
-    /// coupled flow, the rms of the local shear velocity where u_f > 0
+    /// U = 0, for fixed grains, out of the water, or without flow or
+    /// turbulence; with the coupled flow, the rms of the local shear
+    /// velocity where u_f > 0, or HydroForceEngine's random walk (C9)
     /// (docs/model.md §13).
     pub fn fluctuation(&self, i: usize) -> Option<(f64, f64)> {
         if i >= self.grains.len {
@@ -646,14 +718,19 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
         if !self.flow_on || g.fixed[i] {
             return Some((0.0, 0.0));
         }
+        if g.y[i] > self.surface {
+            return Some((0.0, 0.0));
+        }
         if self.fluid.on {
-            // The coupled flow's (15): u*_loc for u*, where u_f > 0.
+            // The coupled flow's (15) or (C9): u*_loc for u*, where u_f > 0.
             let at = self.fluid.at(g.y[i]);
             if !(self.log_law.turbulence && at.u > R::ZERO) {
                 return Some((0.0, 0.0));
             }
-            let u = g.z_u[i] * (R::from_f64(2.30) * at.scale);
-            let v = g.z_v[i] * (R::from_f64(1.27) * at.scale);
+            let (u, v) = self
+                .fluid
+                .closures
+                .fluctuation(at.scale, g.z_u[i], g.z_v[i]);
             return Some((u.to_f64(), v.to_f64()));
         }
         let y = g.y[i] - self.bed_level;

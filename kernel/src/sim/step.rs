@@ -10,7 +10,7 @@ use crate::error::{check, Error};
 use crate::events::Events;
 use crate::flow::fluctuation_draw;
 use crate::real::Real;
-use crate::sim::Sim;
+use crate::sim::{Redraw, Sim};
 #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
 use crate::step::batch;
 use crate::step::mover::Mover;
@@ -65,7 +65,18 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
                 self.refresh_coupling();
             }
             let hold = u64::from(self.flow.spec.hold_steps.0.max(1));
-            if self.log_law.turbulence && since.is_multiple_of(hold) {
+            let turbulence = self.log_law.turbulence;
+            if turbulence && self.fluid.on && self.fluid.closures.hfe {
+                // HydroForceEngine's (C9): every eddy turnover.
+                if self.step >= self.redraw.next {
+                    self.draw_fluctuations(self.redraw.period);
+                    self.redraw = Redraw {
+                        next: self.step.saturating_add(self.eddy_turnover_steps()),
+                        period: self.redraw.period.wrapping_add(1),
+                    };
+                    events.turbulence_redraws = 1;
+                }
+            } else if turbulence && since.is_multiple_of(hold) {
                 self.draw_fluctuations(since / hold);
                 events.turbulence_redraws = 1;
             }
@@ -104,7 +115,12 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
                 if coupled {
                     scalar::add_coupled_drag(&mut self.grains, &mut self.fluid, &self.log_law);
                 } else if self.flow_on {
-                    scalar::add_drag(&mut self.grains, &self.log_law, self.bed_level);
+                    scalar::add_drag(
+                        &mut self.grains,
+                        &self.log_law,
+                        self.bed_level,
+                        self.surface,
+                    );
                 }
                 self.index.history_to_slots(&mut self.nbrs.spring);
                 let (g, nb) = (&mut self.grains, &mut self.nbrs);
@@ -185,6 +201,9 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
             width: self.width,
             y_min: self.y_min,
             y_max: self.y_max,
+            surface: self.surface,
+            air_gravity: self.g_air,
+            air_ratio: self.air_ratio,
             step: self.step,
         }
     }
@@ -274,27 +293,47 @@ mod tests {
 
     /// The paper's bed settled, then under the coupled flow at the paper's
     /// τ* (hindrance on, an update every 100 steps), stepped as
-    /// [`digests`] does: the digest.
-    fn coupled_digest<R: Real, const BUFFER: usize, const BATCHED: bool>() -> u64 {
+    /// [`digests`] does: the digest. With `closures`, HydroForceEngine's
+    /// (Dallavalle's drag, its fluctuations, side walls 1.1 d apart) under
+    /// a free surface 9 d above the fixed grains, below the bed's top
+    /// grains: some are out of the water (asserted).
+    fn coupled_digest<R: Real, const BUFFER: usize, const BATCHED: bool>(closures: bool) -> u64 {
         let mut sim = std::boxed::Box::new(Sim::<R, 64, 8, 1024>::new());
-        let sc = Scenario::paper();
+        let mut sc = Scenario::paper();
+        let d = sc.bed.max_diameter();
+        if closures {
+            sc.flow.depth = 9.0 * d;
+        }
         let info = sc.build(&mut *sim).unwrap();
         for _ in 0..1500 {
             sim.step_with::<BUFFER, BATCHED>().unwrap();
         }
-        let mut flow = sc.flow(Scenario::PAPER_TAU_STAR);
-        let d = sc.bed.max_diameter();
+        let tau_star = if closures {
+            0.6
+        } else {
+            Scenario::PAPER_TAU_STAR
+        };
+        let mut flow = sc.flow(tau_star);
         let bottom = info.y_min + 1.5 * d;
         let depth = flow.spec.depth;
         let fluid_cells = ((depth - bottom) / (0.5 * d)) as usize;
         let mut fluid = crate::fluid::FluidConfig::new(fluid_cells, bottom, depth, info.width * d);
         fluid.driving = crate::fluid::FluidConfig::driving_for(flow.u_star, depth);
         fluid.spec.hindrance = 3.1;
+        if closures {
+            fluid.spec.drag = crate::DragLaw::Dallavalle;
+            fluid.spec.fluctuations = crate::Fluctuations::Hfe;
+            fluid.spec.channel_width = 1.1 * d;
+        }
         (flow.spec.model, flow.fluid) = (crate::FlowModel::Coupled, fluid);
         sim.set_flow(Some(&flow)).unwrap();
+        let mut aloft = 0;
         for _ in 0..2000 {
             sim.step_with::<BUFFER, BATCHED>().unwrap();
+            let g = &sim.grains;
+            aloft += (0..g.len).filter(|&i| g.y[i] > sim.surface).count();
         }
+        assert_eq!(aloft > 0, closures, "grain steps out of the water: {aloft}");
         #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
         assert_eq!(sim.index.ready, BATCHED);
         assert_eq!(sim.events().batched_steps > 0, BATCHED && LANES);
@@ -303,15 +342,18 @@ mod tests {
     }
 
     /// The coupled flow: the batched step and the scalar step (geometry
-    /// ahead or not) give the same bits, in both precisions.
+    /// ahead or not) give the same bits, in both precisions, with the
+    /// paper's closures and with HydroForceEngine's under a free surface.
     #[test]
     fn coupled_flow_is_batched_with_the_scalar_bits() {
-        let scalar = coupled_digest::<f64, 0, false>();
-        assert_eq!(coupled_digest::<f64, 8, false>(), scalar);
-        assert_eq!(coupled_digest::<f64, 8, true>(), scalar);
-        let scalar = coupled_digest::<f32, 0, false>();
-        assert_eq!(coupled_digest::<f32, 8, false>(), scalar);
-        assert_eq!(coupled_digest::<f32, 8, true>(), scalar);
+        for closures in [false, true] {
+            let scalar = coupled_digest::<f64, 0, false>(closures);
+            assert_eq!(coupled_digest::<f64, 8, false>(closures), scalar);
+            assert_eq!(coupled_digest::<f64, 8, true>(closures), scalar);
+            let scalar = coupled_digest::<f32, 0, false>(closures);
+            assert_eq!(coupled_digest::<f32, 8, false>(closures), scalar);
+            assert_eq!(coupled_digest::<f32, 8, true>(closures), scalar);
+        }
     }
 
     /// A grain in many pairs (a large grain ringed by 14 small ones, as

@@ -17,6 +17,12 @@ pub(crate) struct Mover<R: Real> {
     pub(crate) width: R,
     pub(crate) y_min: R,
     pub(crate) y_max: R,
+    /// The free surface: above it, `air_gravity` and forces times `air_ratio`.
+    pub(crate) surface: R,
+    /// The whole weight's acceleration, out of the water.
+    pub(crate) air_gravity: [R; 2],
+    /// m'/m_s: an acceleration of a force out of the water over in it.
+    pub(crate) air_ratio: R,
     /// The step count, for the errors.
     pub(crate) step: u64,
 }
@@ -24,7 +30,10 @@ pub(crate) struct Mover<R: Real> {
 impl<R: Real> Mover<R> {
     /// The new (x, y, u, v, ω) of grain `i` from its state and its
     /// accelerations (F_x/m', F_y/m', T/I): velocities first, then positions
-    /// from the new velocities; and whether it wrapped across the seam.
+    /// from the new velocities; and whether it wrapped across the seam. A
+    /// grain whose centre lies above the free surface is out of the water:
+    /// its forces accelerate its own mass m_s = m' / `air_ratio` and it
+    /// feels its whole weight (docs/model.md §2).
     #[inline]
     pub(crate) fn advance(
         &self,
@@ -34,9 +43,16 @@ impl<R: Real> Mover<R> {
     ) -> Result<([R; 5], bool), Error> {
         let [x, y, u, v, w] = state;
         let dt = self.step_dt;
-        let u = u + (accel[0] + self.gravity[0]) * dt;
-        let v = v + (accel[1] + self.gravity[1]) * dt;
-        let w = w + accel[2] * dt;
+        let spin = accel[2];
+        let (accel, gravity) = if y > self.surface {
+            let ratio = self.air_ratio;
+            ([accel[0] * ratio, accel[1] * ratio], self.air_gravity)
+        } else {
+            ([accel[0], accel[1]], self.gravity)
+        };
+        let u = u + (accel[0] + gravity[0]) * dt;
+        let v = v + (accel[1] + gravity[1]) * dt;
+        let w = w + spin * dt;
         let mut x = x + u * dt;
         let y = y + v * dt;
         let mut wrapped = true;
@@ -83,5 +99,32 @@ impl<R: Real> Mover<R> {
             grain,
             quantity,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Out of the water a force accelerates the grain's own mass, m'/m_s =
+    /// `air_ratio` times more than in it, and the whole weight acts.
+    #[test]
+    fn out_of_the_water_a_grain_has_its_own_mass_and_weight() {
+        let mover = Mover {
+            step_dt: 0.5,
+            gravity: [0.25, -0.5],
+            width: 10.0,
+            y_min: -10.0,
+            y_max: 10.0,
+            surface: 1.0,
+            air_gravity: [1.0, -4.0],
+            air_ratio: 1.5,
+            step: 0,
+        };
+        let water = mover.advance(0, [0.0, 1.0, 0.0, 0.0, 0.0], [2.0, 2.0, 2.0]);
+        assert_eq!(water.unwrap().0, [0.5625, 1.375, 1.125, 0.75, 1.0]);
+        let air = mover.advance(0, [0.0, 1.5, 0.0, 0.0, 0.0], [2.0, 2.0, 2.0]);
+        // u = (2 × 1.5 + 1) × 0.5, v = (2 × 1.5 − 4) × 0.5, the spin as in water.
+        assert_eq!(air.unwrap().0, [1.0, 1.25, 2.0, -0.5, 1.0]);
     }
 }

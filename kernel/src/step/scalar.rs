@@ -116,15 +116,17 @@ pub(crate) fn step<R: Real, const N: usize, const K: usize, const BUFFER: usize>
     Ok(motion.max_v2)
 }
 
-/// Drag (4)–(5) on every mobile grain of `g`, heights from the mean bed
-/// level `bed_level` (docs/model.md §6).
+/// Drag (4)–(5) on every mobile grain of `g` in the water (its centre at
+/// or below `surface`, docs/model.md §2), heights from the mean bed level
+/// `bed_level` (docs/model.md §6).
 pub(crate) fn add_drag<R: Real, const N: usize>(
     g: &mut Grains<R, N>,
     log_law: &LogLaw<R>,
     bed_level: R,
+    surface: R,
 ) {
     for i in 0..g.len.min(N) {
-        if g.fixed[i] {
+        if g.fixed[i] || g.y[i] > surface {
             continue;
         }
         let (fx, fy) = log_law.drag(
@@ -140,12 +142,14 @@ pub(crate) fn add_drag<R: Real, const N: usize>(
     }
 }
 
-/// The coupled flow's drag on every mobile grain of `g` (docs/model.md §13):
-/// (4)–(5) with u_f of the column at the grain's centre for U, times the
-/// hindrance (C7), without sheltering (16) (the column's velocity already
-/// falls inside the bed); the fluctuations (15) of the held draws with the
-/// local shear velocity of the column's Reynolds stress (C4) for u*, where
-/// u_f > 0 and the `log_law`'s turbulence is on; each read linear between
+/// The coupled flow's drag on every mobile grain of `g` in the water (its
+/// centre at or below the free surface, docs/model.md §2, §13): (4)–(5),
+/// or Dallavalle's (C8), with u_f of the column at the grain's centre for
+/// U, times the hindrance (C7), without sheltering (16) (the column's
+/// velocity already falls inside the bed); the fluctuations (15), or
+/// HydroForceEngine's (C9), of the held draws with the local shear
+/// velocity of the column's Reynolds stress (C4) for u*, where u_f > 0 and
+/// the `log_law`'s turbulence is on; each read linear between
 /// the fluid cells' centres ([`Coupling::at`]). The streamwise drag is also summed
 /// per fluid cell for the column's next update ([`Coupling::deposit`]), in grain
 /// order. The batched step does the same in lanes (`batch::coupled_pass`).
@@ -154,20 +158,21 @@ pub(crate) fn add_coupled_drag<R: Real, const N: usize, const C: usize>(
     fluid: &mut Coupling<R, C>,
     log_law: &LogLaw<R>,
 ) {
-    let (rms_u, rms_v) = (R::from_f64(2.30), R::from_f64(1.27));
+    let closures = fluid.closures;
     for i in 0..g.len.min(N) {
-        if g.fixed[i] {
+        if g.fixed[i] || g.y[i] > closures.surface {
             continue;
         }
         let at = fluid.at(g.y[i]);
         let (fluct_u, fluct_v) = if log_law.turbulence && at.u > R::ZERO {
-            (g.z_u[i] * (rms_u * at.scale), g.z_v[i] * (rms_v * at.scale))
+            closures.fluctuation(at.scale, g.z_u[i], g.z_v[i])
         } else {
             (R::ZERO, R::ZERO)
         };
         let wx = at.u + fluct_u - g.u[i];
         let wy = fluct_v - g.v[i];
-        let xi = g.drag_coef[i] * at.hindrance * R::sqrt(wx * wx + wy * wy);
+        let speed = R::sqrt(wx * wx + wy * wy);
+        let xi = closures.drag_factor(g.drag_coef[i], g.r[i], at.hindrance, speed);
         let (fx, fy) = (xi * wx, xi * wy);
         g.fx[i] += fx;
         g.fy[i] += fy;

@@ -103,6 +103,7 @@ pub fn config(dt: f64, k_n: f64, eta_n: f64, mu: f64) -> SimConfig {
         width: 40.0 * D,
         y_min: -20.0 * D,
         y_max: 200.0 * D,
+        surface: 200.0 * D,
         skin: 0.1 * D,
         seed: 1,
         slope_angle: 0.0,

@@ -52,14 +52,16 @@ macro_rules! drag {
                 let log_law = splat(<R as Real>::from_f64(30.1));
                 let (eps0, open) = (splat(p.eps0), splat(1.0 - p.eps0));
                 let turbulence = splat(if p.turbulence { TRUE } else { 0.0 });
+                let surface = splat(s.mover.surface);
                 let b = &mut *s.batch;
                 let groups = s.n.min(N).div_ceil(L).min(N / L);
                 for grp in 0..groups {
-                    let mobile = load(group(&b.mobile, grp));
+                    let at = |a: &[R; N]| load(group(a, grp));
+                    // Mobile grains in the water.
+                    let mobile = and(load(group(&b.mobile, grp)), le(at(s.y), surface));
                     if movemask(mobile) == 0 {
                         continue;
                     }
-                    let at = |a: &[R; N]| load(group(a, grp));
                     let y = sub(at(s.y), bed);
                     // (14) mean velocity.
                     let above = add(y, shift);
@@ -130,6 +132,9 @@ macro_rules! drag {
                 let rms_u = splat(<R as Real>::from_f64(2.30));
                 let rms_v = splat(<R as Real>::from_f64(1.27));
                 let turbulence = splat(if turbulence { TRUE } else { 0.0 });
+                let closures = fluid.closures;
+                let surface = splat(closures.surface);
+                let (inertial, viscous) = (splat(closures.inertial), splat(closures.viscous_term));
                 let no_row = [0.0; 4];
                 // Coupling::position and Coupling::place of group `grp`: the
                 // position, above the first centre, between two centres
@@ -157,11 +162,12 @@ macro_rules! drag {
                         }
                     }
                     for (grp, cells) in block.zip(cells) {
-                        let mobile = load(group(&b.mobile, grp));
+                        let at = |a: &[R; N]| load(group(a, grp));
+                        // Mobile grains in the water.
+                        let mobile = and(load(group(&b.mobile, grp)), le(at(&g.y), surface));
                         if movemask(mobile) == 0 {
                             continue;
                         }
-                        let at = |a: &[R; N]| load(group(a, grp));
                         let (position, above, inside, frac, _) = place(grp);
                         // Coupling::at: the value plus the slope times the
                         // fraction inside; beyond, the end cell's values, u_f
@@ -177,15 +183,27 @@ macro_rules! drag {
                         let wall = min(one, max(zero, mul(add(position, half), two)));
                         let u_f = select(select(mul(u, wall), u, above), lerp(u, du), inside);
                         let (scale, hindrance) = (lerp(scale, dscale), lerp(hindrance, dhindrance));
-                        // (15) with u*_loc, where u_f > 0; (4)–(5) with u_f and
-                        // the hindrance (C7).
+                        // (15) or (C9) with u*_loc, where u_f > 0; (4)–(5) or
+                        // (C8) with u_f and the hindrance (C7)
+                        // (Closures::fluctuation, Closures::drag_factor).
                         let fluctuates = and(gt(u_f, zero), turbulence);
-                        let fluct_u = and(mul(at(&g.z_u), mul(rms_u, scale)), fluctuates);
-                        let fluct_v = and(mul(at(&g.z_v), mul(rms_v, scale)), fluctuates);
+                        let (z_u, z_v) = (at(&g.z_u), at(&g.z_v));
+                        let (fluct_u, fluct_v) = if closures.hfe {
+                            (mul(sub(z_u, z_v), scale), mul(z_v, scale))
+                        } else {
+                            (mul(z_u, mul(rms_u, scale)), mul(z_v, mul(rms_v, scale)))
+                        };
+                        let (fluct_u, fluct_v) =
+                            (and(fluct_u, fluctuates), and(fluct_v, fluctuates));
                         let wx = sub(add(u_f, fluct_u), at(&g.u));
                         let wy = sub(fluct_v, at(&g.v));
                         let speed = sqrt(add(mul(wx, wx), mul(wy, wy)));
-                        let xi = mul(mul(at(&g.drag_coef), hindrance), speed);
+                        let coef = mul(at(&g.drag_coef), hindrance);
+                        let xi = if closures.viscous {
+                            mul(coef, add(mul(inertial, speed), div(viscous, at(&g.r))))
+                        } else {
+                            mul(coef, speed)
+                        };
                         // The sums (+0) add the drag (+0 for fixed grains).
                         let [fx, fy] = [mul(xi, wx), mul(xi, wy)].map(|f| and(f, mobile));
                         let rows = to_rows([fx, fy, zero, zero]);

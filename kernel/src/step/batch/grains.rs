@@ -35,6 +35,7 @@ macro_rules! grains {
                 let (dt, width) = (splat(m.step_dt), splat(m.width));
                 let (gx, gy) = (splat(m.gravity[0]), splat(m.gravity[1]));
                 let (y_min, y_max) = (splat(m.y_min), splat(m.y_max));
+                let surface = splat(m.surface);
                 let largest = splat(R::MAX);
                 let abs = splat(ABS);
                 let b = &mut *s.batch;
@@ -82,9 +83,12 @@ macro_rules! grains {
                         and(le(and(w, abs), largest), in_x),
                         and(ge(y, y_min), le(y, y_max)),
                     );
+                    // Out of the water, a grain moves by other accelerations.
+                    let ok = and(ok, le(y0, surface));
                     if movemask(andnot(ok, mobile)) != 0 {
-                        // A grain fails: redo the group grain by grain, as the
-                        // scalar step, up to the first failure.
+                        // A grain fails, or is out of the water: redo the
+                        // group grain by grain, as the scalar step, up to
+                        // the first failure.
                         let sums = [lanes(fx), lanes(fy), lanes(torque)];
                         let mobile = lanes(mobile);
                         for l in 0..L {

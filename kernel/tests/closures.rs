@@ -1,0 +1,281 @@
+//! The free surface and HydroForceEngine's closures in a coupled `Sim`
+//! (docs/model.md §2, (C8)–(C10)): a grain out of the water flies the
+//! ballistic parabola, Dallavalle's drag is its formula, the discrete
+//! random walk has its amplitudes and correlation and stops below the bed,
+//! and restarts continue bit for bit, in f32 and f64.
+
+pub mod common;
+
+use common::{config, mobile, D};
+use mbs_kernel::fluid::FluidConfig;
+use mbs_kernel::{
+    DragLaw, FlowConfig, FlowModel, Fluctuations, GrainSpec, IntegrationSteps, Real, Scenario, Sim,
+};
+
+/// A coupled flow over `width` (m) of slice one `D` thick: a column of
+/// `cells` from `bottom` to the free surface `surface`, driven by
+/// u* = 3 cm/s over the depth, no hindrance.
+fn flow(width: f64, bottom: f64, surface: f64, cells: usize) -> FlowConfig {
+    let u_star = 0.03;
+    let mut flow = FlowConfig::new(u_star, D);
+    flow.spec.depth = surface;
+    let mut fluid = FluidConfig::new(cells, bottom, surface, width * D);
+    fluid.driving = FluidConfig::driving_for(u_star, surface - bottom);
+    (flow.spec.model, flow.fluid) = (FlowModel::Coupled, fluid);
+    flow
+}
+
+/// A grain thrown up through the free surface of a coupled flow (on a
+/// slope θ): while its centre is above the surface it feels no drag, no
+/// buoyancy and no added mass, so each step changes its velocity by
+/// exactly (g sin θ, −g cos θ) step_dt and its heights follow the
+/// symplectic Euler parabola y_k = y_0 + k v_0 dt − g cos θ dt² k(k+1)/2,
+/// to rounding; it then falls back into the water.
+fn ballistic<R: Real>(tol: f64) {
+    let g = 9.81;
+    for slope in [0.0, 0.1] {
+        let mut c = config(1e-5, 1e3, 0.0, 0.5);
+        (c.gravity, c.slope_angle, c.surface) = ([0.0, -g], slope, 50.0 * D);
+        let mut sim = Box::new(Sim::<R, 8, 4, 128>::new());
+        sim.reset(&c).unwrap();
+        sim.add_grain(&mobile(10.0 * D, 49.5 * D, 0.1, 0.3))
+            .unwrap();
+        sim.set_flow(Some(&flow(40.0, 0.0, c.surface, 100)))
+            .unwrap();
+        let (ax, ay) = (g * libm::sin(slope), -g * libm::cos(slope));
+        let dt = c.step_dt;
+        let (mut aloft, mut back) = (0, false);
+        let mut launch: Option<GrainSpec> = None;
+        for _ in 0..20_000 {
+            let before = sim.grain(0).unwrap();
+            sim.step().unwrap();
+            let after = sim.grain(0).unwrap();
+            if before.y > c.surface {
+                let top = *launch.get_or_insert(before);
+                aloft += 1;
+                let du = (after.u - before.u - ax * dt) / (g * dt);
+                let dv = (after.v - before.v - ay * dt) / (g * dt);
+                assert!(
+                    du.abs() < tol && dv.abs() < tol,
+                    "step {aloft}: {du:e} {dv:e}"
+                );
+                let k = aloft as f64;
+                let parabola = top.y + k * top.v * dt + ay * dt * dt * k * (k + 1.0) / 2.0;
+                let off = (after.y - parabola) / (top.y - c.y_min);
+                assert!(off.abs() < tol, "step {aloft}: y off by {off:e}");
+            } else if aloft > 0 {
+                back = true;
+                break;
+            }
+        }
+        assert!(aloft > 1000, "{} steps out of the water", aloft);
+        assert!(back, "fell back into the water");
+    }
+}
+
+#[test]
+fn a_grain_out_of_the_water_flies_a_parabola() {
+    ballistic::<f64>(1e-9);
+    ballistic::<f32>(2e-3);
+}
+
+/// A grain held at a fluid cell's centre, without gravity or fluctuations:
+/// its first step's velocity is the drag over m' times step_dt, the drag
+/// being ½ρ(π/4)d²(0.44|u_f| + 24.4ν/d) u_f with Dallavalle's law and
+/// ½ρ C_D (π/4) d² |u_f| u_f with the paper's, u_f the column's at the
+/// centre.
+fn drag_laws<R: Real>(tol: f64) {
+    for law in [DragLaw::Paper, DragLaw::Dallavalle] {
+        let c = config(1e-5, 1e3, 0.0, 0.5);
+        let mut sim = Box::new(Sim::<R, 8, 4, 128>::new());
+        sim.reset(&c).unwrap();
+        // Cells of D/2 from 0: centre 40 is at 20.25 D.
+        sim.add_grain(&mobile(10.0 * D, 20.25 * D, 0.0, 0.0))
+            .unwrap();
+        let mut f = flow(40.0, 0.0, 50.0 * D, 100);
+        (f.spec.turbulence, f.fluid.spec.drag) = (false, law);
+        sim.set_flow(Some(&f)).unwrap();
+        let u_f = sim.fluid_column().unwrap().velocities()[40].to_f64();
+        sim.step().unwrap();
+        let grain = sim.grain(0).unwrap();
+        let force = grain.u * c.material.translational_mass(D) / c.step_dt;
+        let (m, nu) = (&c.material, f.fluid.spec.viscosity);
+        let area = std::f64::consts::FRAC_PI_4 * D * D;
+        let expect = match law {
+            DragLaw::Paper => 0.5 * m.rho * m.c_d * area * u_f.abs() * u_f,
+            DragLaw::Dallavalle => 0.5 * m.rho * area * (0.44 * u_f.abs() + 24.4 * nu / D) * u_f,
+        };
+        assert!(u_f > 0.1, "u_f {u_f}");
+        let error = (force - expect).abs() / expect;
+        assert!(
+            error < tol,
+            "{law:?}: {force:e} N vs {expect:e} N ({error:e})"
+        );
+        assert_eq!(grain.v, 0.0);
+    }
+}
+
+#[test]
+fn dallavalle_drag_is_its_formula() {
+    drag_laws::<f64>(1e-12);
+    drag_laws::<f32>(1e-5);
+}
+
+/// The statistics of the discrete random walk (C9), from 2 048 grains held
+/// at one cell centre 20 d above a row of fixed grains (the bed level)
+/// over 12 redraws: rms u' = √2 u*_loc, rms v' = u*_loc and their
+/// correlation −1/√2, each within 2 % (u*_loc the column's at the
+/// centre); none on grains below the bed level; none out of the water.
+/// With the paper's (15) the rms are (2.30, 1.27) u*_loc exp(−y/h), and
+/// grains below the bed level fluctuate.
+fn random_walk<R: Real>() {
+    for model in [Fluctuations::Hfe, Fluctuations::Paper] {
+        // Grains a billion times denser than water: the drag leaves them
+        // where they are, at the heights whose u*_loc is known.
+        let mut c = config(1e-4, 1e3, 0.0, 0.5);
+        c.material.s = 1e9;
+        let across = 2048;
+        (c.width, c.y_min, c.y_max, c.surface) =
+            (across as f64 * D, -20.0 * D, 200.0 * D, 50.0 * D);
+        let mut sim = Box::new(Sim::<R, 4200, 4, 128>::new());
+        sim.reset(&c).unwrap();
+        for k in 0..across {
+            let x = (k as f64 + 0.5) * D;
+            let fixed = GrainSpec {
+                fixed: true,
+                ..mobile(x, 0.0, 0.0, 0.0)
+            };
+            sim.add_grain(&fixed).unwrap();
+        }
+        // Centre 60 of cells of D/2 from −10 D: 20.25 D; centre 15: −2.25 D.
+        let (high, low) = (20.25 * D, -2.25 * D);
+        for k in 0..across {
+            sim.add_grain(&mobile((k as f64 + 0.5) * D, high, 0.0, 0.0))
+                .unwrap();
+        }
+        let first_low = sim.len();
+        for k in 0..64 {
+            sim.add_grain(&mobile((32.0 * k as f64 + 0.2) * D, low, 0.0, 0.0))
+                .unwrap();
+        }
+        let aloft = sim.len();
+        sim.add_grain(&mobile(0.7 * D, 51.0 * D, 0.0, 0.0)).unwrap();
+        let mut f = flow(across as f64, -10.0 * D, c.surface, 120);
+        f.fluid.spec.fluctuations = model;
+        f.spec.hold_steps = IntegrationSteps(400);
+        sim.set_flow(Some(&f)).unwrap();
+        assert!(
+            sim.bed_level().abs() < 1e-12,
+            "bed level {}",
+            sim.bed_level()
+        );
+        let (mut uu, mut vv, mut uv, mut n) = (0.0, 0.0, 0.0, 0.0);
+        let mut low_moves = false;
+        let mut periods = 0;
+        let mut redraws = sim.events().turbulence_redraws;
+        while periods < 12 {
+            sim.step().unwrap();
+            if sim.events().turbulence_redraws == redraws {
+                continue;
+            }
+            redraws = sim.events().turbulence_redraws;
+            periods += 1;
+            let column = sim.fluid_column().unwrap();
+            let scale = column.shear_velocity_at(R::from_f64(high)).to_f64();
+            let decay = match model {
+                Fluctuations::Hfe => 1.0,
+                Fluctuations::Paper => libm::exp(-(high - sim.bed_level()) / c.surface),
+            };
+            for i in across..first_low {
+                let (u, v) = sim.fluctuation(i).unwrap();
+                let s = scale * decay;
+                (uu, vv, uv, n) = (
+                    uu + u * u / (s * s),
+                    vv + v * v / (s * s),
+                    uv + u * v / (s * s),
+                    n + 1.0,
+                );
+            }
+            for i in first_low..aloft {
+                low_moves |= sim.fluctuation(i).unwrap() != (0.0, 0.0);
+            }
+            assert_eq!(sim.fluctuation(aloft), Some((0.0, 0.0)), "out of the water");
+        }
+        let (rms_u, rms_v) = ((uu / n).sqrt(), (vv / n).sqrt());
+        let correlation = uv / n / (rms_u * rms_v);
+        std::println!(
+            "{} {model:?}: {n} draws, rms u' {rms_u:.4}, rms v' {rms_v:.4}, correlation {correlation:.4}",
+            R::NAME
+        );
+        let (target_u, target_v, target_r) = match model {
+            Fluctuations::Hfe => (2f64.sqrt(), 1.0, -std::f64::consts::FRAC_1_SQRT_2),
+            Fluctuations::Paper => (2.30, 1.27, 0.0),
+        };
+        assert!((rms_u / target_u - 1.0).abs() < 0.02, "rms u' {rms_u}");
+        assert!((rms_v / target_v - 1.0).abs() < 0.02, "rms v' {rms_v}");
+        assert!(
+            (correlation - target_r).abs() < 0.02,
+            "correlation {correlation}"
+        );
+        assert_eq!(low_moves, model == Fluctuations::Paper, "below the bed");
+    }
+}
+
+#[test]
+fn hfe_fluctuations_have_their_statistics() {
+    random_walk::<f64>();
+}
+
+/// The paper's bed under 12 d of water at τ* = 0.6 with every
+/// HydroForceEngine closure, grains leaving the water (the golden coupled
+/// scenario with a shallow surface), settled `settle` steps and run `flow`.
+fn shallow_run<R: Real, const K: usize, const C: usize>(
+    settle: u64,
+    flow: u64,
+) -> Box<Sim<R, 64, K, C>> {
+    let mut sc = Scenario::paper_coupled();
+    let d = sc.bed.max_diameter();
+    sc.flow.depth = 12.0 * d;
+    sc.fluid_cell_height = 0.5 * d;
+    sc.fluid.drag = DragLaw::Dallavalle;
+    sc.fluid.fluctuations = Fluctuations::Hfe;
+    sc.fluid.channel_width = 1.1 * d;
+    let mut sim = Box::new(Sim::<R, 64, K, C>::new());
+    sc.build(&mut *sim).unwrap();
+    sim.run(settle).unwrap();
+    sim.set_flow(Some(&sc.flow(0.6))).unwrap();
+    sim.run(flow).unwrap();
+    sim
+}
+
+fn bytes<R: Real, const N: usize, const K: usize, const C: usize>(
+    sim: &Sim<R, N, K, C>,
+) -> Vec<u8> {
+    let mut out = Vec::new();
+    sim.checkpoint(|b| out.extend_from_slice(b));
+    out
+}
+
+/// With every closure on, a run stopped anywhere (before and after
+/// redraws of the random walk and updates of the column) and restored into
+/// other capacities continues bit for bit; the side walls, the laws and
+/// the redraw schedule come back from the checkpoint.
+fn resume<R: Real>() {
+    for flow in [0, 1, 77, 300, 1234] {
+        let mut whole = shallow_run::<R, 8, 64>(1500, flow);
+        let saved = bytes(&*whole);
+        let mut resumed = Box::new(Sim::<R, 128, 10, 100>::new());
+        resumed.restore(&saved).unwrap();
+        assert_eq!(resumed.digest(), whole.digest(), "restored at {flow}");
+        assert_eq!(bytes(&*resumed), saved, "checkpoint of the restored state");
+        whole.run(1500).unwrap();
+        resumed.run(1500).unwrap();
+        assert_eq!(resumed.digest(), whole.digest(), "continued from {flow}");
+    }
+}
+
+#[test]
+fn closures_restart_bit_identical() {
+    resume::<f64>();
+    resume::<f32>();
+}
