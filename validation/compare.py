@@ -2,6 +2,8 @@
 """Compare a run's profiles.csv with a measured profile (validation/*/*.csv).
 
 Usage: validation/compare.py MEASURED.csv RUN_DIR [--slope RAD] [--s S] [--d M]
+(a missing or unreadable file, or a column it lacks, is an error naming it:
+exit 2).
 
 Prints, for the run's (first) tau*:
 - the bed surface of each profile: the highest height where phi, smoothed
@@ -12,17 +14,47 @@ Prints, for the run's (first) tau*:
   transport layer (measured heights where phi u_p >= 1 % of its largest value),
   with no shift and with the shift that aligns the two bed surfaces;
 - q* of the measured profile (integral of phi u_p dz over
-  sqrt((s - 1) g cos(theta) d^3)), of the run's profile, and transport.csv's.
+  sqrt((s - 1) g cos(theta) d^3)), of the run's profile, and transport.csv's;
+- where the reference has them (r2d6s2), the rms differences of the shear
+  stresses: the grains' (contacts and fluctuations), the fluid's viscous and
+  Reynolds stresses, and their total against the weight of what lies above,
+  over the heights above the fixed layer (z >= 1 d).
 Standard library only.
 """
+import argparse
 import csv
 import math
 import sys
 
 
-def read(path):
-    with open(path) as f:
-        return list(csv.DictReader(f))
+class Refused(Exception):
+    """Bad input: the message names the file and what is wrong."""
+
+
+def read(path, columns):
+    try:
+        with open(path, newline="") as f:
+            rows = list(csv.DictReader(f))
+    except OSError as e:
+        raise Refused(f"{path}: {e.strerror}")
+    except (csv.Error, UnicodeDecodeError) as e:
+        raise Refused(f"{path}: not a CSV file ({e})")
+    if not rows:
+        raise Refused(f"{path}: no rows")
+    missing = [c for c in columns if c not in rows[0]]
+    if missing:
+        raise Refused(f"{path}: no column {', '.join(missing)}")
+    return rows
+
+
+def number(path, row, column):
+    try:
+        x = float(row[column] or 0.0)
+    except ValueError:
+        raise Refused(f"{path}: {column} = {row[column]!r} is not a number")
+    if not math.isfinite(x):
+        raise Refused(f"{path}: {column} = {row[column]!r} is not finite")
+    return x
 
 
 def interp(xs, ys, x):
@@ -66,35 +98,62 @@ def trapz(zs, vs):
 
 
 def main():
-    args = sys.argv[1:]
-    opts = {"--slope": 0.1, "--s": 2.5, "--d": 0.006}
-    pos = []
-    while args:
-        a = args.pop(0)
-        if a in opts:
-            opts[a] = float(args.pop(0))
-        else:
-            pos.append(a)
-    measured, run = pos
-    theta, s, d = opts["--slope"], opts["--s"], opts["--d"]
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("measured", help="a measured profile: z_over_d, solid_fraction, particle_velocity_m_s[, fluid_velocity_m_s]")
+    ap.add_argument("run", help="an mbs output directory (profiles.csv, transport.csv)")
+    ap.add_argument("--slope", type=float, default=0.1, help="bed slope (rad), for q*'s g cos(theta)")
+    ap.add_argument("--s", type=float, default=2.5, help="specific gravity")
+    ap.add_argument("--d", type=float, default=0.006, help="grain diameter (m)")
+    a = ap.parse_args()
+    if not (0 <= a.slope < 0.5 and a.s > 1 and a.d > 0):
+        raise Refused(f"--slope {a.slope} (in [0, 0.5)), --s {a.s} (> 1), --d {a.d} (> 0)")
+    theta, s, d, measured, run = a.slope, a.s, a.d, a.measured, a.run
     scale = math.sqrt((s - 1) * 9.81 * math.cos(theta) * d**3)
 
-    m = read(measured)
-    mz = [float(r["z_over_d"]) for r in m]
-    mphi = [float(r["solid_fraction"]) for r in m]
-    mup = [float(r["particle_velocity_m_s"]) for r in m]
-    muf = [float(r["fluid_velocity_m_s"]) for r in m] if "fluid_velocity_m_s" in m[0] else None
+    mcols = ["z_over_d", "solid_fraction", "particle_velocity_m_s"]
+    m = read(measured, mcols)
+    mz, mphi, mup = ([number(measured, r, c) for r in m] for c in mcols)
+    has_uf = "fluid_velocity_m_s" in m[0]
+    muf = [number(measured, r, "fluid_velocity_m_s") for r in m] if has_uf else None
 
-    p = read(run + "/profiles.csv")
+    prof = run + "/profiles.csv"
+    pcols = ["tau_star", "y_over_d", "solid_fraction", "grain_velocity_m_s", "fluid_velocity_m_s"]
+    p = read(prof, pcols)
     tau = p[0]["tau_star"]
     p = [r for r in p if r["tau_star"] == tau]
-    pz = [float(r["y_over_d"]) for r in p]
-    pphi = [float(r["solid_fraction"]) for r in p]
-    pup = [float(r["grain_velocity_m_s"] or 0.0) for r in p]
-    puf = [float(r["fluid_velocity_m_s"]) for r in p]
+    pz, pphi, pup, puf = ([number(prof, r, c) for r in p] for c in pcols[1:])
+    report(measured, run, tau, d, scale, mz, mphi, mup, muf, pz, pphi, pup, puf)
+    stresses(measured, m, mz, prof, p, pz)
 
+
+STRESSES = ["contact_stress_pa", "kinetic_stress_pa", "viscous_stress_pa", "reynolds_stress_pa"]
+
+
+def stresses(measured, m, mz, prof, p, pz):
+    """The shear stresses against the reference's (r2d6s2: tau_xz the
+    grains', S_xz the fluid's viscous, R_xz its Reynolds stress, and their
+    sum's budget, gravity_term), rms over its heights, when both have them."""
+    ref_cols = ["tau_xz", "S_xz", "R_xz", "gravity_term"]
+    if not all(c in m[0] for c in ref_cols) or not all(c in p[0] for c in STRESSES):
+        return
+    contact, kinetic, viscous, reynolds = ([number(prof, r, c) for r in p] for c in STRESSES)
+    grains = [a + b for a, b in zip(contact, kinetic)]
+    total = [a + b + c for a, b, c in zip(grains, viscous, reynolds)]
+    # Above the fixed layer (z >= 1 d), where both beds are mobile grains.
+    above = [i for i, z in enumerate(mz) if z >= 1.0]
+    ref = {c: [number(measured, r, c) for r in m] for c in ref_cols}
+    for name, model, key in (("grains", grains, "tau_xz"), ("viscous", viscous, "S_xz"),
+                             ("Reynolds", reynolds, "R_xz"), ("total", total, "gravity_term")):
+        e = [interp(pz, model, mz[i]) - ref[key][i] for i in above]
+        print(f"shear stress over z >= 1 d, {name}: rms {math.sqrt(sum(x * x for x in e) / len(e)):.2f} Pa "
+              f"against {key} (largest {max(abs(ref[key][i]) for i in above):.2f} Pa)")
+
+
+def report(measured, run, tau, d, scale, mz, mphi, mup, muf, pz, pphi, pup, puf):
     mb, ms = surface(mz, mphi, mz[0] if mz[0] > 1.0 else 1.0)
     pb, ps = surface(pz, pphi, 1.0)
+    if ms is None or ps is None:
+        raise Refused(f"no bed surface (half phi) in {measured if ms is None else run + '/profiles.csv'}")
     print(f"tau* {float(tau):.4f}")
     print(f"bed phi: measured {mb:.3f}, run {pb:.3f}; surface (half phi): measured {ms:.2f} d, run {ps:.2f} d")
 
@@ -113,9 +172,11 @@ def main():
         print(line)
     q_meas = trapz([z * d for z in mz], flux) / scale
     q_prof = trapz([z * d for z in pz], [a * b for a, b in zip(pphi, pup)]) / scale
-    t = read(run + "/transport.csv")[0]
-    print(f"q*: measured {q_meas:.3f}, run profile {q_prof:.3f}, run transport.csv {float(t['q_star']):.3f}"
-          f" +- {float(t['q_star_stderr']):.3f}; ratio {float(t['q_star']) / q_meas:.2f}")
+    tpath = run + "/transport.csv"
+    t = read(tpath, ["q_star", "q_star_stderr"])[0]
+    q, q_err = number(tpath, t, "q_star"), number(tpath, t, "q_star_stderr")
+    print(f"q*: measured {q_meas:.3f}, run profile {q_prof:.3f}, run transport.csv {q:.3f}"
+          f" +- {q_err:.3f}; ratio {q / q_meas:.2f}")
     top = max(i for i, f in enumerate(pphi) if f > 1e-3)
     print(f"max u_p (phi > 1e-3): run {pup[top]:.3f} m/s at {pz[top]:.2f} d; measured {max(mup):.3f}")
     if muf:
@@ -125,4 +186,9 @@ def main():
         print(f"u_f at the surface: run {puf[-1]:.3f}, measured {muf[-1]:.3f} m/s")
 
 
-main()
+if __name__ == "__main__":
+    try:
+        main()
+    except Refused as e:
+        print(f"error: {e}", file=sys.stderr)
+        sys.exit(2)

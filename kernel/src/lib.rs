@@ -159,5 +159,5 @@ pub use grains::{GrainSpec, MAX_CLASSES};
 pub use observe::{q_star, transport_scale, Observation};
 pub use real::Real;
 pub use scenario::{Scenario, G};
-pub use sim::{RestWatch, Sim, SimConfig, CHECKPOINT_VERSION};
+pub use sim::{ContactForce, RestWatch, Sim, SimConfig, CHECKPOINT_VERSION};
 pub use steps::IntegrationSteps;

@@ -207,6 +207,7 @@ fn balance<R: Real>(config: &FluidConfig, dt: f64, steps: usize, tol: f64) {
             let u = u.to_f64();
             let re = (u.abs() * width / config.spec.viscosity).max(1e-10);
             let f = 0.3164 * re.powf(-0.25);
+            let f = config.spec.wall_friction * f;
             blasius += RHO * (1.0 - phi.to_f64()) * dy * (2.0 / width) * (f / 8.0) * u * u;
         }
     }
@@ -220,7 +221,7 @@ fn balance<R: Real>(config: &FluidConfig, dt: f64, steps: usize, tol: f64) {
         brief * 100.0
     );
     assert!(
-        drag.abs() > 0.05 * driving,
+        drag.abs() > 0.01 * driving,
         "the drag sink is not exercised"
     );
     assert!(exact < tol, "momentum balance: {exact:e}");
@@ -259,13 +260,17 @@ fn momentum_balance() {
 
 /// In a channel 6.5 mm wide (Frey 2014), at steady state, the driving
 /// equals the bottom's stress plus the drag plus the side walls' stress
-/// (C10), which is Blasius's friction summed over the cells.
+/// (C10), which is Blasius's friction (times the factor c_f: 1 and ½)
+/// summed over the cells.
 #[test]
 fn side_walls_take_their_share() {
-    let mut config = rough_config(0.02, 0.03);
-    config.spec.channel_width = 0.0065;
-    balance::<f64>(&config, 0.05, 20_000, 1e-9);
-    balance::<f32>(&config, 0.01, 60_000, 2e-3);
+    for wall_friction in [1.0, 0.5] {
+        let mut config = rough_config(0.02, 0.03);
+        config.spec.channel_width = 0.0065;
+        config.spec.wall_friction = wall_friction;
+        balance::<f64>(&config, 0.05, 20_000, 1e-9);
+        balance::<f32>(&config, 0.01, 60_000, 2e-3);
+    }
 }
 
 /// Slice volumes (C1): a grain inside one slab, a grain cut in two, caps,

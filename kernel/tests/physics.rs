@@ -422,3 +422,45 @@ fn turbulence_statistics<R: Real>(_tol: f64) {
     assert_ne!(a, s.fluctuation(0).unwrap());
 }
 both_precisions!(turbulence, turbulence_statistics);
+
+/// A grain at rest on a fixed grain, and one on it, carry their weights on
+/// their contacts ([`Sim::contact_forces`]): the lower contact the two
+/// grains' submerged weights, the upper one the top grain's, along the
+/// branch, to 1e-6 in f64.
+fn resting_column<R: Real>(tol: f64) {
+    let mut c = config(1e-5, 1e3, 2e-3, 0.5);
+    c.gravity = [0.0, -9.81];
+    let mut sim = Box::new(Sim::<R, 8, 4>::new());
+    sim.reset(&c).unwrap();
+    let fixed = mbs_kernel::GrainSpec {
+        fixed: true,
+        ..mobile(10.0 * D, 0.0, 0.0, 0.0)
+    };
+    sim.add_grain(&fixed).unwrap();
+    sim.add_grain(&mobile(10.0 * D, 0.99 * D, 0.0, 0.0))
+        .unwrap();
+    sim.add_grain(&mobile(10.0 * D, 1.98 * D, 0.0, 0.0))
+        .unwrap();
+    sim.run(200_000).unwrap();
+    let m = &c.material;
+    let weight = m.rho * (m.s - 1.0) * PI / 6.0 * D * D * D * 9.81;
+    let mut forces = Vec::new();
+    sim.contact_forces(|f| forces.push(f));
+    assert_eq!(forces.len(), 2, "{forces:?}");
+    for (f, (i, j, load)) in forces.iter().zip([(0, 1, 2.0), (1, 2, 1.0)]) {
+        assert_eq!((f.i, f.j), (i, j));
+        assert!(f.branch[0].abs() < 1e-12 && f.branch[1] > 0.9 * D, "{f:?}");
+        // The lower grain is pushed down by the one above.
+        let off = (f.force[1] + load * weight).abs() / weight;
+        assert!(
+            off < tol && f.force[0].abs() < tol * weight,
+            "{f:?}: {off:e}"
+        );
+    }
+}
+
+#[test]
+fn contacts_carry_the_weight_of_a_resting_column() {
+    resting_column::<f64>(1e-6);
+    resting_column::<f32>(1e-3);
+}

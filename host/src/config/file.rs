@@ -375,6 +375,14 @@ pub struct FluidSection {
 pub struct ChannelSection {
     /// The channel's width W between its side walls (m).
     pub width_m: f64,
+    /// A factor on the walls' friction factor (HydroForceEngine's
+    /// `fluidFrictionCoef`); 1: Blasius's smooth wall.
+    #[serde(default = "one")]
+    pub wall_friction: f64,
+}
+
+fn one() -> f64 {
+    1.0
 }
 
 /// `[run]`.

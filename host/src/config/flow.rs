@@ -193,7 +193,7 @@ pub(super) fn fluid_spec(
         f.hindrance,
         "in [0, 10] (Richardson-Zaki: 3.1; 0: off)",
     )?;
-    let channel_width = match channel {
+    let (channel_width, wall_friction) = match channel {
         Some(c) => {
             need(
                 c.width_m.is_finite() && c.width_m > 0.0 && c.width_m <= 100.0,
@@ -201,9 +201,15 @@ pub(super) fn fluid_spec(
                 c.width_m,
                 "in (0, 100] m (Frey 2014: 0.0065)",
             )?;
-            c.width_m
+            need(
+                c.wall_friction.is_finite() && (0.0..=10.0).contains(&c.wall_friction),
+                "channel.wall_friction",
+                c.wall_friction,
+                "in [0, 10] (1: Blasius's smooth wall)",
+            )?;
+            (c.width_m, c.wall_friction)
         }
-        None => 0.0,
+        None => (0.0, 1.0),
     };
     let spec = FluidSpec {
         viscosity: f.viscosity_m2_s,
@@ -211,6 +217,7 @@ pub(super) fn fluid_spec(
         update_steps: IntegrationSteps::from_constants_steps(f.update_steps, substeps),
         hindrance: f.hindrance,
         channel_width,
+        wall_friction,
         drag: f.drag.kernel(),
         fluctuations: f.fluctuations.kernel(),
     };

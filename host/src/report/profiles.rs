@@ -24,6 +24,14 @@ struct Line {
     grain_velocity_m_s: Option<String>,
     #[serde(serialize_with = "decimal")]
     fluid_velocity_m_s: f64,
+    #[serde(serialize_with = "decimal")]
+    contact_stress_pa: f64,
+    #[serde(serialize_with = "decimal")]
+    kinetic_stress_pa: f64,
+    #[serde(serialize_with = "decimal")]
+    viscous_stress_pa: f64,
+    #[serde(serialize_with = "decimal")]
+    reynolds_stress_pa: f64,
 }
 
 /// The profiles of τ* `tau_star`: the mean of its seeds' (φ and u_f plain
@@ -36,7 +44,12 @@ fn mean_profile(results: &[CellResult], tau_star: f64) -> Option<CellProfile> {
         .collect();
     let n = cells.first()?.solid_fraction.len();
     let fits = |c: &CellProfile| {
-        [c.grain_velocity.len(), c.fluid_velocity.len()] == [n; 2] && c.solid_fraction.len() == n
+        [c.grain_velocity.len(), c.fluid_velocity.len()] == [n; 2]
+            && c.solid_fraction.len() == n
+            && c.stresses
+                .columns()
+                .iter()
+                .all(|s| s.len() == n || s.is_empty())
     };
     if !cells.iter().all(|c| fits(c)) {
         return None;
@@ -49,6 +62,17 @@ fn mean_profile(results: &[CellResult], tau_star: f64) -> Option<CellProfile> {
             sums.solid[j] += c.solid_fraction[j];
             sums.momentum[j] += c.solid_fraction[j] * c.grain_velocity[j];
             sums.fluid[j] += c.fluid_velocity[j];
+        }
+        // Stresses of a cell store written before them count as 0.
+        for (sum, seed) in sums
+            .stresses
+            .columns_mut()
+            .into_iter()
+            .zip(c.stresses.columns())
+        {
+            for (s, x) in sum.iter_mut().zip(seed) {
+                *s += x;
+            }
         }
     }
     Some(sums.means())
@@ -63,7 +87,9 @@ fn heights(config: &Config) -> Vec<f64> {
 }
 
 /// Writes `profiles.csv`: per τ* and fluid cell of the column, bottom up, the
-/// height y/d of its centre, φ, u_p and u_f, each the mean over the seeds.
+/// height y/d of its centre, φ, u_p, u_f and the shear stresses (the
+/// grains' by contacts and by fluctuations, the fluid's viscous and
+/// Reynolds), each the mean over the seeds.
 pub fn write_profiles(
     path: &Path,
     config: &Config,
@@ -83,6 +109,10 @@ pub fn write_profiles(
                 solid_fraction: phi,
                 grain_velocity_m_s: (phi > 0.0).then(|| p.grain_velocity[j].to_string()),
                 fluid_velocity_m_s: p.fluid_velocity[j],
+                contact_stress_pa: p.stresses.contact[j],
+                kinetic_stress_pa: p.stresses.kinetic[j],
+                viscous_stress_pa: p.stresses.viscous[j],
+                reynolds_stress_pa: p.stresses.reynolds[j],
             });
         }
     }
@@ -92,9 +122,10 @@ pub fn write_profiles(
 /// Heights drawn above the highest slab that ever held a grain, in d.
 pub const ABOVE_BED_D: f64 = 15.0;
 
-/// φ, u_p and u_f against y/d, side by side, a line per τ*: from the
-/// column's bottom to [`ABOVE_BED_D`] above the highest grain; the measured
-/// profile of `run.measured_profiles` as dots.
+/// φ, u_p, u_f and the shear stresses (the grains' and the fluid's)
+/// against y/d, side by side, a line per τ*: from the column's bottom to
+/// [`ABOVE_BED_D`] above the highest grain; the measured profile of
+/// `run.measured_profiles` as dots.
 pub fn profiles_figure(config: &Config, results: &[CellResult]) -> Panels {
     let y = heights(config);
     let profiles: Vec<(f64, CellProfile)> = config
@@ -116,14 +147,7 @@ pub fn profiles_figure(config: &Config, results: &[CellResult]) -> Panels {
                     .filter(|((yj, _), phi)| **yj <= top && (!grains_only || **phi > 0.0))
                     .map(|((&yj, &v), _)| (v, yj))
                     .collect();
-                // Four significant digits: a τ* from a slope is long.
-                let tau = number(*t);
-                let tau = if tau.len() <= 6 {
-                    tau
-                } else {
-                    format!("{t:.4}")
-                };
-                (format!("τ* = {tau}"), points)
+                (format!("τ* = {}", tau_label(*t)), points)
             })
             .collect::<Vec<_>>()
     };
@@ -136,10 +160,8 @@ pub fn profiles_figure(config: &Config, results: &[CellResult]) -> Panels {
         .measured
         .as_ref()
         .map(|m| (m.label.clone(), m.points()));
-    let dots = |k: usize| match &measured {
-        Some((label, points)) if !points[k].is_empty() => {
-            vec![(label.clone(), points[k].clone())]
-        }
+    let dots = |k: usize| match measured.as_ref().and_then(|(l, p)| Some((l, p.get(k)?))) {
+        Some((label, points)) if !points.is_empty() => vec![(label.clone(), points.clone())],
         _ => Vec::new(),
     };
     let panel = |series, k: usize, title: &str, x_label: &str| LinesFigure {
@@ -173,7 +195,45 @@ pub fn profiles_figure(config: &Config, results: &[CellResult]) -> Panels {
                 "fluid velocity",
                 "u_f (m/s)",
             ),
+            panel(stresses(&y, top, &profiles), 3, "shear stress", "τ (Pa)"),
         ],
         side_by_side: true,
     }
+}
+
+/// τ* as a legend shows it: four decimals at most (a τ* from a slope is
+/// long).
+fn tau_label(t: f64) -> String {
+    let tau = number(t);
+    if tau.len() <= 6 {
+        tau
+    } else {
+        format!("{t:.4}")
+    }
+}
+
+/// The shear stresses of each τ*'s profile up to `top` (y/d): the grains'
+/// (contacts and fluctuations) and the fluid's (viscous and Reynolds), a
+/// line each.
+fn stresses(
+    y: &[f64],
+    top: f64,
+    profiles: &[(f64, CellProfile)],
+) -> Vec<(String, Vec<(f64, f64)>)> {
+    let mut lines = Vec::new();
+    for (t, p) in profiles {
+        let s = &p.stresses;
+        let at = |v: &Vec<f64>, j: usize| v.get(j).copied().unwrap_or(0.0);
+        let line = |f: &dyn Fn(usize) -> f64| {
+            (y.iter().enumerate())
+                .filter(|(_, yj)| **yj <= top)
+                .map(|(j, &yj)| (f(j), yj))
+                .collect::<Vec<_>>()
+        };
+        let grains = line(&|j| at(&s.contact, j) + at(&s.kinetic, j));
+        let fluid = line(&|j| at(&s.viscous, j) + at(&s.reynolds, j));
+        lines.push((format!("τ* = {}: grains", tau_label(*t)), grains));
+        lines.push((format!("τ* = {}: fluid", tau_label(*t)), fluid));
+    }
+    lines
 }

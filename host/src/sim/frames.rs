@@ -5,7 +5,9 @@
 //! Each grain is a point (z = 0) and a vertex cell with the point data
 //! `id` (its index in the simulation, stable over a run), `radius` (m),
 //! `velocity` (m/s, z = 0), `spin` (rad/s, counter-clockwise positive),
-//! `fixed` (0 or 1), `class` (size class) and `x_unwrapped` (m); the field
+//! `fixed` (0 or 1), `class` (size class), `x_unwrapped` (m), and what its
+//! contacts do to it ([`GrainLoad`]): `contact_force` (N, z = 0) and its
+//! stress `stress_xx`, `stress_yy`, `stress_xy` (Pa); the field
 //! data `TimeValue` (s) and `width` (the periodic width L, m). Arrays are
 //! little-endian binary, base64 inline, exactly the simulation's numbers.
 //!
@@ -135,7 +137,11 @@ impl FrameWriter {
         let name = self.name(self.entries.len());
         let path = self.dir.join(&name);
         let unwrapped = self.images.unwrapped();
-        write_text(&path, &vtu(&grains, &unwrapped, self.images.width, time))?;
+        let loads = grain_loads(sim, &grains);
+        write_text(
+            &path,
+            &vtu(&grains, &loads, &unwrapped, self.images.width, time),
+        )?;
         self.entries.push((name, time));
         write_text(&self.pvd_path(), &pvd(&self.entries))?;
         Ok(path)
@@ -432,9 +438,56 @@ fn int64(values: impl Iterator<Item = i64>) -> Vec<u8> {
     values.flat_map(i64::to_le_bytes).collect()
 }
 
+/// What a grain's contacts do to it now ([`Sim::contact_forces`]): the sum
+/// of their forces (N) and its stress (Pa), σ = (1/V) Σ f ⊗ r, r from its
+/// centre to the contact point (the branch times r_i/(r_i + r_j)), as
+/// (σ_xx, σ_yy, σ_xy), compression negative.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct GrainLoad {
+    /// Σ f (N).
+    pub force: [f64; 2],
+    /// (σ_xx, σ_yy, σ_xy) (Pa).
+    pub stress: [f64; 3],
+}
+
+/// Each grain's [`GrainLoad`] in `sim` now (`grains`: its grains).
+pub fn grain_loads<R: Real, const N: usize, const K: usize, const C: usize>(
+    sim: &Sim<R, N, K, C>,
+    grains: &[GrainSpec],
+) -> Vec<GrainLoad> {
+    let mut loads = vec![GrainLoad::default(); grains.len()];
+    let radius = |i: usize| grains.get(i).map_or(0.0, |g| 0.5 * g.diameter);
+    sim.contact_forces(|c| {
+        let (ri, rj) = (radius(c.i), radius(c.j));
+        for (k, sign, share) in [(c.i, 1.0, ri), (c.j, -1.0, rj)] {
+            let Some(load) = loads.get_mut(k) else {
+                continue;
+            };
+            let f = [sign * c.force[0], sign * c.force[1]];
+            // From k's centre to the contact point: ± the branch's share.
+            let r = share / (ri + rj);
+            let arm = [sign * c.branch[0] * r, sign * c.branch[1] * r];
+            let volume = 4.0 / 3.0 * std::f64::consts::PI * share * share * share;
+            load.force[0] += f[0];
+            load.force[1] += f[1];
+            load.stress[0] += f[0] * arm[0] / volume;
+            load.stress[1] += f[1] * arm[1] / volume;
+            load.stress[2] += 0.5 * (f[0] * arm[1] + f[1] * arm[0]) / volume;
+        }
+    });
+    loads
+}
+
 /// A frame as an XML VTK UnstructuredGrid of vertex cells, one per grain
-/// (see the module's documentation for the arrays).
-pub fn vtu(grains: &[GrainSpec], x_unwrapped: &[f64], width: f64, time: f64) -> String {
+/// (see the module's documentation for the arrays); `loads` as many as
+/// `grains` (missing ones are written as zero).
+pub fn vtu(
+    grains: &[GrainSpec],
+    loads: &[GrainLoad],
+    x_unwrapped: &[f64],
+    width: f64,
+    time: f64,
+) -> String {
     let n = grains.len();
     let mut s = String::from(
         "<?xml version=\"1.0\"?>\n\
@@ -480,6 +533,18 @@ pub fn vtu(grains: &[GrainSpec], x_unwrapped: &[f64], width: f64, time: f64) -> 
     named(&mut s, "UInt8", "class", 1, &class);
     let unwrapped = float64(x_unwrapped.iter().copied());
     named(&mut s, "Float64", "x_unwrapped", 1, &unwrapped);
+    let load = |i: usize| loads.get(i).copied().unwrap_or_default();
+    let force = (0..n).flat_map(|i| [load(i).force[0], load(i).force[1], 0.0]);
+    named(&mut s, "Float64", "contact_force", 3, &float64(force));
+    for (k, name) in ["stress_xx", "stress_yy", "stress_xy"].iter().enumerate() {
+        named(
+            &mut s,
+            "Float64",
+            name,
+            1,
+            &float64((0..n).map(|i| load(i).stress[k])),
+        );
+    }
     s.push_str("</PointData>\n</Piece>\n</UnstructuredGrid>\n</VTKFile>\n");
     s
 }
@@ -573,7 +638,7 @@ mod tests {
 
     #[test]
     fn a_frame_without_grains_is_valid_xml() {
-        let text = vtu(&[], &[], 1.0, 0.0);
+        let text = vtu(&[], &[], &[], 1.0, 0.0);
         let doc = roxmltree::Document::parse(&text).unwrap();
         let piece = doc.descendants().find(|n| n.has_tag_name("Piece")).unwrap();
         assert_eq!(piece.attribute("NumberOfPoints"), Some("0"));

@@ -7,13 +7,14 @@
 //! stopped. With a [`FramePlan`] the cell also writes particle frames
 //! ([`Dumps`]), which change none of its numbers.
 //!
-//! Checkpoint file (version 4, framed by [`crate::io::framing`]): magic `MBSC`,
+//! Checkpoint file (version 5, framed by [`crate::io::framing`]): magic `MBSC`,
 //! the cell's key (FNV-1a of its specification) u64, phase u8 (1 spin-up,
 //! 2 window), steps done in the phase u64, samples u64, Σq* (f64 bits), the
 //! class count u32 and Σq* per class, Σq* of the current block, the
 //! finished blocks (count u64, then q* and bed level of each, f64 bits),
-//! the profile sums (samples u64, cell count u32, then Σφ, Σφ u_p and Σu_f
-//! of each cell, f64 bits; [`crate::work::profiles`]), the kernel checkpoint (u64
+//! the profile sums (samples u64, cell count u32, then Σφ, Σφ u_p, Σu_f and
+//! the Σ of the four shear stresses of each cell, f64 bits;
+//! [`crate::work::profiles`]), the kernel checkpoint (u64
 //! length, bytes). The CRC detects
 //! damage, not deliberate edits: a loaded state is
 //! checked field by field against the configuration ([`CellState::check`])
@@ -31,7 +32,7 @@ use crate::sim::control::{Checkpoints, Control};
 use crate::sim::frames::Dumps;
 use crate::sim::sims::{check_restored, with_sim, HostSim, SimJob};
 use crate::work::beds::{BedRecord, BedState};
-use crate::work::profiles::{CellProfile, ProfileSums, Sampler, PROFILE_SAMPLES};
+use crate::work::profiles::{CellProfile, ProfileSums, Sampler, Stresses, PROFILE_SAMPLES};
 use indicatif::ProgressBar;
 use mbs_kernel::{Fnv1a, Real, G};
 use serde::{Deserialize, Serialize};
@@ -42,7 +43,7 @@ use std::sync::atomic::AtomicBool;
 const CHUNK: u64 = crate::sim::control::MIN_CHECKPOINT_STEPS;
 
 const MAGIC: [u8; 4] = *b"MBSC";
-const VERSION: u16 = 4;
+const VERSION: u16 = 5;
 
 /// One block of a cell's window (`time.block`).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -170,10 +171,11 @@ impl CellState {
             return bad("size classes");
         }
         let p = &self.profile;
-        if [p.momentum.len(), p.fluid.len()] != [rule.cells; 2] || p.solid.len() != rule.cells {
+        let columns = p.columns();
+        if columns.iter().any(|c| c.len() != rule.cells) {
             return bad("profile cells");
         }
-        let profile = p.solid.iter().chain(&p.momentum).chain(&p.fluid);
+        let profile = columns.into_iter().flatten();
         if p.samples != self.samples / PROFILE_SAMPLES || !profile.clone().all(|x| x.is_finite()) {
             return bad("profile sums");
         }
@@ -279,7 +281,7 @@ impl CellCheckpoint {
         let p = &s.profile;
         w.u64(p.samples);
         w.u32(p.solid.len() as u32);
-        for x in p.solid.iter().chain(&p.momentum).chain(&p.fluid) {
+        for x in p.columns().into_iter().flatten() {
             w.f64(*x);
         }
         w.bytes(&self.sim);
@@ -293,7 +295,7 @@ impl CellCheckpoint {
         // Key, phase, done, samples, Σq*, class count.
         let head = 8 + 1 + 8 + 8 + 8 + 4;
         let blocks = usize::try_from(blocks).unwrap_or(usize::MAX / 32);
-        let profile = 8 + 4 + 24 * cells;
+        let profile = 8 + 4 + 8 * ProfileSums::COLUMNS * cells;
         Writer::OVERHEAD + head + 8 * classes + 8 + 8 + 16 * blocks + profile + 8 + sim_max
     }
 
@@ -330,12 +332,14 @@ impl CellCheckpoint {
             .collect::<Result<_, CheckpointError>>()?;
         let profile_samples = r.u64()?;
         let cells = r.u32()? as usize;
-        // Each cell takes 24 bytes: a count beyond the file is truncation.
-        if cells > bytes.len() / 24 {
+        // Each cell takes 8 bytes per column: a count beyond the file is
+        // truncation.
+        if cells > bytes.len() / (8 * ProfileSums::COLUMNS) {
             return Err(CheckpointError::Truncated);
         }
         let mut column = || (0..cells).map(|_| r.f64()).collect::<Result<Vec<_>, _>>();
         let (solid, momentum, fluid) = (column()?, column()?, column()?);
+        let stresses = [column()?, column()?, column()?, column()?];
         let sim = r.bytes()?.to_vec();
         r.finish()?;
         Ok(CellCheckpoint {
@@ -353,6 +357,7 @@ impl CellCheckpoint {
                     solid,
                     momentum,
                     fluid,
+                    stresses: Stresses::from_columns(stresses),
                 },
             },
             sim,
@@ -385,8 +390,8 @@ impl TransportSpec {
 /// How a cell ended.
 #[derive(Debug, Clone, PartialEq)]
 pub enum CellOutcome {
-    /// Finished.
-    Done(CellResult),
+    /// Finished (boxed: a result with its profiles is large).
+    Done(Box<CellResult>),
     /// Stopped after writing its checkpoint.
     Stopped,
 }
@@ -581,7 +586,7 @@ impl SimJob for CellJob<'_> {
             || rule
                 .target
                 .reached(&state.blocks.iter().map(|b| b.q_star).collect::<Vec<_>>());
-        Ok(CellOutcome::Done(CellResult {
+        Ok(CellOutcome::Done(Box::new(CellResult {
             tau_star: self.tau_star,
             seed: self.seed,
             q_star: state.total / n,
@@ -597,7 +602,7 @@ impl SimJob for CellJob<'_> {
                 max_overlap_d: self.bed.max_overlap / d_max,
             },
             profile: Some(state.profile.means()),
-        }))
+        })))
     }
 }
 
@@ -629,7 +634,7 @@ pub fn run_cell(
         frames: None,
     };
     match run_cell_job(job)? {
-        CellOutcome::Done(r) => Ok(r),
+        CellOutcome::Done(r) => Ok(*r),
         CellOutcome::Stopped => Err(HostError::Interrupted { jobs: 1 }),
     }
 }
@@ -661,6 +666,12 @@ mod tests {
                     solid: vec![0.5, 0.25, 0.0, 0.0],
                     momentum: vec![1e-3, 2e-3, 0.0, 0.0],
                     fluid: vec![0.0, 0.1, 0.2, 0.3],
+                    stresses: Stresses::from_columns([
+                        vec![0.5, 0.25, 0.0, 0.0],
+                        vec![0.1, 0.0, 0.0, 0.0],
+                        vec![0.0, 1e-3, 1e-3, 1e-4],
+                        vec![0.0, 0.2, 0.1, 0.0],
+                    ]),
                 },
             },
             sim: vec![1, 2, 3, 4, 5],

@@ -195,7 +195,7 @@ pub fn run_all(
                     done.q_star
                 ));
                 count(progress);
-                return Ok((CellOutcome::Done(done), 1));
+                return Ok((CellOutcome::Done(Box::new(done)), 1));
             }
             let key = cell_key(&serde_json::to_string(&spec).unwrap_or_default());
             let refuse = |message: String| HostError::Checkpoint {
@@ -252,7 +252,7 @@ pub fn run_all(
             let wall = clock.elapsed().as_secs_f64();
             match &outcome {
                 CellOutcome::Done(result) => {
-                    store.put(&spec, &Ok::<_, String>(result.clone()))?;
+                    store.put(&spec, &Ok::<_, String>(result.as_ref().clone()))?;
                     remove_if_present(&path)?;
                     log.event(&format!(
                         "cell end  {cell}  q* {}  wall {wall:.3} s",
@@ -288,7 +288,7 @@ pub fn run_all(
                 if how != 1 {
                     out.computed_grain_steps += r.grain_steps;
                 }
-                out.results.push(r);
+                out.results.push(*r);
             }
             CellOutcome::Stopped => stopped += 1,
         }

@@ -39,6 +39,34 @@ fn every_shipped_configuration_loads_and_validates() {
     assert!(checked >= 2, "configs/ holds the example configurations");
 }
 
+/// The validation configurations (validation/*/*.toml) load as shipped,
+/// their measured profiles read from the repository's root, where the
+/// README runs them.
+#[test]
+fn every_validation_configuration_loads_and_validates() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let mut checked = 0;
+    for case in std::fs::read_dir(root.join("validation")).unwrap() {
+        let case = case.unwrap().path();
+        if !case.is_dir() {
+            continue;
+        }
+        for entry in std::fs::read_dir(&case).unwrap() {
+            let path = entry.unwrap().path();
+            if path.extension().is_some_and(|e| e == "toml") {
+                let text = std::fs::read_to_string(&path).unwrap();
+                let from_root = format!("measured_profiles = \"{}/validation/", root.display());
+                let text = text.replace("measured_profiles = \"validation/", &from_root);
+                if let Err(e) = mbs::Config::from_toml(&text) {
+                    panic!("{}: {e}", path.display());
+                }
+                checked += 1;
+            }
+        }
+    }
+    assert!(checked >= 4, "Frey's three experiments and r2d6s2");
+}
+
 #[test]
 fn run_writes_table_plots_and_summary() {
     let dir = tempfile::tempdir().unwrap();

@@ -1,6 +1,7 @@
 //! Particle frames (issue 28): `mbs snapshot` writes XML VTK files
 //! (`bed_NNNN.vtu`) and their collection (`bed.pvd`) with each grain's id,
-//! radius, velocity, spin, fixed flag, size class and unwrapped x, and the
+//! radius, velocity, spin, fixed flag, size class, unwrapped x, contact
+//! force and stress, and the
 //! time. The arrays are read here as ParaView and meshio read them: the
 //! base64 block after its UInt64 length, little-endian. `mbs run
 //! --dump-every` writes the same frames for each cell under the flow.
@@ -164,6 +165,20 @@ fn frames_carry_every_grain_with_its_arrays_and_time() {
         for i in (0..n).filter(|&i| a["fixed"][i] == 1.0) {
             assert_eq!(a["velocity"][3 * i], 0.0);
         }
+        // The contacts' forces cancel pair by pair (Newton's third law)
+        // and load the bed: the mobile grains' weight rests on it.
+        let force = &a["contact_force"];
+        let largest = force.iter().fold(0.0f64, |m, f| m.max(f.abs()));
+        for k in 0..3 {
+            let sum: f64 = force.iter().skip(k).step_by(3).sum();
+            assert!(sum.abs() <= 1e-9 * largest, "t = {t}: Σ f {sum}");
+        }
+        assert!(largest > 0.0, "t = {t}: the bed's contacts carry loads");
+        for name in ["stress_xx", "stress_yy", "stress_xy"] {
+            assert!(a[name].iter().all(|s| s.is_finite()), "{name}");
+        }
+        // Compression: the grains' vertical normal stress is negative.
+        assert!(a["stress_yy"].iter().sum::<f64>() < 0.0);
     }
     // The flow moves the mobile grains.
     let last = &frames[frames.len() - 1].1.arrays;

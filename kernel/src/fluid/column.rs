@@ -55,7 +55,8 @@ pub struct Column<R: Real, const C: usize> {
     driving: R,
     /// The channel's width W (m), 0 without side walls (C10).
     channel_width: R,
-    /// 2/W (1/m), 0 without side walls.
+    /// c_f 2/W (1/m), c_f the factor on f (`FluidSpec::wall_friction`);
+    /// 0 without side walls.
     walls: R,
     /// The stress the side walls took in the last step, per unit area of
     /// the bed (Pa).
@@ -110,7 +111,8 @@ impl<R: Real, const C: usize> Column<R, C> {
         self.driving = R::from_f64(config.driving);
         let width = config.spec.channel_width;
         self.channel_width = R::from_f64(width);
-        self.walls = R::from_f64(if width > 0.0 { 2.0 / width } else { 0.0 });
+        let walls = config.spec.wall_friction * 2.0 / width;
+        self.walls = R::from_f64(if width > 0.0 { walls } else { 0.0 });
         self.side_stress = R::ZERO;
         self.refresh_mixing();
         Ok(())
@@ -194,10 +196,12 @@ impl<R: Real, const C: usize> Column<R, C> {
         Ok(())
     }
 
-    /// The side walls' friction rate (2/W)(f/8)|u| (1/s) at velocity `u`
-    /// (docs/model.md (C10)), with Blasius's f = 0.3164 Re^(−1/4),
+    /// The side walls' friction rate (2/W)(c_f f/8)|u| (1/s) at velocity
+    /// `u` (docs/model.md (C10)), with Blasius's f = 0.3164 Re^(−1/4),
     /// Re = max(|u| W/ν, 1e-10), as HydroForceEngine's default
-    /// (`wallFrictionModel = 0`); 0 without walls.
+    /// (`wallFrictionModel = 0`), and its factor c_f
+    /// (`FluidSpec::wall_friction`, its `fluidFrictionCoef`); 0 without
+    /// walls.
     pub fn wall_rate(&self, u: R) -> R {
         wall_rate((self.walls, self.channel_width, self.viscosity), u)
     }

@@ -106,6 +106,10 @@ pub struct FluidSpec {
     /// (m), docs/model.md (C10); 0 (the default): no walls, an unbounded
     /// slice.
     pub channel_width: f64,
+    /// A factor on the side walls' friction factor f (C10),
+    /// HydroForceEngine's `fluidFrictionCoef`: 1 (the default) is
+    /// Blasius's smooth wall.
+    pub wall_friction: f64,
     /// The grains' drag law (docs/model.md (C8)).
     pub drag: DragLaw,
     /// The turbulent fluctuations (docs/model.md (C9)).
@@ -124,6 +128,7 @@ impl FluidSpec {
             update_steps: IntegrationSteps(100),
             hindrance: 0.0,
             channel_width: 0.0,
+            wall_friction: 1.0,
             drag: DragLaw::Paper,
             fluctuations: Fluctuations::Paper,
         }
@@ -253,6 +258,12 @@ impl FluidConfig {
             "channel.width",
             spec.channel_width,
             "> 0 m (0: no side walls)",
+        )?;
+        check(
+            spec.wall_friction.is_finite() && (0.0..=10.0).contains(&spec.wall_friction),
+            "channel.wall_friction",
+            spec.wall_friction,
+            "in [0, 10] (1: Blasius's smooth wall)",
         )
     }
 }

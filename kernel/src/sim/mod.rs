@@ -30,11 +30,13 @@ mod checkpoint;
 mod coupled;
 mod digest;
 mod fields;
+mod forces;
 mod observe;
 mod step;
 
 pub use bed::RestWatch;
 pub use checkpoint::CHECKPOINT_VERSION;
+pub use forces::ContactForce;
 
 use crate::constants::{ContactConstants, Material, A2};
 use crate::contact::{ContactLaw, Spring, Tension};
@@ -339,6 +341,7 @@ const ZERO_FLUID: FluidConfig = FluidConfig {
         update_steps: IntegrationSteps(0),
         hindrance: 0.0,
         channel_width: 0.0,
+        wall_friction: 0.0,
         drag: DragLaw::Paper,
         fluctuations: Fluctuations::Paper,
     },
