@@ -129,10 +129,10 @@ fn damaged_checkpoints_are_refused_and_change_nothing() {
     let mut bad = good.clone();
     bad[8 + 144] = 2;
     assert_eq!(fault(refused(&mut sim, &bad)), CheckpointFault::Value);
-    // A NaN where the first grain's x is: after the header (8 + 161 + 165
+    // A NaN where the first grain's x is: after the header (8 + 161 + 173
     // (flow) + 32 + 8 (bed level) + 4 (grain count)) bytes.
     let mut bad = good.clone();
-    let x0 = 8 + 161 + 165 + 32 + 8 + 4;
+    let x0 = 8 + 161 + 173 + 32 + 8 + 4;
     bad[x0..x0 + 8].copy_from_slice(&f64::NAN.to_bits().to_le_bytes());
     assert_eq!(fault(refused(&mut sim, &bad)), CheckpointFault::Value);
     // Every single flipped byte is refused or restores to a valid state:
@@ -250,9 +250,9 @@ fn downgrade(bytes: &[u8], version: u16) -> Vec<u8> {
     // the step, the side walls, drag law and fluctuations after the
     // fluid's configuration, the free surface after the slope.
     let flow_end = 8 + 161 + 66;
-    let redraw = flow_end + 99 + 16;
+    let redraw = flow_end + 107 + 16;
     old.drain(redraw..redraw + 16);
-    old.drain(flow_end + 81..flow_end + 99);
+    old.drain(flow_end + 81..flow_end + 107);
     old.drain(8 + 153..8 + 161);
     let flow_end = 8 + 153 + 66;
     if version <= 3 {

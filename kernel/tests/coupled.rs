@@ -6,7 +6,7 @@
 
 pub mod common;
 
-use common::{config, mobile, D};
+use common::{assert_resumes, bytes, config, mobile, D};
 use mbs_kernel::fluid::FluidConfig;
 use mbs_kernel::{
     BedInfo, Capacity, Error, FlowConfig, FlowModel, GrainSpec, IntegrationSteps, Material, Real,
@@ -47,14 +47,6 @@ fn coupled_run<R: Real, const K: usize, const C: usize>(
     sim.set_flow(Some(&f)).unwrap();
     sim.run(flow).unwrap();
     sim
-}
-
-fn bytes<R: Real, const N: usize, const K: usize, const C: usize>(
-    sim: &Sim<R, N, K, C>,
-) -> Vec<u8> {
-    let mut out = Vec::new();
-    sim.checkpoint(|b| out.extend_from_slice(b));
-    out
 }
 
 /// A lone grain under gravity on a slope θ accelerates at exactly
@@ -234,14 +226,8 @@ fn momentum_exchange_is_exact() {
 fn coupled_resume<R: Real>() {
     for flow in [0, 1, 57, 100, 250] {
         let mut whole = coupled_run::<R, 8, CELLS>(1500, flow);
-        let saved = bytes(&*whole);
         let mut resumed = Box::new(Sim::<R, 128, 10, 900>::new());
-        resumed.restore(&saved).unwrap();
-        assert_eq!(resumed.digest(), whole.digest(), "restored at {flow}");
-        assert_eq!(bytes(&*resumed), saved, "checkpoint of the restored state");
-        whole.run(900).unwrap();
-        resumed.run(900).unwrap();
-        assert_eq!(resumed.digest(), whole.digest(), "continued from {flow}");
+        assert_resumes(&mut *whole, &mut resumed, 900, flow);
     }
 }
 

@@ -379,6 +379,9 @@ pub struct ChannelSection {
     /// `fluidFrictionCoef`); 1: Blasius's smooth wall.
     #[serde(default = "one")]
     pub wall_friction: f64,
+    /// The grains' friction coefficient on the walls μ_w (0: none).
+    #[serde(default)]
+    pub grain_friction: f64,
 }
 
 fn one() -> f64 {

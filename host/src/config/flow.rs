@@ -193,7 +193,7 @@ pub(super) fn fluid_spec(
         f.hindrance,
         "in [0, 10] (Richardson-Zaki: 3.1; 0: off)",
     )?;
-    let (channel_width, wall_friction) = match channel {
+    let (channel_width, wall_friction, grain_wall_friction) = match channel {
         Some(c) => {
             need(
                 c.width_m.is_finite() && c.width_m > 0.0 && c.width_m <= 100.0,
@@ -207,9 +207,15 @@ pub(super) fn fluid_spec(
                 c.wall_friction,
                 "in [0, 10] (1: Blasius's smooth wall)",
             )?;
-            (c.width_m, c.wall_friction)
+            need(
+                c.grain_friction.is_finite() && (0.0..=10.0).contains(&c.grain_friction),
+                "channel.grain_friction",
+                c.grain_friction,
+                "in [0, 10] (glass on glass: 0.4)",
+            )?;
+            (c.width_m, c.wall_friction, c.grain_friction)
         }
-        None => (0.0, 1.0),
+        None => (0.0, 1.0, 0.0),
     };
     let spec = FluidSpec {
         viscosity: f.viscosity_m2_s,
@@ -218,6 +224,7 @@ pub(super) fn fluid_spec(
         hindrance: f.hindrance,
         channel_width,
         wall_friction,
+        grain_wall_friction,
         drag: f.drag.kernel(),
         fluctuations: f.fluctuations.kernel(),
     };

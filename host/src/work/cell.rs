@@ -699,7 +699,10 @@ mod tests {
         bad[4] = 9;
         assert_eq!(
             CellCheckpoint::decode(&bad, 42),
-            Err(CheckpointError::Version { found: 9, reads: 4 })
+            Err(CheckpointError::Version {
+                found: 9,
+                reads: VERSION
+            })
         );
         assert_eq!(
             CellCheckpoint::decode(b"nope", 42),

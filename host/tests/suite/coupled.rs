@@ -16,7 +16,7 @@ fn coupled() -> String {
 /// side walls 0.55 mm apart.
 fn closures() -> String {
     coupled().replace("[flow]", "[flow]\ndepth = 0.004")
-        + "[fluid]\ndrag = \"dallavalle\"\nfluctuations = \"hfe\"\n[channel]\nwidth_m = 0.00055\nwall_friction = 0.6\n"
+        + "[fluid]\ndrag = \"dallavalle\"\nfluctuations = \"hfe\"\n[channel]\nwidth_m = 0.00055\nwall_friction = 0.6\ngrain_friction = 0.4\n"
 }
 
 /// The rows of `profiles.csv` as (τ*, y/d, φ, u_p, u_f), u_p `None` where
@@ -162,6 +162,10 @@ fn bad_coupled_keys_are_named() {
         (
             "channel.width_m=0.0065 channel.wall_friction=-1",
             "channel.wall_friction = -1: must be in [0, 10]",
+        ),
+        (
+            "channel.width_m=0.0065 channel.grain_friction=11",
+            "channel.grain_friction = 11: must be in [0, 10]",
         ),
     ] {
         let cfg = write(dir.path(), "c.toml", &coupled());

@@ -110,6 +110,10 @@ pub struct FluidSpec {
     /// HydroForceEngine's `fluidFrictionCoef`: 1 (the default) is
     /// Blasius's smooth wall.
     pub wall_friction: f64,
+    /// The grains' friction coefficient on the side walls μ_w (C11), 0 (the
+    /// default): none. A grain is pressed on a wall by the drag of the
+    /// spanwise fluctuation, as in Maurin et al.'s (2015) YADE runs.
+    pub grain_wall_friction: f64,
     /// The grains' drag law (docs/model.md (C8)).
     pub drag: DragLaw,
     /// The turbulent fluctuations (docs/model.md (C9)).
@@ -129,6 +133,7 @@ impl FluidSpec {
             hindrance: 0.0,
             channel_width: 0.0,
             wall_friction: 1.0,
+            grain_wall_friction: 0.0,
             drag: DragLaw::Paper,
             fluctuations: Fluctuations::Paper,
         }
@@ -264,6 +269,13 @@ impl FluidConfig {
             "channel.wall_friction",
             spec.wall_friction,
             "in [0, 10] (1: Blasius's smooth wall)",
+        )?;
+        check(
+            spec.grain_wall_friction.is_finite()
+                && (0.0..=10.0).contains(&spec.grain_wall_friction),
+            "channel.grain_friction",
+            spec.grain_wall_friction,
+            "in [0, 10] (glass on glass: 0.4)",
         )
     }
 }

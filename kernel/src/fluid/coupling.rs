@@ -48,6 +48,10 @@ pub(crate) struct Coupling<R: Real, const C: usize> {
     pub(crate) closures: Closures<R>,
 }
 
+/// The slip speed (m/s) below which the grains' wall friction (C11) is
+/// viscous, proportional to the speed: a grain at rest feels none.
+pub(crate) const WALL_SLIP: f64 = 1e-3;
+
 /// What the coupled flow's closures need in a step (docs/model.md (C8),
 /// (C9)): the drag law's two terms, the fluctuations' model, the free
 /// surface. Set from the configuration when the flow starts.
@@ -62,6 +66,8 @@ pub(crate) struct Closures<R: Real> {
     pub(crate) viscous_term: R,
     /// HydroForceEngine's fluctuations (C9); else the paper's (15).
     pub(crate) hfe: bool,
+    /// μ_w √(2/π) of the grains' friction on the side walls (C11); 0: none.
+    pub(crate) grain_wall: R,
     /// The free surface: no drag on a grain whose centre is above it.
     pub(crate) surface: R,
 }
@@ -73,6 +79,7 @@ impl<R: Real> Closures<R> {
         inertial: R::ZERO,
         viscous_term: R::ZERO,
         hfe: false,
+        grain_wall: R::ZERO,
         surface: R::ZERO,
     };
 
@@ -87,6 +94,22 @@ impl<R: Real> Closures<R> {
         } else {
             coef * hindrance * speed
         }
+    }
+
+    /// The grains' friction on the side walls (C11) of a grain moving at
+    /// (`u`, `v`) with drag factor `xi` where the fluctuations' scale is
+    /// `scale`: −μ_w N (u, v)/max(|v_p|, [`WALL_SLIP`]), N = Ξ √(2/π) scale
+    /// the mean drag of the spanwise fluctuation that presses it on a wall;
+    /// `None` without it.
+    #[inline]
+    pub(crate) fn wall_friction(&self, xi: R, scale: R, u: R, v: R) -> Option<(R, R)> {
+        if self.grain_wall <= R::ZERO {
+            return None;
+        }
+        let pressed = xi * self.grain_wall * scale;
+        let speed = R::sqrt(u * u + v * v);
+        let k = pressed / R::max(speed, R::from_f64(WALL_SLIP));
+        Some((k * u, k * v))
     }
 
     /// The fluctuation (u', v') (m/s) of held standard-normal draws
@@ -211,6 +234,13 @@ impl<R: Real, const C: usize> Coupling<R, C> {
                 0.0
             }),
             hfe: config.spec.fluctuations == Fluctuations::Hfe,
+            grain_wall: R::from_f64(if config.spec.channel_width > 0.0 {
+                config.spec.grain_wall_friction
+                    * core::f64::consts::FRAC_2_SQRT_PI
+                    * core::f64::consts::FRAC_1_SQRT_2
+            } else {
+                0.0
+            }),
             surface: R::from_f64(surface),
         };
     }

@@ -38,6 +38,8 @@ pub use config::{DragLaw, Fluctuations, FluidConfig, FluidSpec};
 #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
 pub(crate) use coupling::Cells;
 pub(crate) use coupling::Coupling;
+#[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+pub(crate) use coupling::WALL_SLIP;
 pub use grid::Grid;
 pub use slabs::Slabs;
 pub use slice::slice_volume;

@@ -23,7 +23,7 @@ pub struct ContactForce {
 
 impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
     /// Calls `visit` with every contact's force as the next step will apply
-    /// it: the contact law (6)–(9) ([`crate::ContactLaw::apply`]) on a copy
+    /// it: the contact law (6)–(9) ([`crate::contact::ContactLaw::apply`]) on a copy
     /// of the spring history, with the overlap and relative velocities of
     /// now; nothing changes. Contacts in (i, j) order; a contact whose
     /// spring the next step would break (8) is left out.
@@ -33,15 +33,16 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
     ///
     /// let mut sim = Sim::<f64, 64, 8>::new();
     /// Scenario::paper().build(&mut sim)?;
-    /// sim.run(2000)?;
-    /// // Newton's third law holds pair by pair; in the settled bed the
-    /// // contacts carry the grains' weight.
-    /// let mut weight = 0.0;
+    /// sim.run(20_000)?; // the lattice falls onto the fixed grains
+    /// // The contacts carry the grains' weight: compression, each grain
+    /// // pushed away from the other along their branch.
+    /// let (mut contacts, mut virial) = (0, 0.0);
     /// sim.contact_forces(|c| {
     ///     assert!(c.i < c.j);
-    ///     weight += c.force[1] * c.branch[1];
+    ///     contacts += 1;
+    ///     virial += c.force[0] * c.branch[0] + c.force[1] * c.branch[1];
     /// });
-    /// assert!(weight < 0.0); // compression: pushed apart along the branch
+    /// assert!(contacts > 0 && virial < 0.0);
     /// # Ok::<(), mbs_kernel::Error>(())
     /// ```
     pub fn contact_forces(&self, mut visit: impl FnMut(ContactForce)) {

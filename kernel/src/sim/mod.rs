@@ -342,6 +342,7 @@ const ZERO_FLUID: FluidConfig = FluidConfig {
         hindrance: 0.0,
         channel_width: 0.0,
         wall_friction: 0.0,
+        grain_wall_friction: 0.0,
         drag: DragLaw::Paper,
         fluctuations: Fluctuations::Paper,
     },

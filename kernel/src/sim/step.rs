@@ -324,6 +324,7 @@ mod tests {
             fluid.spec.drag = crate::DragLaw::Dallavalle;
             fluid.spec.fluctuations = crate::Fluctuations::Hfe;
             fluid.spec.channel_width = 1.1 * d;
+            fluid.spec.grain_wall_friction = 0.4;
         }
         (flow.spec.model, flow.fluid) = (crate::FlowModel::Coupled, fluid);
         sim.set_flow(Some(&flow)).unwrap();

@@ -189,3 +189,30 @@ macro_rules! both_precisions {
         }
     };
 }
+
+/// The checkpoint of `sim` as bytes.
+pub fn bytes<R: Real, const N: usize, const K: usize, const C: usize>(
+    sim: &Sim<R, N, K, C>,
+) -> Vec<u8> {
+    let mut out = Vec::new();
+    sim.checkpoint(|b| out.extend_from_slice(b));
+    out
+}
+
+/// `whole`, stopped where it is, restored into `resumed` (other
+/// capacities): the same digest and checkpoint bytes, and after `more`
+/// steps of each the same digest again; `at` names the stop in messages.
+pub fn assert_resumes<R: Real, const N: usize, const K: usize, const C: usize>(
+    whole: &mut Sim<R, N, K, C>,
+    resumed: &mut Sim<R, 128, 10, 900>,
+    more: u64,
+    at: u64,
+) {
+    let saved = bytes(whole);
+    resumed.restore(&saved).unwrap();
+    assert_eq!(resumed.digest(), whole.digest(), "restored at {at}");
+    assert_eq!(bytes(resumed), saved, "checkpoint of the restored state");
+    whole.run(more).unwrap();
+    resumed.run(more).unwrap();
+    assert_eq!(resumed.digest(), whole.digest(), "continued from {at}");
+}

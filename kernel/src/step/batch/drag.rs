@@ -135,6 +135,8 @@ macro_rules! drag {
                 let closures = fluid.closures;
                 let surface = splat(closures.surface);
                 let (inertial, viscous) = (splat(closures.inertial), splat(closures.viscous_term));
+                let grain_wall = closures.grain_wall;
+                let slip = splat(<R as Real>::from_f64(crate::fluid::WALL_SLIP));
                 let no_row = [0.0; 4];
                 // Coupling::position and Coupling::place of group `grp`: the
                 // position, above the first centre, between two centres
@@ -204,9 +206,20 @@ macro_rules! drag {
                         } else {
                             mul(coef, speed)
                         };
-                        // The sums (+0) add the drag (+0 for fixed grains).
+                        // The sums (+0) add the drag (+0 for fixed grains),
+                        // less the walls' friction (C11, Closures::wall_friction).
                         let [fx, fy] = [mul(xi, wx), mul(xi, wy)].map(|f| and(f, mobile));
-                        let rows = to_rows([fx, fy, zero, zero]);
+                        let (sum_x, sum_y) = if grain_wall > 0.0 {
+                            let (u, v) = (at(&g.u), at(&g.v));
+                            let pressed = mul(mul(xi, splat(grain_wall)), scale);
+                            let speed = sqrt(add(mul(u, u), mul(v, v)));
+                            let k = div(pressed, max(speed, slip));
+                            let [wall_x, wall_y] = [mul(k, u), mul(k, v)].map(|f| and(f, mobile));
+                            (sub(fx, wall_x), sub(fy, wall_y))
+                        } else {
+                            (fx, fy)
+                        };
+                        let rows = to_rows([sum_x, sum_y, zero, zero]);
                         if let Some(sums) = b.sums.as_chunks_mut::<L>().0.get_mut(grp) {
                             for (sum, row) in sums.iter_mut().zip(rows) {
                                 add_row(sum, row);
