@@ -1,11 +1,11 @@
-//! One transport cell — a (τ*, seed) run of the main job — as a resumable
-//! state machine: restore the seed's settled bed ([`crate::work::beds`]), switch
-//! the flow on, spin up, average over the window. Between chunks
-//! of steps the cell can write a checkpoint (its progress and accumulated
-//! sums plus the kernel's checkpoint) and stop; restoring it continues bit
-//! for bit, so a cell stopped anywhere gives the same result as one never
-//! stopped. With a [`FramePlan`] the cell also writes particle frames
-//! ([`Dumps`]), which change none of its numbers.
+//! One transport cell — a (τ*, seed) run of the main job — as data: its
+//! specification ([`TransportSpec`]), its state machine's state
+//! ([`CellState`]: spin-up, then the window's sums) and rule
+//! ([`WindowRule`]), its result ([`CellResult`]) and its checkpoint
+//! ([`CellCheckpoint`]: its progress and accumulated sums plus the kernel's
+//! checkpoint); restoring it continues bit for bit, so a cell stopped
+//! anywhere gives the same result as one never stopped. Running it is
+//! [`crate::work::job`].
 //!
 //! Checkpoint file (version 5, framed by [`crate::io::framing`]): magic `MBSC`,
 //! the cell's key (FNV-1a of its specification) u64, phase u8 (1 spin-up,
@@ -23,24 +23,13 @@
 //! produced (docs/guarantees.md).
 
 use crate::config::{canonical, Config, ConfigFile, Durations};
-use crate::error::HostError;
 pub use crate::io::framing::CheckpointError;
 use crate::io::framing::{Reader, Writer};
-use crate::io::text::number;
 use crate::science::stats::Target;
-use crate::sim::control::{Checkpoints, Control};
-use crate::sim::frames::Dumps;
-use crate::sim::sims::{check_restored, with_sim, HostSim, SimJob};
-use crate::work::beds::{BedRecord, BedState};
-use crate::work::profiles::{CellProfile, ProfileSums, Sampler, Stresses, PROFILE_SAMPLES};
-use indicatif::ProgressBar;
-use mbs_kernel::{Fnv1a, Real, G};
+use crate::work::beds::BedRecord;
+use crate::work::profiles::{CellProfile, ProfileSums, Stresses, PROFILE_SAMPLES};
+use mbs_kernel::Fnv1a;
 use serde::{Deserialize, Serialize};
-use std::path::PathBuf;
-use std::sync::atomic::AtomicBool;
-
-/// Steps run between checks for stopping and checkpointing.
-const CHUNK: u64 = crate::sim::control::MIN_CHECKPOINT_STEPS;
 
 const MAGIC: [u8; 4] = *b"MBSC";
 const VERSION: u16 = 5;
@@ -161,7 +150,7 @@ impl CellState {
     /// Checks a loaded state against the rule of the configuration it
     /// claims to belong to, with `classes` size classes. Spin-up holds no
     /// sums; in the window, the steps, samples and blocks are exactly those
-    /// of the loop in [`CellJob`] (with checked arithmetic), the window has
+    /// of the loop in [`crate::work::job::CellJob`] (with checked arithmetic), the window has
     /// not yet ended by the rule at any block, and the sums are finite and
     /// agree with each other. Names the first field that does not fit.
     pub fn check(&self, classes: usize, rule: &WindowRule) -> Result<(), CheckpointError> {
@@ -228,7 +217,7 @@ impl CellState {
         Ok(())
     }
 
-    fn new(classes: usize, cells: usize) -> Self {
+    pub(crate) fn new(classes: usize, cells: usize) -> Self {
         CellState {
             profile: ProfileSums::new(cells),
             phase: Phase::SpinUp,
@@ -394,249 +383,6 @@ pub enum CellOutcome {
     Done(Box<CellResult>),
     /// Stopped after writing its checkpoint.
     Stopped,
-}
-
-/// Where and how often a cell writes particle frames (`mbs run
-/// --dump-every`, [`Dumps`]).
-#[derive(Debug, Clone, PartialEq)]
-pub struct FramePlan {
-    /// The cell's frame directory.
-    pub dir: PathBuf,
-    /// Integration steps between frames (at least 1).
-    pub every: u64,
-}
-
-/// Runs `n` steps, through `dumps` if the cell writes frames: the same bits.
-fn advance<R: Real, const N: usize>(
-    sim: &mut HostSim<R, N>,
-    dumps: Option<&mut Dumps>,
-    n: u64,
-    fail: &dyn Fn(mbs_kernel::Error) -> HostError,
-) -> Result<(), HostError> {
-    match dumps {
-        Some(d) => d.run(sim, n, fail),
-        None => sim.run(n).map_err(fail),
-    }
-}
-
-/// A cell to run, possibly from a checkpoint.
-pub struct CellJob<'a> {
-    /// Configuration.
-    pub config: &'a Config,
-    /// Shields number.
-    pub tau_star: f64,
-    /// Seed.
-    pub seed: u64,
-    /// The cell's key.
-    pub key: u64,
-    /// The seed's settled bed.
-    pub bed: &'a BedState,
-    /// Where to continue from.
-    pub resume: Option<CellCheckpoint>,
-    /// Stopping and checkpointing.
-    pub control: &'a Control<'a>,
-    /// Progress (steps).
-    pub progress: &'a ProgressBar,
-    /// Particle frames under the flow, if any.
-    pub frames: Option<FramePlan>,
-}
-
-impl SimJob for CellJob<'_> {
-    type Output = Result<CellOutcome, HostError>;
-
-    fn run<R: Real, const N: usize>(self, sim: &mut HostSim<R, N>) -> Self::Output {
-        let setup = self.config.setup(self.tau_star, self.seed);
-        let sc = &setup.scenario;
-        let context = format!("tau* = {}, seed {}", number(self.tau_star), self.seed);
-        let fail = || HostError::kernel(context.clone());
-        let classes = &sc.bed.classes;
-        let rule = WindowRule::of(self.config);
-        let durations = rule.durations;
-        let refuse = |message: String| HostError::Checkpoint {
-            path: self.control.path.clone().unwrap_or_default(),
-            message,
-        };
-        let settled = self.bed.steps;
-        let resumed = self.resume.is_some();
-        let mut state = match self.resume {
-            Some(ck) => {
-                let s = &ck.state;
-                s.check(classes.len(), &rule).map_err(|e| {
-                    refuse(format!("its progress does not fit this configuration: {e}"))
-                })?;
-                sim.restore(&ck.sim).map_err(fail())?;
-                // The steps the kernel has taken: the bed's settling, the
-                // earlier phase's and this one's.
-                let steps = match s.phase {
-                    Phase::SpinUp => settled.checked_add(s.done),
-                    Phase::Window => settled
-                        .checked_add(durations.spin_up)
-                        .and_then(|n| n.checked_add(s.done)),
-                };
-                let Some(steps) = steps else {
-                    return Err(refuse("its progress overflows the step count".into()));
-                };
-                check_restored(sim, sc, Some(&setup.flow), steps).map_err(|why| {
-                    refuse(format!(
-                        "{why}: it is not this cell's (phase {:?})",
-                        s.phase
-                    ))
-                })?;
-                ck.state
-            }
-            None => {
-                sim.restore(&self.bed.sim).map_err(fail())?;
-                check_restored(sim, sc, None, settled).map_err(|why| HostError::Checkpoint {
-                    path: Default::default(),
-                    message: format!("the settled bed of seed {}: {why}", self.seed),
-                })?;
-                sim.set_flow(Some(&setup.flow)).map_err(fail())?;
-                CellState::new(classes.len(), rule.cells)
-            }
-        };
-        // The frames' time is the time since the flow started (step `settled`).
-        let mut dumps = match &self.frames {
-            None => None,
-            Some(f) if resumed => Some(Dumps::resume(&f.dir, f.every, settled, sim)?),
-            Some(f) => Some(Dumps::start(&f.dir, f.every, settled, sim)?),
-        };
-        let kernel_error = |e| fail()(e);
-        let (d_max, s) = (sc.bed.max_diameter(), sc.material.s);
-        // q* per unit of the slice's thickness b (a channel's width with
-        // side walls): the kernel's is per d_max (docs/model.md §8).
-        let per_slice = d_max / sc.slice_thickness();
-        let mut sampler = Sampler::new(self.config);
-        let mut checkpoints = Checkpoints::new(self.control);
-        let mut stepped = 0u64;
-        loop {
-            let ended = match state.phase {
-                Phase::SpinUp => state.done >= durations.spin_up,
-                Phase::Window => {
-                    state.samples % durations.block_samples == 0 && rule.ends(&state.blocks)
-                }
-            };
-            if ended {
-                match state.phase {
-                    Phase::SpinUp => state.phase = Phase::Window,
-                    Phase::Window => break,
-                }
-                state.done = 0;
-                continue;
-            }
-            let mut saved = Ok(());
-            let stop = checkpoints.due(stepped, || {
-                // The frames' record first: a crash between the two leaves
-                // a record that does not fit the checkpoint.
-                if let Some(d) = dumps.as_mut() {
-                    saved = d.save(sim);
-                }
-                let mut bytes = Vec::new();
-                sim.checkpoint(|b| bytes.extend_from_slice(b));
-                CellCheckpoint {
-                    key: self.key,
-                    state: state.clone(),
-                    sim: bytes,
-                }
-                .encode()
-            })?;
-            saved?;
-            if stop {
-                return Ok(CellOutcome::Stopped);
-            }
-            if state.phase == Phase::Window {
-                let sample = durations.sample;
-                advance(sim, dumps.as_mut(), sample, &kernel_error)?;
-                let o = sim.observe();
-                let q = o.q_star(d_max, s, G) * per_slice;
-                state.total += q;
-                state.block_sum += q;
-                for (c, sum) in state.per_class.iter_mut().enumerate() {
-                    // Each class on the total's scale d_max: the classes add up to q*.
-                    *sum += o.q_star_class(c, d_max, s, G) * per_slice;
-                }
-                state.samples += 1;
-                if state.samples % PROFILE_SAMPLES == 0 {
-                    sampler.sample(sim, &mut state.profile).map_err(fail())?;
-                }
-                if state.samples % durations.block_samples == 0 {
-                    state.blocks.push(Block {
-                        q_star: state.block_sum / durations.block_samples as f64,
-                        bed_level: sim.bed_level(),
-                    });
-                    state.block_sum = 0.0;
-                }
-                state.done += sample;
-                stepped += sample;
-                self.progress.inc(sample);
-            } else {
-                let n = (durations.spin_up - state.done).min(CHUNK);
-                advance(sim, dumps.as_mut(), n, &kernel_error)?;
-                state.done += n;
-                stepped += n;
-                self.progress.inc(n);
-            }
-        }
-        if let Some(d) = dumps {
-            d.finish()?;
-        }
-        let n = state.samples.max(1) as f64;
-        let step_dt = sc.step_dt();
-        // Fewer than all blocks and the target reached: the rule stopped it.
-        let target_reached = (state.blocks.len() as u64) < durations.max_blocks
-            || rule
-                .target
-                .reached(&state.blocks.iter().map(|b| b.q_star).collect::<Vec<_>>());
-        Ok(CellOutcome::Done(Box::new(CellResult {
-            tau_star: self.tau_star,
-            seed: self.seed,
-            q_star: state.total / n,
-            q_star_class: state.per_class.iter().map(|q| q / n).collect(),
-            window_s: state.done as f64 * step_dt,
-            target_reached,
-            blocks: state.blocks,
-            bed_level: sim.bed_level(),
-            grain_steps: (sim.step_count() - settled) * sim.len() as u64,
-            bed: BedRecord {
-                status: self.bed.status,
-                settle_s: self.bed.seconds(step_dt),
-                max_overlap_d: self.bed.max_overlap / d_max,
-            },
-            profile: Some(state.profile.means()),
-        })))
-    }
-}
-
-/// Runs a cell job on a simulation of the configuration's precision and capacity.
-pub fn run_cell_job(job: CellJob<'_>) -> Result<CellOutcome, HostError> {
-    let (precision, capacity) = (job.config.precision, job.config.capacity);
-    with_sim(precision, capacity, job)
-}
-
-/// Runs one cell from its settled bed to the end (no checkpoints).
-pub fn run_cell(
-    config: &Config,
-    tau_star: f64,
-    seed: u64,
-    bed: &BedState,
-    progress: &ProgressBar,
-) -> Result<CellResult, HostError> {
-    let never = AtomicBool::new(false);
-    let control = Control::never(&never);
-    let job = CellJob {
-        config,
-        tau_star,
-        seed,
-        key: 0,
-        bed,
-        resume: None,
-        control: &control,
-        progress,
-        frames: None,
-    };
-    match run_cell_job(job)? {
-        CellOutcome::Done(r) => Ok(*r),
-        CellOutcome::Stopped => Err(HostError::Interrupted { jobs: 1 }),
-    }
 }
 
 #[cfg(test)]

@@ -17,10 +17,8 @@ use crate::science::stats::{block_stderr, mean_stderr, Steadiness};
 use crate::sim::control::Control;
 use crate::sim::sims::{compiled_capacity, max_checkpoint_len};
 use crate::work::beds::{bed_warnings, BedState, Beds};
-use crate::work::cell::{
-    cell_key, run_cell_job, CellCheckpoint, CellJob, CellOutcome, CellResult, FramePlan,
-    TransportSpec,
-};
+use crate::work::cell::{cell_key, CellCheckpoint, CellOutcome, CellResult, TransportSpec};
+use crate::work::job::{run_cell_job, CellJob, FramePlan};
 use crate::work::shard::Shard;
 use crate::work::store::{Store, STORE};
 use indicatif::ProgressBar;

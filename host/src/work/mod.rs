@@ -3,6 +3,7 @@
 pub mod beds;
 pub mod cell;
 pub mod experiment;
+pub mod job;
 pub mod profiles;
 pub mod shard;
 pub mod store;
