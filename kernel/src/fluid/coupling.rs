@@ -317,18 +317,20 @@ impl<R: Real, const C: usize> Coupling<R, C> {
         }
     }
 
-    /// The drag factor Ξ (kg/s) of a grain at rest at height `y`, of radius
-    /// `r` and ½ρC_D A2 d² `coef` ([`Closures::drag_factor`] at |u_f|): the
-    /// bed's resistance of a fixed grain, or of a grain held at rest while
-    /// a column starts; 0 out of the water.
+    /// The drag factor Ξ (kg/s) of a grain at height `y`, of radius `r`,
+    /// ½ρC_D A2 d² `coef` and streamwise velocity `u`
+    /// ([`Closures::drag_factor`] at |u_f − u|, without fluctuations): the
+    /// stabiliser of a mobile grain, and at `u` = 0 the bed's resistance of
+    /// a fixed grain or of a grain held at rest while a column starts; 0
+    /// out of the water.
     #[inline]
-    pub(crate) fn rest_drag_factor(&self, coef: R, y: R, r: R) -> R {
+    pub(crate) fn drag_factor_at(&self, coef: R, y: R, r: R, u: R) -> R {
         if y > self.closures.surface {
             return R::ZERO;
         }
         let at = self.at(y);
         self.closures
-            .drag_factor(coef, r, at.hindrance, R::abs(at.u))
+            .drag_factor(coef, r, at.hindrance, R::abs(at.u - u))
     }
 
     /// Adds the streamwise drag `force` (N) a grain received at a place

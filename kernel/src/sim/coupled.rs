@@ -93,7 +93,7 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
             let g = &self.grains;
             fluid.slabs.clear(fluid.column.grid())?;
             for i in 0..n {
-                let xi = fluid.rest_drag_factor(g.drag_coef[i], g.y[i], g.r[i]);
+                let xi = fluid.drag_factor_at(g.drag_coef[i], g.y[i], g.r[i], R::ZERO);
                 fluid.slabs.add_grain(g.y[i], g.r[i], R::ZERO, xi)?;
             }
             let fluid_cells = fluid.column.grid().cells().min(C);
@@ -151,13 +151,7 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
         for i in 0..n {
             let (y, r, u) = (g.y[i], g.r[i], g.u[i]);
             if !g.fixed[i] {
-                let at = fluid.at(y);
-                let closures = &fluid.closures;
-                let xi = if y > closures.surface {
-                    R::ZERO
-                } else {
-                    closures.drag_factor(g.drag_coef[i], r, at.hindrance, R::abs(at.u - u))
-                };
+                let xi = fluid.drag_factor_at(g.drag_coef[i], y, r, u);
                 fluid.slabs.add_exchange(y, r, u, xi)?;
             }
         }
@@ -172,7 +166,7 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
         for i in 0..n {
             let (y, r) = (g.y[i], g.r[i]);
             if g.fixed[i] {
-                let xi = fluid.rest_drag_factor(g.drag_coef[i], y, r);
+                let xi = fluid.drag_factor_at(g.drag_coef[i], y, r, R::ZERO);
                 fluid.slabs.add_grain(y, r, R::ZERO, xi)?;
             }
         }
