@@ -30,13 +30,13 @@ pub struct Curve {
 /// the search moves away from it.
 pub const FAILED_MISFIT: f64 = 100.0;
 
-/// Smallest q* used in a logarithm.
+/// Smallest q* used in a logarithm: about what a window resolves (one
+/// grain of the default bed, 40 columns, moving one diameter in a 2-s
+/// window gives q* ≈ 4e-5), so a point with no transport counts as 1e-4,
+/// a few such grains, whatever its reference. (Until
+/// 2026-11 a q* below a tenth of the reference counted as a tenth, which
+/// hid how far off a curve was near the threshold.)
 pub const Q_FLOOR: f64 = 1e-4;
-
-/// In the misfit a q* below this fraction of the reference counts as this
-/// fraction: one point with (nearly) no transport near the threshold adds
-/// ln²(10) ≈ 5.3 instead of dominating the sum with an arbitrary floor.
-pub const MISFIT_FLOOR: f64 = 0.1;
 
 impl Curve {
     /// (τ*, q*, stderr) of every point, for error bars.
@@ -48,15 +48,15 @@ impl Curve {
             .collect()
     }
 
-    /// The log-ratio ln(q*/q*_ref) of every point, q* floored at
-    /// [`MISFIT_FLOOR`] × reference, with its relative standard error.
+    /// The log-ratio ln(q*/q*_ref) of every point, both floored at
+    /// [`Q_FLOOR`], with its relative standard error.
     pub fn log_ratios(&self, reference: Reference) -> Vec<(f64, f64)> {
         self.tau_stars
             .iter()
             .zip(self.q_star.iter().zip(&self.stderr))
             .map(|(&t, (&q, &e))| {
                 let q_ref = reference.q_star(t).max(Q_FLOOR);
-                let q = q.max(MISFIT_FLOOR * q_ref);
+                let q = q.max(Q_FLOOR);
                 let relative = e / q;
                 (
                     (q / q_ref).ln(),
@@ -181,5 +181,22 @@ mod tests {
         let mut failed = mixed.clone();
         failed.failures.push("lost".into());
         assert_eq!(failed.misfit(r, 0.1), super::FAILED_MISFIT);
+    }
+
+    #[test]
+    fn points_far_below_the_reference_count_as_far_as_they_are() {
+        let r = crate::science::references::Reference::MeyerPeterMuller;
+        // A point 20× and one 100× below the reference: told apart (a
+        // floor at a tenth of the reference made them equal).
+        let (far, farther) = (
+            curve(&[0.05, 1.0], &[0.1, 0.1]),
+            curve(&[0.01, 1.0], &[0.1, 0.1]),
+        );
+        assert!(farther.misfit(r, 0.1) > far.misfit(r, 0.1) * 2.0);
+        assert!((far.log_ratios(r)[0].0 - 0.05f64.ln()).abs() < 1e-12);
+        // No transport at all counts as Q_FLOOR.
+        let none = curve(&[0.0, 1.0], &[0.0, 0.1]);
+        let q_ref = r.q_star(0.1);
+        assert!((none.log_ratios(r)[0].0 - (super::Q_FLOOR / q_ref).ln()).abs() < 1e-12);
     }
 }

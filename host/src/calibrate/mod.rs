@@ -22,7 +22,7 @@ pub mod plan;
 pub mod report;
 pub mod stages;
 
-pub use curve::{Curve, FAILED_MISFIT, MISFIT_FLOOR, Q_FLOOR};
+pub use curve::{Curve, FAILED_MISFIT, Q_FLOOR};
 pub use plan::{Fidelity, Plan, Slots};
 
 use crate::config::{Config, ConfigFile};
@@ -167,7 +167,9 @@ impl Context<'_> {
 
     /// Whether point `p` of `curve` needs no more seeds: its standard error
     /// reaches the target, or its factor to `judge` exceeds the plan's
-    /// target factor by twice its relative error.
+    /// target factor by more than its 95 % interval (t quantile of its
+    /// degrees of freedom: seeds − 1, or one seed's batches − 1), so that
+    /// more seeds would not change the verdict.
     fn point_done(&self, curve: &Curve, p: usize, judge: Option<Reference>) -> bool {
         let (q, e) = (curve.q_star[p], curve.stderr[p]);
         if !q.is_finite() || !e.is_finite() {
@@ -179,7 +181,11 @@ impl Context<'_> {
         }
         judge.is_some_and(|reference| {
             let (r, sigma) = curve.log_ratios(reference)[p];
-            r.abs() - 2.0 * sigma > self.plan.target_factor.ln()
+            let dof = match curve.seeds[p] {
+                1 => crate::science::interval::BATCHES - 1,
+                s => s - 1,
+            };
+            r.abs() - crate::science::interval::t95(dof) * sigma > self.plan.target_factor.ln()
         })
     }
 
@@ -201,33 +207,32 @@ impl Context<'_> {
             reached: Vec::new(),
         };
         for chunk in chunks {
-            let mut q = Vec::new();
-            let mut blocks = Vec::new();
-            let mut per_class = vec![Vec::new(); n_classes];
+            let mut cells = Vec::new();
             for r in chunk.iter().flatten() {
                 match r {
-                    Ok(c) => {
-                        q.push(c.q_star);
-                        blocks = c.block_means();
-                        for (k, v) in c.q_star_class.iter().enumerate().take(n_classes) {
-                            per_class[k].push(*v);
-                        }
-                    }
+                    Ok(c) => cells.push(c),
                     Err(message) => curve.failures.push(message.clone()),
                 }
             }
-            // One seed: the error of its window's blocks (as in `mbs run`).
-            let (mean, err) = if q.len() == chunk.len() && q.len() == 1 {
-                (q[0], crate::science::stats::block_stderr(&blocks).1)
-            } else if q.len() == chunk.len() {
-                crate::science::stats::mean_stderr(&q)
+            // As in `mbs run`: the seeds' spread, or one seed's batch means.
+            let (mean, err) = if cells.len() == chunk.len() {
+                let i = crate::work::experiment::q_star_interval(&cells);
+                (i.mean, i.stderr)
             } else {
                 (f64::NAN, f64::NAN)
             };
+            let per_class: Vec<Vec<f64>> = (0..n_classes)
+                .map(|k| {
+                    cells
+                        .iter()
+                        .filter_map(|c| c.q_star_class.get(k).copied())
+                        .collect()
+                })
+                .collect();
             curve.q_star.push(mean);
             curve.stderr.push(err);
             for (k, values) in per_class.iter().enumerate() {
-                curve.classes[k].push(crate::science::stats::mean_stderr(values).0);
+                curve.classes[k].push(crate::science::interval::mean_stderr(values).0);
             }
         }
         curve

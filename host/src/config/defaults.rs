@@ -18,7 +18,7 @@ impl Default for TargetSection {
     fn default() -> Self {
         TargetSection {
             stderr_relative: 0.1,
-            stderr_absolute: 5e-4,
+            stderr_absolute: 0.0,
         }
     }
 }

@@ -9,6 +9,7 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 
 /// Labelled lines y(x), optionally on logarithmic axes.
+#[derive(Default)]
 pub struct LinesFigure {
     /// (label, points) per line; an empty label draws no legend entry.
     pub series: Vec<(String, Vec<(f64, f64)>)>,
@@ -28,12 +29,51 @@ pub struct LinesFigure {
     pub x_ticks: Vec<f64>,
     /// Vertical lines at x with a label (a chosen value).
     pub marks: Vec<(f64, String)>,
+    /// Shaded x ranges (x0, x1), drawn under the lines; overlapping ones
+    /// darker.
+    pub spans: Vec<(f64, f64)>,
+    /// Dashed horizontal segments (line index, x0, x1, y) in the colour of
+    /// that line (its mean over a range).
+    pub levels: Vec<(usize, f64, f64, f64)>,
+    /// Each line's label written at its last point in its colour, instead
+    /// of a legend entry (many short lines: no box over the data).
+    pub end_labels: bool,
+    /// The colour of each line by index (empty: each line its own).
+    pub colours: Vec<usize>,
+    /// The lines drawn dashed, by index.
+    pub dashed: Vec<usize>,
+    /// Horizontal dashed lines at y with a label (a level such as the bed's
+    /// surface).
+    pub y_marks: Vec<(f64, String)>,
+    /// The y range (linear axes), shared by panels; `None`: the data's.
+    pub y_range: Option<(f64, f64)>,
+}
+
+/// The colour of line `i` of a figure.
+fn line_colour(i: usize) -> RGBColor {
+    SERIES_COLOURS[(i + 1) % SERIES_COLOURS.len()]
+}
+
+impl LinesFigure {
+    /// The y extent of the lines and dots (finite points only).
+    pub fn y_extent(&self) -> Option<(f64, f64)> {
+        self.series
+            .iter()
+            .chain(&self.dots)
+            .flat_map(|s| s.1.iter())
+            .filter(|p| p.0.is_finite() && p.1.is_finite())
+            .fold(None, |r, p| match r {
+                None => Some((p.1, p.1)),
+                Some((a, b)) => Some((p.1.min(a), p.1.max(b))),
+            })
+    }
 }
 
 impl LinesFigure {
     fn draw_on<'a, DB: DrawingBackend + 'a, X, Y>(
         &self,
         mut chart: ChartContext<'a, DB, Cartesian2d<X, Y>>,
+        (x0, x1): (f64, f64),
         (y0, y1): (f64, f64),
         px: Px,
     ) -> Result<(), String>
@@ -42,14 +82,40 @@ impl LinesFigure {
         Y: Ranged<ValueType = f64> + ValueFormatter<f64>,
     {
         draw_mesh(&mut chart, px, &self.x_label, &self.y_label)?;
+        chart
+            .draw_series(
+                self.spans
+                    .iter()
+                    .map(|&(a, b)| Rectangle::new([(a, y0), (b, y1)], BLACK.mix(0.12).filled())),
+            )
+            .map_err(err)?;
         let mut labelled = false;
         for (i, (label, points)) in self.series.iter().enumerate() {
-            let colour = SERIES_COLOURS[(i + 1) % SERIES_COLOURS.len()];
+            let colour = line_colour(self.colours.get(i).copied().unwrap_or(i));
             let style = colour.stroke_width(px.w(2.0));
-            let drawn = chart
-                .draw_series(LineSeries::new(points.iter().copied(), style))
-                .map_err(err)?;
-            if !label.is_empty() {
+            let drawn = if self.dashed.contains(&i) {
+                chart.draw_series(DashedLineSeries::new(
+                    points.iter().copied(),
+                    px.n(7),
+                    px.n(5),
+                    style,
+                ))
+            } else {
+                chart.draw_series(LineSeries::new(points.iter().copied(), style))
+            }
+            .map_err(err)?;
+            if self.end_labels {
+                if let Some(&last) = points.last() {
+                    chart
+                        .draw_series([EmptyElement::at(last)
+                            + Text::new(
+                                label.clone(),
+                                (px.i(4), -px.i(14)),
+                                px.font(13).color(&colour),
+                            )])
+                        .map_err(err)?;
+                }
+            } else if !label.is_empty() {
                 labelled = true;
                 drawn
                     .label(label.as_str())
@@ -68,7 +134,7 @@ impl LinesFigure {
         for (i, (label, points)) in self.dots.iter().enumerate() {
             let colour = SERIES_COLOURS[(i + 2) % SERIES_COLOURS.len()];
             let shape = SHAPES[(i + 1) % SHAPES.len()];
-            let r = px.i(4);
+            let r = px.i(3);
             let drawn = chart
                 .draw_series(points.iter().map(|&p| marker(shape, p, r, colour, px)))
                 .map_err(err)?;
@@ -78,6 +144,32 @@ impl LinesFigure {
                     .label(label.as_str())
                     .legend(move |(x, y)| marker(shape, (x + px.i(10), y), r, colour, px));
             }
+        }
+        for &(i, a, b, y) in &self.levels {
+            let style = line_colour(i).stroke_width(px.w(2.5));
+            chart
+                .draw_series(DashedLineSeries::new(
+                    [(a, y), (b, y)],
+                    px.n(10),
+                    px.n(6),
+                    style,
+                ))
+                .map_err(err)?;
+        }
+        for (y, label) in &self.y_marks {
+            let style = BLACK.stroke_width(px.w(1.2));
+            chart
+                .draw_series(DashedLineSeries::new(
+                    [(x0, *y), (x1, *y)],
+                    px.n(4),
+                    px.n(4),
+                    style,
+                ))
+                .map_err(err)?;
+            chart
+                .draw_series([EmptyElement::at((x0, *y))
+                    + Text::new(label.clone(), (px.i(4), -px.i(16)), px.font(12))])
+                .map_err(err)?;
         }
         for (x, label) in &self.marks {
             let style = BLACK.stroke_width(px.w(1.5));
@@ -124,6 +216,13 @@ impl Figure for LinesFigure {
         for &(x, y) in all() {
             (x0, x1, y0, y1) = (x0.min(x), x1.max(x), y0.min(y), y1.max(y));
         }
+        for &(a, b) in &self.spans {
+            (x0, x1) = (x0.min(a), x1.max(b));
+        }
+        if self.end_labels && x1 > x0 {
+            // Room for the labels after the lines' ends.
+            x1 += 0.04 * (x1 - x0);
+        }
         if x0 > x1 {
             (x0, x1, y0, y1) = (1.0, 2.0, 1.0, 2.0);
         }
@@ -153,14 +252,17 @@ impl Figure for LinesFigure {
                         .with_light_points(y_light),
                 )
                 .map_err(err)?;
-            self.draw_on(chart, (y0, y1), px)
+            self.draw_on(chart, (x0, x1), (y0, y1), px)
         } else {
             let pad = ((y1 - y0) * 0.05).max(1e-12);
-            let (y0, y1) = (y0 - pad, y1 + pad);
+            let (y0, y1) = self.y_range.unwrap_or((y0 - pad, y1 + pad));
+            // A little room right and left: no line on the frame.
+            let pad = ((x1 - x0) * 0.03).max(1e-12);
+            let (x0, x1) = (if x0 == 0.0 { 0.0 } else { x0 - pad }, x1 + pad);
             let chart = builder
                 .build_cartesian_2d(x0..x1.max(x0 + 1e-12), y0..y1)
                 .map_err(err)?;
-            self.draw_on(chart, (y0, y1), px)
+            self.draw_on(chart, (x0, x1), (y0, y1), px)
         }
     }
 }
@@ -189,6 +291,7 @@ mod tests {
             log_axes: true,
             markers: true,
             marks: vec![(3.8, "chosen β = 3.800".into())],
+            ..LinesFigure::default()
         }
     }
 
@@ -212,6 +315,7 @@ mod tests {
             markers: true,
             x_ticks: Vec::new(),
             marks: Vec::new(),
+            ..LinesFigure::default()
         }
     }
 

@@ -30,7 +30,7 @@ mod transport;
 pub use bed::{BedFigure, Disc};
 pub use lines::LinesFigure;
 pub use panels::Panels;
-pub use transport::{ErrorPoint, TransportFigure, Q_STAR_AXIS, TAU_STAR_AXIS};
+pub use transport::{ErrorPoint, PointFlags, TransportFigure, Q_STAR_AXIS, TAU_STAR_AXIS};
 
 use crate::error::HostError;
 use crate::io::output::{write_atomic_with, write_text};
@@ -204,7 +204,7 @@ mod tests {
     #[test]
     fn figures_render() {
         let svg = svg_of(
-            &TransportFigure::new("test".into(), vec![(0.2, 0.3, 0.03)], vec![]),
+            &TransportFigure::new("test".into(), vec![(0.2, 0.3, 0.03)], vec![], vec![]),
             "transport",
         );
         assert!(svg.starts_with(r#"<svg width="900" height="680" viewBox="0 0 3600 2720""#));

@@ -56,6 +56,29 @@ pub(super) fn marker<C, DB: DrawingBackend>(
     colour: RGBColor,
     px: Px,
 ) -> Marker<C, DB> {
+    drawn(shape, at, r, colour, px, shape == Shape::Floor)
+}
+
+/// The open form of [`marker`]: white inside, outlined in `colour` (a
+/// point that is not a plain result, such as one without a steady part).
+pub(super) fn open_marker<C, DB: DrawingBackend>(
+    shape: Shape,
+    at: C,
+    r: i32,
+    colour: RGBColor,
+    px: Px,
+) -> Marker<C, DB> {
+    drawn(shape, at, r, colour, px, true)
+}
+
+fn drawn<C, DB: DrawingBackend>(
+    shape: Shape,
+    at: C,
+    r: i32,
+    colour: RGBColor,
+    px: Px,
+    open: bool,
+) -> Marker<C, DB> {
     let corners: Vec<(i32, i32)> = match shape {
         Shape::Circle => (0..24)
             .map(|k| {
@@ -72,9 +95,10 @@ pub(super) fn marker<C, DB: DrawingBackend>(
         Shape::Diamond => vec![(0, -r - r / 5), (r, 0), (0, r + r / 5), (-r, 0)],
         Shape::Floor => vec![(-r, -2 * r), (r, -2 * r), (0, 0)],
     };
-    let (fill, line) = match shape {
-        Shape::Floor => (WHITE.filled(), colour.stroke_width(px.w(1.8))),
-        _ => (colour.filled(), BLACK.mix(0.8).stroke_width(px.w(0.8))),
+    let (fill, line) = if open {
+        (WHITE.filled(), colour.stroke_width(px.w(1.8)))
+    } else {
+        (colour.filled(), BLACK.mix(0.8).stroke_width(px.w(0.8)))
     };
     let mut closed = corners.clone();
     closed.push(corners[0]);

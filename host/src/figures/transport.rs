@@ -2,7 +2,7 @@
 //! series as markers with error bars and the reference relations as curves.
 
 use super::axes::{decades, draw_legend, draw_mesh, log_ticks, tick};
-use super::style::{marker, Shape, REFERENCE_COLOURS, SERIES_COLOURS, SHAPES};
+use super::style::{marker, open_marker, Shape, REFERENCE_COLOURS, SERIES_COLOURS, SHAPES};
 use super::{err, Figure, Px};
 use crate::science::references::Reference;
 use plotters::coord::Shift;
@@ -64,8 +64,18 @@ fn reference_curve(
         .collect()
 }
 
-/// (τ*, q*, standard error).
+/// (τ*, q*, error bar's half-height).
 pub type ErrorPoint = (f64, f64, f64);
+
+/// What a point of a series is, beyond its value.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct PointFlags {
+    /// A seed found no steady part: drawn open.
+    pub not_steady: bool,
+    /// A seed's window ended at its cap short of the target: its error bar
+    /// is dashed.
+    pub capped: bool,
+}
 
 /// q* against τ* on log–log axes with every decade labelled: simulated
 /// series as markers with error bars (values at or below the axis floor as
@@ -81,17 +91,21 @@ pub struct TransportFigure {
     pub x_label: String,
     /// y-axis label ([`Q_STAR_AXIS`] for q*(τ*)).
     pub y_label: String,
+    /// Flags of the points of the first series, in order (empty: none).
+    pub flags: Vec<PointFlags>,
 }
 
 impl TransportFigure {
-    /// q*(τ*) of all classes together (`all`, the mean ± standard error
-    /// of the seeds), then of each labelled size class.
+    /// q*(τ*) of all classes together (`all`, the mean of the seeds with
+    /// its 95 % interval, `flags` per point), then of each labelled size
+    /// class.
     pub fn new(
         title: String,
         all: Vec<ErrorPoint>,
+        flags: Vec<PointFlags>,
         classes: Vec<(String, Vec<ErrorPoint>)>,
     ) -> Self {
-        let mut series = vec![("mbs (mean ± standard error)".to_string(), all)];
+        let mut series = vec![("mbs (mean, 95 % interval)".to_string(), all)];
         series.extend(
             classes
                 .into_iter()
@@ -103,12 +117,14 @@ impl TransportFigure {
             title,
             x_label: TAU_STAR_AXIS.into(),
             y_label: Q_STAR_AXIS.into(),
+            flags,
         }
     }
 
-    /// The axes' limits: whole decades around the points, τ* at least over
-    /// [0.03, 0.5], q* from 10⁻⁴ (lower for smaller positive values, not
-    /// below 10⁻⁶) to at least 1 and twice the highest error bar.
+    /// The axes' limits: τ* over the points and a quarter beyond (over
+    /// [0.03, 0.5] without points); q* in whole decades from 10⁻⁴ (lower
+    /// for smaller positive values, not below 10⁻⁶) to at least 1 and twice
+    /// the highest error bar.
     fn limits(&self) -> ((f64, f64), (f64, f64)) {
         let points = || {
             self.series
@@ -116,8 +132,13 @@ impl TransportFigure {
                 .flat_map(|s| s.1.iter())
                 .filter(|p| p.0.is_finite() && p.0 > 0.0 && p.1.is_finite())
         };
-        let t_lo = points().map(|p| p.0).fold(0.03, f64::min);
-        let t_hi = points().map(|p| p.0).fold(0.5, f64::max);
+        let t_lo = points().map(|p| p.0).fold(f64::INFINITY, f64::min);
+        let t_hi = points().map(|p| p.0).fold(0.0, f64::max);
+        let (t_lo, t_hi) = if t_lo <= t_hi {
+            (t_lo / 1.25, t_hi * 1.25)
+        } else {
+            (0.03, 0.5)
+        };
         let q_min = points()
             .map(|p| p.1)
             .filter(|&q| q > 0.0)
@@ -127,7 +148,6 @@ impl TransportFigure {
             .map(|p| 2.0 * (p.1 + p.2.max(0.0)))
             .filter(|q| q.is_finite())
             .fold(1.0, f64::max);
-        let (t_lo, t_hi) = decades(t_lo, t_hi);
         let (q_lo, q_hi) = decades(q_min.max(1e-6), q_max);
         ((t_lo, t_hi), (q_lo, q_hi))
     }
@@ -175,45 +195,74 @@ impl Figure for TransportFigure {
                 .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + px.i(20), y)], style));
         }
         let n = self.series.len();
-        let (mut failed, mut floored) = (0, 0);
+        let (mut failed, mut floored, mut not_steady, mut capped) = (0, 0, 0, 0);
         for (i, (label, points)) in self.series.iter().enumerate() {
             let colour = SERIES_COLOURS[i % SERIES_COLOURS.len()];
             let shape = SHAPES[i % SHAPES.len()];
             // Side by side: ±5 % in τ* per series.
             let shift = 1.05f64.powf(i as f64 - 0.5 * (n as f64 - 1.0));
             let r = px.i(5);
-            let finite: Vec<ErrorPoint> = points
+            let flags = |k: usize| match i {
+                0 => self.flags.get(k).copied().unwrap_or_default(),
+                _ => PointFlags::default(),
+            };
+            let finite: Vec<(ErrorPoint, PointFlags)> = points
                 .iter()
-                .filter(|p| p.0.is_finite() && p.1.is_finite())
-                .map(|&(t, q, e)| (t * shift, q, if e.is_finite() { e.max(0.0) } else { 0.0 }))
+                .enumerate()
+                .filter(|(_, p)| p.0.is_finite() && p.1.is_finite())
+                .map(|(k, &(t, q, e))| {
+                    let e = if e.is_finite() { e.max(0.0) } else { 0.0 };
+                    ((t * shift, q, e), flags(k))
+                })
                 .collect();
             failed += points.len() - finite.len();
-            let (shown, low): (Vec<ErrorPoint>, Vec<ErrorPoint>) =
-                finite.into_iter().partition(|p| p.1 > q_lo);
+            let (shown, low): (Vec<_>, Vec<_>) = finite.into_iter().partition(|p| p.0 .1 > q_lo);
             floored += low.len();
+            not_steady += shown.iter().filter(|p| p.1.not_steady).count();
+            capped += shown.iter().filter(|p| p.1.capped).count();
             chart
                 .draw_series(
                     shown
                         .iter()
-                        .map(|&(t, q, _)| marker(shape, (t, q), r, colour, px)),
+                        .filter(|p| !p.1.not_steady)
+                        .map(|&((t, q, _), _)| marker(shape, (t, q), r, colour, px)),
                 )
                 .map_err(err)?
                 .label(label.as_str())
                 .legend(move |(x, y)| marker(shape, (x + px.i(10), y), r, colour, px));
             chart
                 .draw_series(
+                    shown
+                        .iter()
+                        .filter(|p| p.1.not_steady)
+                        .map(|&((t, q, _), _)| open_marker(shape, (t, q), r, colour, px)),
+                )
+                .map_err(err)?;
+            chart
+                .draw_series(
                     low.iter()
-                        .map(|&(t, ..)| marker(Shape::Floor, (t, q_lo), r, colour, px)),
+                        .map(|&((t, ..), _)| marker(Shape::Floor, (t, q_lo), r, colour, px)),
                 )
                 .map_err(err)?;
             // Error bars over the markers, with caps wider than the markers.
             let bar = colour.stroke_width(px.w(1.5));
             let cap = px.i(7);
-            for &(t, q, e) in shown.iter().filter(|p| p.2 > 0.0) {
+            for &((t, q, e), f) in shown.iter().filter(|p| p.0 .2 > 0.0) {
                 let (lo, hi) = ((q - e).max(q_lo), (q + e).min(q_hi));
-                chart
-                    .draw_series([PathElement::new(vec![(t, lo), (t, hi)], bar)])
-                    .map_err(err)?;
+                if f.capped {
+                    chart
+                        .draw_series(DashedLineSeries::new(
+                            [(t, lo), (t, hi)],
+                            px.n(5),
+                            px.n(4),
+                            bar,
+                        ))
+                        .map_err(err)?;
+                } else {
+                    chart
+                        .draw_series([PathElement::new(vec![(t, lo), (t, hi)], bar)])
+                        .map_err(err)?;
+                }
                 let capped = [hi].into_iter().chain((q - e > q_lo).then_some(lo));
                 chart
                     .draw_series(capped.map(|y| {
@@ -229,8 +278,30 @@ impl Figure for TransportFigure {
         if failed > 0 {
             notes.push(format!("{failed} failed point(s) not drawn (see the CSV)"));
         }
+        let grey = RGBColor(90, 90, 90);
+        if not_steady > 0 {
+            chart
+                .draw_series(std::iter::empty::<EmptyElement<(f64, f64), DB>>())
+                .map_err(err)?
+                .label("open: a seed without a steady part (not a result)")
+                .legend(move |(x, y)| {
+                    open_marker(Shape::Circle, (x + px.i(10), y), px.i(5), grey, px)
+                });
+        }
+        if capped > 0 {
+            let bar = grey.stroke_width(px.w(1.5));
+            chart
+                .draw_series(std::iter::empty::<EmptyElement<(f64, f64), DB>>())
+                .map_err(err)?
+                .label("dashed bar: a window capped short of its target")
+                .legend(move |(x, y)| {
+                    PathElement::new(
+                        vec![(x + px.i(10), y - px.i(8)), (x + px.i(10), y + px.i(8))],
+                        bar,
+                    )
+                });
+        }
         if floored > 0 {
-            let grey = RGBColor(90, 90, 90);
             chart
                 .draw_series(std::iter::empty::<EmptyElement<(f64, f64), DB>>())
                 .map_err(err)?
@@ -307,13 +378,22 @@ mod tests {
     #[test]
     fn transport_figure_labels_decades_thresholds_floor_and_classes() {
         let (all, classes) = mixed_series();
-        let figure = TransportFigure::new("mixed".into(), all, classes);
+        let flags = vec![
+            PointFlags::default(),
+            PointFlags {
+                not_steady: true,
+                capped: false,
+            },
+            PointFlags {
+                not_steady: false,
+                capped: true,
+            },
+        ];
+        let figure = TransportFigure::new("mixed".into(), all, flags, classes);
         let text = svg_texts(&svg_of(&figure, "transport"));
         assert_texts(
             &text,
-            &[
-                "0.0001", "0.001", "0.01", "0.02", "0.03", "0.05", "0.1", "1",
-            ],
+            &["0.0001", "0.001", "0.01", "0.03", "0.05", "0.1", "0.2", "1"],
         );
         for r in Reference::ALL {
             assert!(r.label().contains(&format!("τ*c {}", r.tau_star_c())));
@@ -328,6 +408,8 @@ mod tests {
                 "mbs, class d = 0.7 mm",
                 "q* ≤ 0.0001 (zero or negative mean): on the axis floor",
                 "3 failed point(s) not drawn (see the CSV)",
+                "open: a seed without a steady part (not a result)",
+                "dashed bar: a window capped short of its target",
             ],
         );
     }

@@ -126,9 +126,12 @@ mod tests {
                 Block {
                     q_star,
                     bed_level: 1e-3,
+                    q_star_class: vec![],
                 };
                 10
             ],
+            discarded: 0,
+            steady: true,
             window_s: 1.0,
             target_reached: true,
             bed_level: 1e-3,

@@ -119,6 +119,9 @@ pub fn write_profiles(
     write_csv(path, None, &lines)
 }
 
+/// A labelled line of a panel.
+type Curve = (String, Vec<(f64, f64)>);
+
 /// Heights drawn above the highest slab that ever held a grain, in d.
 pub const ABOVE_BED_D: f64 = 15.0;
 
@@ -164,39 +167,81 @@ pub fn profiles_figure(config: &Config, results: &[CellResult]) -> Panels {
         Some((label, points)) if !points.is_empty() => vec![(label.clone(), points.clone())],
         _ => Vec::new(),
     };
+    // The bed's surface: the mean bed level of the cells (docs/model.md §6).
+    let d = config.scenario.bed.max_diameter();
+    let surface = (!results.is_empty())
+        .then(|| results.iter().map(|r| r.bed_level).sum::<f64>() / results.len() as f64 / d);
     let panel = |series, k: usize, title: &str, x_label: &str| LinesFigure {
         series,
         dots: dots(k),
         title: title.into(),
         x_label: x_label.into(),
         y_label: "y/d".into(),
-        log_axes: false,
-        markers: false,
-        x_ticks: Vec::new(),
-        marks: Vec::new(),
+        y_marks: surface
+            .filter(|s| s.is_finite())
+            .map(|s| (s, format!("bed surface {s:.1} d")))
+            .into_iter()
+            .collect(),
+        ..LinesFigure::default()
     };
+    // The legend once (colours by τ*, the same in every panel), where the
+    // solid fraction leaves room: above the bed, right.
+    let unlabelled = |lines: Vec<Curve>| {
+        lines
+            .into_iter()
+            .map(|(_, p)| (String::new(), p))
+            .collect::<Vec<_>>()
+    };
+    let (stress_lines, stress_colours) = stresses(&y, top, &profiles);
+    let mut panels = vec![
+        panel(
+            shown(&|p| &p.solid_fraction, false),
+            0,
+            &format!("solid fraction ({model})"),
+            "φ",
+        ),
+        panel(
+            unlabelled(shown(&|p| &p.grain_velocity, true)),
+            1,
+            "grain velocity",
+            "u_p (m/s)",
+        ),
+        panel(
+            unlabelled(shown(&|p| &p.fluid_velocity, false)),
+            2,
+            "fluid velocity",
+            "u_f (m/s)",
+        ),
+        LinesFigure {
+            dashed: (0..stress_lines.len()).filter(|i| i % 2 == 1).collect(),
+            colours: stress_colours,
+            ..panel(
+                stress_lines,
+                3,
+                "shear stress: grains —, fluid - -",
+                "τ (Pa)",
+            )
+        },
+    ];
+    // One y range for all: the lowest point drawn to the top.
+    let low = panels
+        .iter()
+        .filter_map(LinesFigure::y_extent)
+        .map(|e| e.0)
+        .fold(f64::INFINITY, f64::min);
+    let high = panels
+        .iter()
+        .filter_map(LinesFigure::y_extent)
+        .map(|e| e.1)
+        .fold(f64::NEG_INFINITY, f64::max);
+    if low < high {
+        let pad = 0.03 * (high - low);
+        for p in &mut panels {
+            p.y_range = Some((low - pad, high + pad));
+        }
+    }
     Panels {
-        panels: vec![
-            panel(
-                shown(&|p| &p.solid_fraction, false),
-                0,
-                &format!("solid fraction ({model})"),
-                "φ",
-            ),
-            panel(
-                shown(&|p| &p.grain_velocity, true),
-                1,
-                "grain velocity",
-                "u_p (m/s)",
-            ),
-            panel(
-                shown(&|p| &p.fluid_velocity, false),
-                2,
-                "fluid velocity",
-                "u_f (m/s)",
-            ),
-            panel(stresses(&y, top, &profiles), 3, "shear stress", "τ (Pa)"),
-        ],
+        panels,
         side_by_side: true,
     }
 }
@@ -214,14 +259,11 @@ fn tau_label(t: f64) -> String {
 
 /// The shear stresses of each τ*'s profile up to `top` (y/d): the grains'
 /// (contacts and fluctuations) and the fluid's (viscous and Reynolds), a
-/// line each.
-fn stresses(
-    y: &[f64],
-    top: f64,
-    profiles: &[(f64, CellProfile)],
-) -> Vec<(String, Vec<(f64, f64)>)> {
+/// line each, unlabelled (the φ panel's legend names the τ*), and each
+/// line's colour: its τ*'s.
+fn stresses(y: &[f64], top: f64, profiles: &[(f64, CellProfile)]) -> (Vec<Curve>, Vec<usize>) {
     let mut lines = Vec::new();
-    for (t, p) in profiles {
+    for (_, p) in profiles {
         let s = &p.stresses;
         let at = |v: &Vec<f64>, j: usize| v.get(j).copied().unwrap_or(0.0);
         let line = |f: &dyn Fn(usize) -> f64| {
@@ -232,8 +274,9 @@ fn stresses(
         };
         let grains = line(&|j| at(&s.contact, j) + at(&s.kinetic, j));
         let fluid = line(&|j| at(&s.viscous, j) + at(&s.reynolds, j));
-        lines.push((format!("τ* = {}: grains", tau_label(*t)), grains));
-        lines.push((format!("τ* = {}: fluid", tau_label(*t)), fluid));
+        lines.push((String::new(), grains));
+        lines.push((String::new(), fluid));
     }
-    lines
+    let colours = (0..lines.len()).map(|i| i / 2).collect();
+    (lines, colours)
 }

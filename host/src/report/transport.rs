@@ -3,8 +3,9 @@
 
 use crate::config::Config;
 use crate::error::HostError;
-use crate::figures::TransportFigure;
+use crate::figures::{PointFlags, TransportFigure};
 use crate::io::output::{decimal, decimals, write_csv};
+use crate::science::interval::t95;
 use crate::work::experiment::TransportRow;
 use mbs_kernel::{shear_velocity, transport_scale, G};
 use serde::Serialize;
@@ -20,6 +21,8 @@ struct TransportLine {
     q_star: f64,
     #[serde(serialize_with = "decimal")]
     q_star_stderr: f64,
+    #[serde(serialize_with = "decimal")]
+    q_star_ci95: f64,
     seeds: usize,
     #[serde(serialize_with = "decimal")]
     mpm: f64,
@@ -33,14 +36,19 @@ struct TransportLine {
     q_b_stderr_m2_s: f64,
     #[serde(serialize_with = "decimal")]
     window_s: f64,
+    #[serde(serialize_with = "decimal")]
+    discarded_s: f64,
+    unsteady: usize,
     capped: usize,
     #[serde(serialize_with = "decimals")]
     classes: Vec<f64>,
 }
 
-/// Writes `transport.csv`: a line per τ* (q* with its standard error, the
-/// seeds, two reference relations, u* in m/s and q_B with its standard
-/// error in m²/s), and two columns per size class of a mixed bed.
+/// Writes `transport.csv`: a line per τ* (q* with its standard error and
+/// the half-width of its 95 % interval, the seeds, two reference
+/// relations, u* in m/s and q_B with its standard error in m²/s, the mean
+/// window and discarded transient, the seeds without a steady part and
+/// those capped), and two columns per size class of a mixed bed.
 pub fn write_transport(
     path: &Path,
     config: &Config,
@@ -50,6 +58,7 @@ pub fn write_transport(
         "tau_star",
         "q_star",
         "q_star_stderr",
+        "q_star_ci95",
         "seeds",
         "mpm",
         "wong_parker",
@@ -57,6 +66,8 @@ pub fn write_transport(
         "q_b_m2_s",
         "q_b_stderr_m2_s",
         "window_s",
+        "discarded_s",
+        "unsteady",
         "capped",
     ]
     .map(String::from)
@@ -81,6 +92,7 @@ pub fn write_transport(
             tau_star: r.tau_star,
             q_star: r.q_star,
             q_star_stderr: r.q_star_stderr,
+            q_star_ci95: r.q_star_ci95,
             seeds: r.seeds,
             mpm: r.mpm,
             wong_parker: r.wong_parker,
@@ -88,6 +100,8 @@ pub fn write_transport(
             q_b_m2_s: r.q_star * q_scale,
             q_b_stderr_m2_s: r.q_star_stderr * q_scale,
             window_s: r.window_s,
+            discarded_s: r.discarded_s,
+            unsteady: r.unsteady,
             capped: r.capped,
             classes: r.classes.iter().flat_map(|&(q, e)| [q, e]).collect(),
         })
@@ -102,16 +116,27 @@ pub fn transport_figure(config: &Config, rows: &[TransportRow]) -> TransportFigu
     let classes = &sc.bed.classes;
     let all = rows
         .iter()
-        .map(|r| (r.tau_star, r.q_star, r.q_star_stderr))
+        .map(|r| (r.tau_star, r.q_star, r.q_star_ci95))
+        .collect();
+    let flags = rows
+        .iter()
+        .map(|r| PointFlags {
+            not_steady: r.unsteady > 0,
+            capped: r.capped > 0,
+        })
         .collect();
     let per_class = if classes.len() > 1 {
         classes
             .iter()
             .enumerate()
             .map(|(k, c)| {
+                // The 95 % interval between the seeds (E3).
                 let points = rows
                     .iter()
-                    .filter_map(|r| r.classes.get(k).map(|&(q, e)| (r.tau_star, q, e)))
+                    .filter_map(|r| {
+                        let t = if r.seeds > 1 { t95(r.seeds - 1) } else { 0.0 };
+                        r.classes.get(k).map(|&(q, e)| (r.tau_star, q, t * e))
+                    })
                     .collect();
                 (format!("d = {} mm", c.diameter * 1e3), points)
             })
@@ -131,5 +156,5 @@ pub fn transport_figure(config: &Config, rows: &[TransportRow]) -> TransportFigu
         sc.rule.beta,
         config.seeds.len()
     );
-    TransportFigure::new(title, all, per_class)
+    TransportFigure::new(title, all, flags, per_class)
 }

@@ -1,75 +1,13 @@
 //! Statistics of the measured q*: the mean and its standard error, the
-//! error target a cell's window runs to, and the steadiness check of a
-//! τ*'s time series.
-//!
-//! Block means (batch means): the window is cut into blocks of
-//! `time.block` seconds and the standard error is that of the mean of the
-//! block means, which removes the correlation of the raw samples (every
-//! `time.sample_steps` steps) within a block. Blocks of 0.1 s are still
-//! correlated with their neighbours (lag-1 autocorrelation 0.1–0.8 on the
-//! default bed), so [`block_stderr`] widens the error by the factor
-//! √((1 + ρ)/(1 − ρ)) of a first-order autoregressive series with the
-//! blocks' lag-1 autocorrelation ρ (clamped to [0, 0.9]).
+//! error target a cell's window runs to, and the drift check of a τ*'s
+//! steady parts. The window is cut into blocks of `time.block` seconds
+//! (block means remove the correlation of the raw samples, every
+//! `time.sample_steps` steps, within a block); the transient is cut off
+//! by [`crate::science::truncation`] and the intervals are those of
+//! [`crate::science::interval`].
 
+use crate::science::interval::{correlation_time, mean_stderr, Interval, CORRELATION_WINDOWS};
 use serde::Serialize;
-
-/// Mean and standard error of the mean (0 for fewer than two values; NaN
-/// for none).
-///
-/// ```
-/// use mbs::science::stats::mean_stderr;
-///
-/// let (m, e) = mean_stderr(&[1.0, 2.0, 3.0, 4.0]);
-/// assert_eq!(m, 2.5);
-/// assert!((e - (5.0f64 / 3.0 / 4.0).sqrt()).abs() < 1e-15);
-/// assert_eq!(mean_stderr(&[7.0]), (7.0, 0.0));
-/// ```
-pub fn mean_stderr(values: &[f64]) -> (f64, f64) {
-    let n = values.len() as f64;
-    if values.is_empty() {
-        return (f64::NAN, f64::NAN);
-    }
-    let mean = values.iter().sum::<f64>() / n;
-    if values.len() < 2 {
-        return (mean, 0.0);
-    }
-    let var = values.iter().map(|v| (v - mean) * (v - mean)).sum::<f64>() / (n - 1.0);
-    (mean, (var / n).sqrt())
-}
-
-/// Mean of block means and its standard error corrected for the
-/// correlation between neighbouring blocks: the plain standard error times
-/// √((1 + ρ)/(1 − ρ)), ρ the lag-1 autocorrelation of the blocks clamped
-/// to [0, 0.9] (0 with fewer than three blocks).
-///
-/// ```
-/// use mbs::science::stats::{block_stderr, mean_stderr};
-///
-/// // Alternating blocks: negatively correlated, no widening.
-/// let alternating = [1.0, 2.0, 1.0, 2.0, 1.0, 2.0];
-/// assert_eq!(block_stderr(&alternating), mean_stderr(&alternating));
-/// // A steady drift: ρ = 8.75/17.5 = 0.5, widened by √3.
-/// let drift = [1.0, 1.1, 1.2, 1.3, 1.4, 1.5];
-/// let (m, e) = block_stderr(&drift);
-/// assert!((e - mean_stderr(&drift).1 * 3f64.sqrt()).abs() < 1e-12 && m == mean_stderr(&drift).0);
-/// ```
-pub fn block_stderr(blocks: &[f64]) -> (f64, f64) {
-    let (mean, stderr) = mean_stderr(blocks);
-    if blocks.len() < 3 {
-        return (mean, stderr);
-    }
-    let var: f64 = blocks.iter().map(|b| (b - mean) * (b - mean)).sum();
-    let lag: f64 = blocks
-        .windows(2)
-        .map(|w| (w[0] - mean) * (w[1] - mean))
-        .sum();
-    let rho = if var > 0.0 {
-        (lag / var).clamp(0.0, 0.9)
-    } else {
-        0.0
-    };
-    (mean, stderr * ((1.0 + rho) / (1.0 - rho)).sqrt())
-}
 
 /// The standard error each cell's window aims at: the larger of
 /// `relative` × |q*| and `absolute` (the floor near the threshold, where
@@ -82,10 +20,13 @@ pub fn block_stderr(blocks: &[f64]) -> (f64, f64) {
 /// use mbs::science::stats::Target;
 ///
 /// let t = Target { relative: 0.04, absolute: 4e-4 };
-/// // q* = 1 ± 0.0245 (uncorrelated block means): within 0.04 × 1.
-/// assert!(t.reached(&[0.94, 1.0, 1.06, 0.94, 1.0, 1.06]));
-/// // q* = 1 ± 0.082: not yet.
-/// assert!(!t.reached(&[0.8, 1.0, 1.2, 0.8, 1.0, 1.2]));
+/// let wiggle = |a: f64| -> Vec<f64> { (0..20).map(|i| 1.0 + a * [-1.0, 0.0, 1.0][i % 3]).collect() };
+/// // q* = 1 ± 0.006 over five batches of four blocks: within 0.04 × 1.
+/// assert!(t.reached(&wiggle(0.06)));
+/// // q* = 1 ± 0.06: not yet.
+/// assert!(!t.reached(&wiggle(0.6)));
+/// // Eight blocks are fewer than ten correlation times.
+/// assert!(!t.reached(&wiggle(0.06)[..8]));
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Target {
@@ -96,14 +37,20 @@ pub struct Target {
 }
 
 impl Target {
-    /// Whether the block means `blocks` of one cell (at least two) reach
-    /// the target, by [`block_stderr`].
+    /// Whether the steady block means `blocks` of one cell reach the
+    /// target: the batch-means standard error
+    /// ([`Interval::batch_means`]) is within it, and the blocks span at
+    /// least [`CORRELATION_WINDOWS`] correlation times
+    /// ([`correlation_time`]), where that interval has its tested coverage.
     pub fn reached(&self, blocks: &[f64]) -> bool {
-        if blocks.len() < 2 {
+        let n = blocks.len() as f64;
+        // NaN (a constant or too short series) is not long enough.
+        let long = n >= CORRELATION_WINDOWS * correlation_time(blocks);
+        if n < 2.0 || !long {
             return false;
         }
-        let (mean, stderr) = block_stderr(blocks);
-        stderr <= (self.relative * mean.abs()).max(self.absolute)
+        let i = Interval::batch_means(blocks);
+        i.dof > 0 && i.stderr <= (self.relative * i.mean.abs()).max(self.absolute)
     }
 }
 

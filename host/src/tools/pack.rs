@@ -104,5 +104,6 @@ pub fn settling_figure(series: Vec<(String, Vec<(f64, f64)>)>, title: String) ->
         dots: Vec::new(),
         x_ticks: Vec::new(),
         marks: Vec::new(),
+        ..LinesFigure::default()
     }
 }

@@ -7,11 +7,12 @@
 //! anywhere gives the same result as one never stopped. Running it is
 //! [`crate::work::job`].
 //!
-//! Checkpoint file (version 5, framed by [`crate::io::framing`]): magic `MBSC`,
+//! Checkpoint file (version 6, framed by [`crate::io::framing`]): magic `MBSC`,
 //! the cell's key (FNV-1a of its specification) u64, phase u8 (1 spin-up,
-//! 2 window), steps done in the phase u64, samples u64, Σq* (f64 bits), the
-//! class count u32 and Σq* per class, Σq* of the current block, the
-//! finished blocks (count u64, then q* and bed level of each, f64 bits),
+//! 2 window), steps done in the phase u64, samples u64, the class count u32,
+//! Σq* of the current block and its Σq* per class (f64 bits), the finished
+//! blocks (count u64, then q*, bed level and q* per class of each, f64
+//! bits),
 //! the profile sums (samples u64, cell count u32, then Σφ, Σφ u_p, Σu_f and
 //! the Σ of the four shear stresses of each cell, f64 bits;
 //! [`crate::work::profiles`]), the kernel checkpoint (u64
@@ -26,21 +27,25 @@ use crate::config::{canonical, Config, ConfigFile, Durations};
 pub use crate::io::framing::CheckpointError;
 use crate::io::framing::{Reader, Writer};
 use crate::science::stats::Target;
+use crate::science::truncation::Truncation;
 use crate::work::beds::BedRecord;
 use crate::work::profiles::{CellProfile, ProfileSums, Stresses, PROFILE_SAMPLES};
 use mbs_kernel::Fnv1a;
 use serde::{Deserialize, Serialize};
 
 const MAGIC: [u8; 4] = *b"MBSC";
-const VERSION: u16 = 5;
+const VERSION: u16 = 6;
 
 /// One block of a cell's window (`time.block`).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Block {
     /// q* averaged over the block's samples.
     pub q_star: f64,
     /// The mean bed level at the block's end (m).
     pub bed_level: f64,
+    /// q* per size class averaged over the block's samples (on d_max: they
+    /// add up to q*).
+    pub q_star_class: Vec<f64>,
 }
 
 /// What one (τ*, seed) cell measured.
@@ -50,13 +55,20 @@ pub struct CellResult {
     pub tau_star: f64,
     /// Seed.
     pub seed: u64,
-    /// Time-averaged q* over the window (all classes, d = d_max).
+    /// q* averaged over the window's steady part (all classes, d = d_max):
+    /// the mean of its blocks after the `discarded` ones.
     pub q_star: f64,
-    /// Time-averaged q* per size class (on d_max: they add up to q*).
+    /// The same per size class (on d_max: they add up to q*).
     pub q_star_class: Vec<f64>,
     /// The window's blocks, in time order: q*(t) and the bed level.
     pub blocks: Vec<Block>,
-    /// The averaging window (s).
+    /// Leading blocks discarded as the transient (MSER,
+    /// [`crate::science::truncation`]).
+    pub discarded: usize,
+    /// Whether MSER found a steady part (at most half the blocks
+    /// discarded); if not, q* is the mean of a series still changing.
+    pub steady: bool,
+    /// The window recorded, discarded blocks included (s).
     pub window_s: f64,
     /// Whether the window ended on the target standard error (else at
     /// `time.window`).
@@ -75,8 +87,19 @@ pub struct CellResult {
 impl CellResult {
     /// The block means of q*.
     pub fn block_means(&self) -> Vec<f64> {
-        self.blocks.iter().map(|b| b.q_star).collect()
+        q_means(&self.blocks)
     }
+
+    /// The block means of q* of the steady part (after the discarded
+    /// blocks).
+    pub fn steady_means(&self) -> Vec<f64> {
+        q_means(&self.blocks[self.discarded.min(self.blocks.len())..])
+    }
+}
+
+/// The q* of each block.
+pub fn q_means(blocks: &[Block]) -> Vec<f64> {
+    blocks.iter().map(|b| b.q_star).collect()
 }
 
 /// Where a cell is.
@@ -97,14 +120,12 @@ pub struct CellState {
     pub done: u64,
     /// Window samples taken.
     pub samples: u64,
-    /// Σ q*.
-    pub total: f64,
-    /// Σ q* per class.
-    pub per_class: Vec<f64>,
     /// The finished blocks.
     pub blocks: Vec<Block>,
     /// Σ q* of the current block's samples.
     pub block_sum: f64,
+    /// Σ q* per class of the current block's samples.
+    pub class_sums: Vec<f64>,
     /// The profiles' sums.
     pub profile: ProfileSums,
 }
@@ -134,15 +155,18 @@ impl WindowRule {
     }
 
     /// Whether a window with these finished blocks (and no partial one)
-    /// ends: at the longest window, or from the shortest on when the
-    /// target is reached.
+    /// ends: at the longest window, or when MSER finds a steady part
+    /// ([`Truncation`]) at least as long as the shortest window that
+    /// reaches the target. Before that the discarded blocks are the
+    /// spin-up's automatic extension.
     pub fn ends(&self, blocks: &[Block]) -> bool {
-        let n = blocks.len() as u64;
-        n >= self.durations.max_blocks
-            || (n >= self.durations.min_blocks
-                && self
-                    .target
-                    .reached(&blocks.iter().map(|b| b.q_star).collect::<Vec<_>>()))
+        if blocks.len() as u64 >= self.durations.max_blocks {
+            return true;
+        }
+        let q = q_means(blocks);
+        let t = Truncation::of(&q);
+        let kept = t.kept(&q);
+        t.steady && kept.len() as u64 >= self.durations.min_blocks && self.target.reached(kept)
     }
 }
 
@@ -156,7 +180,9 @@ impl CellState {
     pub fn check(&self, classes: usize, rule: &WindowRule) -> Result<(), CheckpointError> {
         let bad = |what| Err(CheckpointError::Value(what));
         let d = &rule.durations;
-        if self.per_class.len() != classes {
+        if self.class_sums.len() != classes
+            || self.blocks.iter().any(|b| b.q_star_class.len() != classes)
+        {
             return bad("size classes");
         }
         let p = &self.profile;
@@ -169,9 +195,9 @@ impl CellState {
             return bad("profile sums");
         }
         let sums = self
-            .per_class
+            .class_sums
             .iter()
-            .chain([&self.total, &self.block_sum])
+            .chain([&self.block_sum])
             .chain(profile);
         if self.phase == Phase::SpinUp {
             let empty = self.samples == 0
@@ -194,25 +220,17 @@ impl CellState {
         if (0..=self.blocks.len()).any(|k| rule.ends(&self.blocks[..k])) {
             return bad("blocks");
         }
-        let values = self.blocks.iter().flat_map(|b| [b.q_star, b.bed_level]);
+        let values = self.blocks.iter().flat_map(|b| {
+            [b.q_star, b.bed_level]
+                .into_iter()
+                .chain(b.q_star_class.clone())
+        });
+        let empty =
+            self.block_sum.to_bits() == 0 && self.class_sums.iter().all(|x| x.to_bits() == 0);
         if !sums.clone().copied().chain(values).all(f64::is_finite)
-            || (partial == Some(0) && self.block_sum.to_bits() != 0)
+            || (partial == Some(0) && !empty)
         {
             return bad("sums");
-        }
-        // Σq* and the blocks add the same samples in other groupings:
-        // equal up to rounding.
-        let n = d.block_samples as f64;
-        let blocks: f64 = self.blocks.iter().map(|b| b.q_star * n).sum::<f64>() + self.block_sum;
-        let scale: f64 = self
-            .blocks
-            .iter()
-            .map(|b| (b.q_star * n).abs())
-            .sum::<f64>()
-            + self.block_sum.abs()
-            + self.total.abs();
-        if (self.total - blocks).abs() > 1e-9 * scale {
-            return bad("total");
         }
         Ok(())
     }
@@ -223,10 +241,9 @@ impl CellState {
             phase: Phase::SpinUp,
             done: 0,
             samples: 0,
-            total: 0.0,
-            per_class: vec![0.0; classes],
             blocks: Vec::new(),
             block_sum: 0.0,
+            class_sums: vec![0.0; classes],
         }
     }
 }
@@ -256,16 +273,18 @@ impl CellCheckpoint {
         w.u8(s.phase as u8);
         w.u64(s.done);
         w.u64(s.samples);
-        w.f64(s.total);
-        w.u32(s.per_class.len() as u32);
-        for &x in &s.per_class {
+        w.u32(s.class_sums.len() as u32);
+        w.f64(s.block_sum);
+        for &x in &s.class_sums {
             w.f64(x);
         }
-        w.f64(s.block_sum);
         w.u64(s.blocks.len() as u64);
         for b in &s.blocks {
             w.f64(b.q_star);
             w.f64(b.bed_level);
+            for &x in &b.q_star_class {
+                w.f64(x);
+            }
         }
         let p = &s.profile;
         w.u64(p.samples);
@@ -281,11 +300,12 @@ impl CellCheckpoint {
     /// classes, at most `blocks` blocks and a kernel checkpoint of at most
     /// `sim_max` bytes, profiles of `cells` cells.
     pub fn max_len(classes: usize, blocks: u64, cells: usize, sim_max: usize) -> usize {
-        // Key, phase, done, samples, Σq*, class count.
-        let head = 8 + 1 + 8 + 8 + 8 + 4;
-        let blocks = usize::try_from(blocks).unwrap_or(usize::MAX / 32);
+        // Key, phase, done, samples, class count, the block's sums.
+        let head = 8 + 1 + 8 + 8 + 4 + 8 + 8 * classes;
+        let blocks = usize::try_from(blocks).unwrap_or(usize::MAX / 64);
+        let block = 16 + 8 * classes;
         let profile = 8 + 4 + 8 * ProfileSums::COLUMNS * cells;
-        Writer::OVERHEAD + head + 8 * classes + 8 + 8 + 16 * blocks + profile + 8 + sim_max
+        Writer::OVERHEAD + head + 8 + block * blocks + profile + 8 + sim_max
     }
 
     /// Decodes and checks a checkpoint written for the cell `key`.
@@ -299,15 +319,16 @@ impl CellCheckpoint {
             2 => Phase::Window,
             _ => return Err(CheckpointError::Value("phase")),
         };
-        let (done, samples, total) = (r.u64()?, r.u64()?, r.f64()?);
+        let (done, samples) = (r.u64()?, r.u64()?);
         let classes = r.u32()? as usize;
         if classes > mbs_kernel::MAX_CLASSES {
             return Err(CheckpointError::Value("size classes"));
         }
-        let per_class = (0..classes).map(|_| r.f64()).collect::<Result<_, _>>()?;
         let block_sum = r.f64()?;
+        let class_sums = (0..classes).map(|_| r.f64()).collect::<Result<_, _>>()?;
         let count = r.u64()?;
-        // Each block takes 16 bytes: a count beyond the file is truncation.
+        // Each block takes 16 bytes or more: a count beyond the file is
+        // truncation.
         if count > (bytes.len() / 16) as u64 {
             return Err(CheckpointError::Truncated);
         }
@@ -316,6 +337,7 @@ impl CellCheckpoint {
                 Ok(Block {
                     q_star: r.f64()?,
                     bed_level: r.f64()?,
+                    q_star_class: (0..classes).map(|_| r.f64()).collect::<Result<_, _>>()?,
                 })
             })
             .collect::<Result<_, CheckpointError>>()?;
@@ -337,10 +359,9 @@ impl CellCheckpoint {
                 phase,
                 done,
                 samples,
-                total,
-                per_class,
                 blocks,
                 block_sum,
+                class_sums,
                 profile: ProfileSums {
                     samples: profile_samples,
                     solid,
@@ -397,16 +418,16 @@ mod tests {
                 phase: Phase::Window,
                 done: 1230,
                 samples: 123,
-                total: 0.125,
-                per_class: vec![0.5, 0.25],
                 blocks: vec![
                     Block {
                         q_star: 0.1,
                         bed_level: 1e-3,
+                        q_star_class: vec![0.06, 0.04],
                     };
                     3
                 ],
                 block_sum: 0.2,
+                class_sums: vec![0.5, 0.25],
                 profile: ProfileSums {
                     samples: 12,
                     solid: vec![0.5, 0.25, 0.0, 0.0],

@@ -12,8 +12,9 @@ use crate::io::input::{read_bounded, Bound};
 use crate::io::log::Log;
 use crate::io::output::{create_dir, remove_if_present, remove_temporaries};
 use crate::io::text::number;
+use crate::science::interval::{mean_stderr, Interval};
 use crate::science::references::Reference;
-use crate::science::stats::{block_stderr, mean_stderr, Steadiness};
+use crate::science::stats::Steadiness;
 use crate::sim::control::Control;
 use crate::sim::sims::{compiled_capacity, max_checkpoint_len};
 use crate::work::beds::{bed_warnings, BedState, Beds};
@@ -302,18 +303,24 @@ pub fn run_all(
 pub struct TransportRow {
     /// Shields number.
     pub tau_star: f64,
-    /// Mean q* over the seeds.
+    /// Mean q* over the seeds (each the mean of its steady part).
     pub q_star: f64,
-    /// Its standard error: between seeds, or from the block means of one
-    /// seed ([`block_stderr`]).
+    /// Its standard error: between seeds, or from the batch means of one
+    /// seed ([`q_star_interval`]).
     pub q_star_stderr: f64,
+    /// The half-width of its 95 % interval (t quantile).
+    pub q_star_ci95: f64,
     /// Seeds averaged.
     pub seeds: usize,
-    /// The seeds' mean averaging window (s).
+    /// The seeds' mean recorded window (s), discarded part included.
     pub window_s: f64,
+    /// The seeds' mean discarded transient (s), MSER.
+    pub discarded_s: f64,
+    /// Seeds without a steady part (MSER discarded more than half).
+    pub unsteady: usize,
     /// Seeds whose window ended at `time.window` without the target.
     pub capped: usize,
-    /// The first and the last third of the windows compared.
+    /// The first and the last third of the steady parts compared.
     pub steadiness: Option<Steadiness>,
     /// Meyer-Peter & Müller at τ*.
     pub mpm: f64,
@@ -323,22 +330,45 @@ pub struct TransportRow {
     pub classes: Vec<(f64, f64)>,
 }
 
+/// The interval of q* over the cells of one τ* (docs/model.md (E2), (E3)):
+/// the seeds' steady means as independent replicates, or one seed's
+/// batch means.
+///
+/// ```
+/// # use mbs::work::cell::{Block, CellResult};
+/// # use mbs::work::beds::{BedRecord, BedStatus};
+/// use mbs::work::experiment::q_star_interval;
+///
+/// # let cell = |seed, q: f64| CellResult { tau_star: 0.1, seed, q_star: q, q_star_class: vec![q],
+/// #     blocks: (0..10).map(|k| Block { q_star: q + k as f64 * 1e-3, bed_level: 0.0, q_star_class: vec![q] }).collect(),
+/// #     discarded: 0, steady: true, window_s: 1.0, target_reached: true, bed_level: 0.0, grain_steps: 0,
+/// #     bed: BedRecord { status: BedStatus::AtRest, settle_s: 0.0, max_overlap_d: 0.0 }, profile: None };
+/// let (a, b) = (cell(1, 0.1), cell(2, 0.2));
+/// let two = q_star_interval(&[&a, &b]);
+/// assert_eq!((two.dof, two.stderr), (1, 0.05));
+/// let one = q_star_interval(&[&a]);
+/// assert_eq!(one.dof, 4); // five batches of two blocks
+/// ```
+pub fn q_star_interval(cells: &[&CellResult]) -> Interval {
+    match cells {
+        [one] => Interval {
+            mean: one.q_star,
+            ..Interval::batch_means(&one.steady_means())
+        },
+        _ => Interval::replicates(&cells.iter().map(|c| c.q_star).collect::<Vec<_>>()),
+    }
+}
+
 /// Combines cell results into one row per τ*, in the configuration's order.
 pub fn aggregate(config: &Config, results: &[CellResult]) -> Vec<TransportRow> {
     let n_classes = config.scenario.bed.classes.len();
+    let block_s = config.durations.block() as f64 * config.scenario.step_dt();
     config
         .tau_stars
         .iter()
         .map(|&tau| {
             let cells: Vec<&CellResult> = results.iter().filter(|r| r.tau_star == tau).collect();
-            let spread = |value: &dyn Fn(&CellResult) -> f64| -> (f64, f64) {
-                let values: Vec<f64> = cells.iter().map(|c| value(c)).collect();
-                match cells.as_slice() {
-                    [one] => (values[0], block_stderr(&one.block_means()).1),
-                    _ => mean_stderr(&values),
-                }
-            };
-            let (q_star, q_star_stderr) = spread(&|c| c.q_star);
+            let interval = q_star_interval(&cells);
             let classes = if n_classes > 1 {
                 (0..n_classes)
                     .map(|k| {
@@ -349,13 +379,19 @@ pub fn aggregate(config: &Config, results: &[CellResult]) -> Vec<TransportRow> {
             } else {
                 Vec::new()
             };
-            let blocks: Vec<Vec<f64>> = cells.iter().map(|c| c.block_means()).collect();
+            let blocks: Vec<Vec<f64>> = cells.iter().map(|c| c.steady_means()).collect();
+            let mean_of = |value: &dyn Fn(&CellResult) -> f64| {
+                mean_stderr(&cells.iter().map(|c| value(c)).collect::<Vec<_>>()).0
+            };
             TransportRow {
                 tau_star: tau,
-                q_star,
-                q_star_stderr,
+                q_star: interval.mean,
+                q_star_stderr: interval.stderr,
+                q_star_ci95: interval.half_width(),
                 seeds: cells.len(),
-                window_s: mean_stderr(&cells.iter().map(|c| c.window_s).collect::<Vec<_>>()).0,
+                window_s: mean_of(&|c| c.window_s),
+                discarded_s: mean_of(&|c| c.discarded as f64 * block_s),
+                unsteady: cells.iter().filter(|c| !c.steady).count(),
                 capped: cells.iter().filter(|c| !c.target_reached).count(),
                 steadiness: Steadiness::of(&blocks),
                 mpm: Reference::MeyerPeterMuller.q_star(tau),

@@ -9,12 +9,13 @@
 use crate::config::Config;
 use crate::error::HostError;
 use crate::io::text::number;
+use crate::science::truncation::Truncation;
 use crate::sim::control::{Checkpoints, Control};
 use crate::sim::frames::Dumps;
 use crate::sim::sims::{check_restored, with_sim, HostSim, SimJob};
 use crate::work::beds::{BedRecord, BedState};
 use crate::work::cell::{
-    Block, CellCheckpoint, CellOutcome, CellResult, CellState, Phase, WindowRule,
+    q_means, Block, CellCheckpoint, CellOutcome, CellResult, CellState, Phase, WindowRule,
 };
 use crate::work::profiles::{Sampler, PROFILE_SAMPLES};
 use indicatif::ProgressBar;
@@ -176,10 +177,8 @@ impl SimJob for CellJob<'_> {
                 let sample = durations.sample;
                 advance(sim, dumps.as_mut(), sample, &kernel_error)?;
                 let o = sim.observe();
-                let q = o.q_star(d_max, s, G) * per_slice;
-                state.total += q;
-                state.block_sum += q;
-                for (c, sum) in state.per_class.iter_mut().enumerate() {
+                state.block_sum += o.q_star(d_max, s, G) * per_slice;
+                for (c, sum) in state.class_sums.iter_mut().enumerate() {
                     // Each class on the total's scale d_max: the classes add up to q*.
                     *sum += o.q_star_class(c, d_max, s, G) * per_slice;
                 }
@@ -188,11 +187,14 @@ impl SimJob for CellJob<'_> {
                     sampler.sample(sim, &mut state.profile).map_err(fail())?;
                 }
                 if state.samples % durations.block_samples == 0 {
+                    let n = durations.block_samples as f64;
                     state.blocks.push(Block {
-                        q_star: state.block_sum / durations.block_samples as f64,
+                        q_star: state.block_sum / n,
                         bed_level: sim.bed_level(),
+                        q_star_class: state.class_sums.iter().map(|q| q / n).collect(),
                     });
                     state.block_sum = 0.0;
+                    state.class_sums.iter_mut().for_each(|q| *q = 0.0);
                 }
                 state.done += sample;
                 stepped += sample;
@@ -208,18 +210,25 @@ impl SimJob for CellJob<'_> {
         if let Some(d) = dumps {
             d.finish()?;
         }
-        let n = state.samples.max(1) as f64;
         let step_dt = sc.step_dt();
-        // Fewer than all blocks and the target reached: the rule stopped it.
+        let q = q_means(&state.blocks);
+        let truncation = Truncation::of(&q);
+        let kept = &state.blocks[truncation.discard..];
+        // Fewer than all blocks: the rule stopped it on the target.
         let target_reached = (state.blocks.len() as u64) < durations.max_blocks
-            || rule
-                .target
-                .reached(&state.blocks.iter().map(|b| b.q_star).collect::<Vec<_>>());
+            || (truncation.steady && rule.target.reached(truncation.kept(&q)));
+        let mean = |value: &dyn Fn(&Block) -> f64| {
+            kept.iter().map(value).sum::<f64>() / kept.len().max(1) as f64
+        };
         Ok(CellOutcome::Done(Box::new(CellResult {
             tau_star: self.tau_star,
             seed: self.seed,
-            q_star: state.total / n,
-            q_star_class: state.per_class.iter().map(|q| q / n).collect(),
+            q_star: mean(&|b| b.q_star),
+            q_star_class: (0..classes.len())
+                .map(|c| mean(&|b| b.q_star_class[c]))
+                .collect(),
+            discarded: truncation.discard,
+            steady: truncation.steady,
             window_s: state.done as f64 * step_dt,
             target_reached,
             blocks: state.blocks,

@@ -142,19 +142,22 @@ fn crafted_sample_counts_that_wrap_are_refused() {
 fn crafted_blocks_past_the_window_s_end_are_refused() {
     // Ten blocks end SMALL's window: a checkpoint cannot hold them.
     crafted_is_refused(IN_WINDOW, "tau0.3_seed1.ckpt", |ck, _| {
-        let block = ck.state.blocks[0];
+        let block = ck.state.blocks[0].clone();
         ck.state.blocks = vec![block; 10];
         ck.state.samples = 10 * 400;
         ck.state.done = 10 * 4000;
         ck.state.block_sum = 0.0;
-        ck.state.total = 10.0 * 400.0 * block.q_star;
+        ck.state.class_sums = vec![0.0];
     });
 }
 
 #[test]
-fn a_crafted_total_is_refused() {
+fn crafted_class_values_are_refused() {
     crafted_is_refused(IN_WINDOW, "tau0.3_seed1.ckpt", |ck, _| {
-        ck.state.total = 2.0 * ck.state.total + 1.0;
+        ck.state.blocks[0].q_star_class = vec![];
+    });
+    crafted_is_refused(IN_WINDOW, "tau0.3_seed1.ckpt", |ck, _| {
+        ck.state.blocks[0].q_star_class = vec![f64::NAN];
     });
 }
 

@@ -77,13 +77,13 @@ fn run_writes_table_plots_and_summary() {
     let lines: Vec<&str> = csv.lines().collect();
     assert_eq!(
         lines[0],
-        "tau_star,q_star,q_star_stderr,seeds,mpm,wong_parker,u_star_m_s,q_b_m2_s,q_b_stderr_m2_s,window_s,capped"
+        "tau_star,q_star,q_star_stderr,q_star_ci95,seeds,mpm,wong_parker,u_star_m_s,q_b_m2_s,q_b_stderr_m2_s,window_s,discarded_s,unsteady,capped"
     );
     assert_eq!(lines.len(), 3);
     let row: Vec<f64> = lines[2].split(',').map(|v| v.parse().unwrap()).collect();
     assert_eq!(row[0], 0.3);
-    assert!(row[1].is_finite() && row[2] >= 0.0 && row[3] == 2.0);
-    assert!((row[4] - 8.0 * (0.3f64 - 0.047).powf(1.5)).abs() < 1e-12);
+    assert!(row[1].is_finite() && row[2] >= 0.0 && row[3] >= row[2] && row[4] == 2.0);
+    assert!((row[5] - 8.0 * (0.3f64 - 0.047).powf(1.5)).abs() < 1e-12);
     for f in ["transport.png", "transport.svg", "summary.json"] {
         assert!(out.join(f).metadata().unwrap().len() > 100, "{f}");
     }
@@ -101,7 +101,7 @@ fn run_writes_table_plots_and_summary() {
         .skip(1)
         .map(|l| l.split(',').collect())
         .collect();
-    assert!(series.starts_with("tau_star,seed,block,t_s,q_star,bed_level_m\n"));
+    assert!(series.starts_with("tau_star,seed,block,t_s,q_star,bed_level_m,part\n"));
     assert_eq!(lines.len(), 4 * 10);
     for cell in summary["cells"].as_array().unwrap() {
         let (tau, seed) = (
@@ -111,10 +111,14 @@ fn run_writes_table_plots_and_summary() {
         let q: Vec<f64> = lines
             .iter()
             .filter(|l| l[0].parse::<f64>().unwrap() == tau && l[1].parse::<u64>().unwrap() == seed)
+            .filter(|l| l[6] == "steady")
             .map(|l| l[4].parse().unwrap())
             .collect();
-        assert_eq!(q.len(), 10);
-        let mean = q.iter().sum::<f64>() / 10.0;
+        // The steady blocks average to the cell's q*; the others are its
+        // discarded transient.
+        let discarded = cell["discarded"].as_u64().unwrap() as usize;
+        assert_eq!(q.len(), 10 - discarded);
+        let mean = q.iter().sum::<f64>() / q.len() as f64;
         let expected = cell["q_star"].as_f64().unwrap();
         assert!(
             (mean - expected).abs() <= 1e-12 * expected.abs().max(1e-9),
@@ -130,8 +134,8 @@ fn run_writes_table_plots_and_summary() {
     let texts =
         mbs::figures::svg_texts(&std::fs::read_to_string(out.join("timeseries.svg")).unwrap());
     for title in [
-        "τ* = 0.1: q* over blocks of 0.005 s",
-        "τ* = 0.3: q* over blocks of 0.005 s",
+        "τ* = 0.1: q* per 0.005 s block after a spin-up of 0.02 s",
+        "τ* = 0.3: q* per 0.005 s block after a spin-up of 0.02 s",
     ] {
         assert!(texts.iter().any(|t| t == title), "{title} in {texts:?}");
     }
@@ -169,27 +173,27 @@ fn mixed_beds_get_columns_per_size_class() {
     run_into(&cfg, &out).assert().success();
     let csv = std::fs::read_to_string(out.join("transport.csv")).unwrap();
     assert!(
-        csv.starts_with("tau_star,q_star,q_star_stderr,seeds,mpm,wong_parker,u_star_m_s,q_b_m2_s,q_b_stderr_m2_s,window_s,capped,q_star_1mm,q_star_1mm_stderr,q_star_0.7mm,q_star_0.7mm_stderr\n"),
+        csv.starts_with("tau_star,q_star,q_star_stderr,q_star_ci95,seeds,mpm,wong_parker,u_star_m_s,q_b_m2_s,q_b_stderr_m2_s,window_s,discarded_s,unsteady,capped,q_star_1mm,q_star_1mm_stderr,q_star_0.7mm,q_star_0.7mm_stderr\n"),
         "{csv}"
     );
     // The classes are on the total's scale (d_max): they add up to q*.
     for line in csv.lines().skip(1) {
         let v: Vec<f64> = line.split(',').map(|x| x.parse().unwrap()).collect();
-        let (total, classes) = (v[1], v[11] + v[13]);
+        let (total, classes) = (v[1], v[14] + v[16]);
         // Units on the largest diameter (1 mm, s = 2.65, g = 9.81):
         // u* = √(τ* (s − 1) g d), q_B = q* √((s − 1) g d³), its error alike.
         let (g_prime, d) = (1.65 * 9.81, 1e-3);
         assert!(
-            (v[6] - (v[0] * g_prime * d).sqrt()).abs() < 1e-15,
+            (v[7] - (v[0] * g_prime * d).sqrt()).abs() < 1e-15,
             "u*: {line}"
         );
         let scale = (g_prime * d * d * d).sqrt();
         assert!(
-            (v[7] - total * scale).abs() <= 1e-15 * scale.max(total.abs() * scale),
+            (v[8] - total * scale).abs() <= 1e-15 * scale.max(total.abs() * scale),
             "q_B: {line}"
         );
         assert!(
-            (v[8] - v[2] * scale).abs() <= 1e-15 * scale,
+            (v[9] - v[2] * scale).abs() <= 1e-15 * scale,
             "q_B stderr: {line}"
         );
         assert!(
@@ -520,7 +524,10 @@ fn a_sharded_run_merged_gives_the_same_table() {
 fn windows_stop_at_the_target_or_say_they_did_not_reach_it() {
     let dir = tempfile::tempdir().unwrap();
     let table = |name: &str, target: &str| {
-        let text = SMALL.replace("window_min = 0.05", "window_min = 0.02") + target;
+        let text = SMALL
+            .replace("window = 0.05", "window = 0.1")
+            .replace("window_min = 0.05", "window_min = 0.02")
+            + target;
         let cfg = write(dir.path(), &format!("{name}.toml"), &text);
         let out = dir.path().join(name);
         let run = run_into(&cfg, &out).assert().success();
@@ -533,25 +540,36 @@ fn windows_stop_at_the_target_or_say_they_did_not_reach_it() {
             .collect();
         (rows, stderr)
     };
-    // Any error is good enough: every window stops at window_min (4 blocks).
+    // Any error is good enough: a window stops as soon as its steady part
+    // holds window_min (4 blocks) and ten correlation times (10 blocks or
+    // more), before time.window (20 blocks); τ* = 0.1 on this unsettled bed
+    // is still falling (a seed finds no steady part) and runs to the cap.
     let (rows, stderr) = table(
         "loose",
         "[target]\nstderr_relative = 1.0\nstderr_absolute = 1.0\n",
     );
-    for r in &rows {
-        assert_eq!((r[9], r[10]), (0.02, 0.0), "{r:?}");
-    }
-    assert!(!stderr.contains("target-not-reached"), "{stderr}");
+    // Columns window_s, unsteady and capped.
+    assert_eq!((rows[0][10], rows[0][12], rows[0][13]), (0.1, 1.0, 2.0));
+    assert!(rows[1][10] >= 0.05 && rows[1][10] < 0.1, "{:?}", rows[1]);
+    assert_eq!((rows[1][12], rows[1][13]), (0.0, 0.0));
+    assert!(
+        stderr.contains("not-steady: tau* = 0.1: in 1 of 2 seed(s)"),
+        "{stderr}"
+    );
+    assert!(
+        !stderr.contains("target-not-reached: tau* = 0.3"),
+        "{stderr}"
+    );
     // None is: every window runs to time.window and says so.
     let (rows, stderr) = table(
         "none",
         "[target]\nstderr_relative = 0.0\nstderr_absolute = 0.0\n",
     );
     for r in &rows {
-        assert_eq!((r[9], r[10]), (0.05, 2.0), "{r:?}");
+        assert_eq!((r[10], r[13]), (0.1, 2.0), "{r:?}");
     }
     assert!(
-        stderr.contains("warning: target-not-reached: tau* = 0.1: 2 of 2 seed(s) averaged for the whole time.window = 0.05 s"),
+        stderr.contains("warning: target-not-reached: tau* = 0.1: 2 of 2 seed(s) averaged for the whole time.window = 0.1 s"),
         "{stderr}"
     );
 }

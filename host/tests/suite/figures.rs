@@ -38,12 +38,10 @@ fn the_transport_figure_labels_decades_thresholds_definitions_and_classes() {
     let out = dir.path().join("out");
     run_into(&cfg, &out).assert().success();
     let texts = svg_texts(&out, "transport");
-    // Both axes: every decade, and 0.02, 0.03, 0.05 on the short τ* axis.
+    // q*: every decade; τ* (0.1 and 0.3 and a quarter beyond): 0.08 to 0.3.
     assert_has(
         &texts,
-        &[
-            "0.0001", "0.001", "0.01", "0.02", "0.03", "0.05", "0.1", "1",
-        ],
+        &["0.0001", "0.001", "0.01", "0.1", "1", "0.08", "0.2", "0.3"],
     );
     assert_has(&texts, &[Q_STAR_AXIS, TAU_STAR_AXIS]);
     for r in Reference::ALL {
@@ -57,7 +55,7 @@ fn the_transport_figure_labels_decades_thresholds_definitions_and_classes() {
     assert_has(
         &texts,
         &[
-            "mbs (mean ± standard error)",
+            "mbs (mean, 95 % interval)",
             "mbs, class d = 1 mm",
             "mbs, class d = 0.7 mm",
         ],
@@ -118,6 +116,20 @@ fn measured_profiles_are_drawn_over_the_profiles_and_a_bad_file_is_a_configurati
     let texts = svg_texts(&out, "profiles");
     let legends = texts.iter().filter(|t| *t == "measured (m.csv)").count();
     assert_eq!(legends, 3, "{texts:?}");
+    // The τ* legend once (the same colours in every panel) and the bed's
+    // surface marked in each of the four panels.
+    assert_eq!(
+        texts.iter().filter(|t| *t == "τ* = 0.1").count(),
+        1,
+        "{texts:?}"
+    );
+    assert_eq!(
+        texts
+            .iter()
+            .filter(|t| t.starts_with("bed surface"))
+            .count(),
+        4
+    );
     // The shift and the file name are kept in the saved configuration.
     let saved = std::fs::read_to_string(out.join("config.toml")).unwrap();
     assert!(saved.contains("measured_shift_d = 0.5"), "{saved}");

@@ -8,10 +8,12 @@
 
 use super::save_stage;
 use crate::calibrate::optimise::{next_root_guess, Parabola};
+use crate::calibrate::plan::Plan;
 use crate::calibrate::{Context, Curve, Slots};
 use crate::error::HostError;
 use crate::figures::{save, LinesFigure, TransportFigure, Q_STAR_AXIS, TAU_STAR_AXIS};
 use crate::io::output::{decimal, write_csv};
+use crate::science::references::Reference;
 use serde::{Deserialize, Serialize};
 
 /// The outcome of stage 3.
@@ -148,26 +150,49 @@ pub fn bracket(sorted: &[f64], best: usize) -> Vec<f64> {
     vec![below, at(best), above]
 }
 
-/// Runs stage 3.
-pub fn run(ctx: &Context<'_>, alpha_m: f64, alpha_cn: f64) -> Result<Option<BetaStage>, HostError> {
-    let plan = &ctx.plan;
-    let (reference, floor) = (ctx.reference, ctx.floor());
-    let configs = |betas: &[f64]| -> Vec<_> {
-        betas
-            .iter()
-            .map(|&b| ctx.configure(alpha_m, alpha_cn, b))
-            .collect()
-    };
+/// Whether an evaluation of [`search`] is on the coarse grid (one seed,
+/// short windows) or a precise curve.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Fidelity {
+    /// The coarse grid.
+    Coarse,
+    /// A precise curve.
+    Precise,
+}
+
+/// What stage 3's search found ([`search`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Search {
+    /// (β, misfit) of the coarse grid.
+    pub coarse: Vec<(f64, f64)>,
+    /// The coarse grid's curves.
+    pub coarse_curves: Vec<Curve>,
+    /// (β, misfit) of the precise curves, in the order evaluated.
+    pub fine: Vec<(f64, f64)>,
+    /// The precise curves, in the same order.
+    pub curves: Vec<Curve>,
+    /// The chosen β.
+    pub beta: f64,
+    /// The parabola through the best precise misfit and its neighbours.
+    pub parabola: Option<Parabola>,
+    /// β's uncertainty ([`beta_uncertainty`] with the chosen curve's noise).
+    pub beta_range: (f64, f64),
+}
+
+/// Stage 3's search over `plan`'s β with curves from `evaluate(betas,
+/// fidelity, first slot)` (`None`: cells owned by other shards are
+/// missing), misfits to `reference` with the target's relative error
+/// `floor`. The order of evaluations is fixed, so a calibration is
+/// reproducible and the search can be tested on synthetic curves.
+pub fn search(
+    plan: &Plan,
+    reference: Reference,
+    floor: f64,
+    mut evaluate: impl FnMut(&[f64], Fidelity, Slots) -> Result<Option<Vec<Curve>>, HostError>,
+) -> Result<Option<Search>, HostError> {
     // Cells are numbered for sharding per evaluation round.
     const ROUND: usize = 1 << 16;
-    let Some(coarse_curves) = ctx.curves(
-        &configs(&plan.beta_grid),
-        &plan.tau_stars,
-        &plan.coarse,
-        None,
-        Slots::From(0),
-    )?
-    else {
+    let Some(coarse_curves) = evaluate(&plan.beta_grid, Fidelity::Coarse, Slots::From(0))? else {
         return Ok(None);
     };
     let coarse: Vec<(f64, f64)> = plan
@@ -199,13 +224,7 @@ pub fn run(ctx: &Context<'_>, alpha_m: f64, alpha_cn: f64) -> Result<Option<Beta
     let mut curves: Vec<Curve> = Vec::new();
     let mut round = 1;
     let (beta, parabola) = loop {
-        let Some(new) = ctx.curves(
-            &configs(&candidates),
-            &plan.tau_stars,
-            &plan.fine,
-            Some(reference),
-            Slots::From(round * ROUND),
-        )?
+        let Some(new) = evaluate(&candidates, Fidelity::Precise, Slots::From(round * ROUND))?
         else {
             return Ok(None);
         };
@@ -238,24 +257,55 @@ pub fn run(ctx: &Context<'_>, alpha_m: f64, alpha_cn: f64) -> Result<Option<Beta
         }
         candidates = vec![next];
     };
-    let after = fine
+    let after = fine.iter().position(|e| e.0 == beta).unwrap_or(0);
+    let noise = curves[after].misfit_noise(reference, floor);
+    let beta_range = beta_uncertainty(parabola.as_ref(), beta, &fine, noise);
+    Ok(Some(Search {
+        coarse,
+        coarse_curves,
+        fine,
+        curves,
+        beta,
+        parabola,
+        beta_range,
+    }))
+}
+
+/// Runs stage 3.
+pub fn run(ctx: &Context<'_>, alpha_m: f64, alpha_cn: f64) -> Result<Option<BetaStage>, HostError> {
+    let plan = &ctx.plan;
+    let (reference, floor) = (ctx.reference, ctx.floor());
+    let evaluate = |betas: &[f64], fidelity: Fidelity, slots: Slots| {
+        let configs: Vec<_> = betas
+            .iter()
+            .map(|&b| ctx.configure(alpha_m, alpha_cn, b))
+            .collect();
+        let (f, judge) = match fidelity {
+            Fidelity::Coarse => (&plan.coarse, None),
+            Fidelity::Precise => (&plan.fine, Some(reference)),
+        };
+        ctx.curves(&configs, &plan.tau_stars, f, judge, slots)
+    };
+    let Some(found) = search(plan, reference, floor, evaluate)? else {
+        return Ok(None);
+    };
+    let after = found
+        .fine
         .iter()
-        .position(|e| e.0 == beta)
-        .map_or_else(|| curves[0].clone(), |k| curves[k].clone());
-    let misfit_noise = after.misfit_noise(reference, floor);
-    let beta_range = beta_uncertainty(parabola.as_ref(), beta, &fine, misfit_noise);
+        .position(|e| e.0 == found.beta)
+        .map_or_else(|| found.curves[0].clone(), |k| found.curves[k].clone());
     let result = BetaStage {
         alpha_m,
         alpha_cn,
         worst_factor: after.worst_factor(reference),
         misfit: after.misfit(reference, floor),
-        misfit_noise,
-        coarse,
-        fine,
-        parabola,
-        beta,
-        beta_range,
-        before: coarse_curves[0].clone(),
+        misfit_noise: after.misfit_noise(reference, floor),
+        coarse: found.coarse,
+        fine: found.fine,
+        parabola: found.parabola,
+        beta: found.beta,
+        beta_range: found.beta_range,
+        before: found.coarse_curves[0].clone(),
         after,
     };
     write_outputs(ctx, &result)?;
@@ -334,6 +384,7 @@ fn write_outputs(ctx: &Context<'_>, r: &BetaStage) -> Result<(), HostError> {
         ),
         x_label: TAU_STAR_AXIS.into(),
         y_label: Q_STAR_AXIS.into(),
+        flags: Vec::new(),
     };
     save(&figure, &ctx.dir, "stage3")?;
     let mut grid = r.coarse.clone();
@@ -364,7 +415,127 @@ fn write_outputs(ctx: &Context<'_>, r: &BetaStage) -> Result<(), HostError> {
         log_axes: true,
         markers: false,
         marks: vec![(r.beta, format!("chosen β = {:.3}", r.beta))],
+        ..LinesFigure::default()
     };
     save(&misfit, &ctx.dir, "stage3_misfit")?;
     save_stage(&ctx.dir, "stage3", r)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand_core::{Rng, SeedableRng};
+    use rand_xoshiro::Xoshiro256PlusPlus;
+
+    /// Relative standard errors of the precise points of the committed
+    /// full calibration (docs/calibration/stage3_transport.csv, after the
+    /// fit, τ* = 0.06 … 0.5); the coarse grid's one seed has twice them.
+    const MEASURED: [f64; 8] = [0.27, 0.21, 0.08, 0.04, 0.06, 0.04, 0.02, 0.02];
+
+    /// How q* falls with β on the default bed: ×1/10 from β = 1 to 3.6
+    /// (docs/calibration/stage3_transport.csv), q* ∝ β^−1.8.
+    const SLOPE: f64 = 1.8;
+
+    struct Synthetic {
+        rng: Xoshiro256PlusPlus,
+        /// The β at which the curve's mean log-ratio is ln m(0.15) = 0.
+        beta0: f64,
+        /// The curve's shape against the reference: m(τ*) = (τ*/0.15)^shape.
+        shape: f64,
+        reference: Reference,
+    }
+
+    impl Synthetic {
+        fn normal(&mut self) -> f64 {
+            let mut u = || ((self.rng.next_u64() >> 11) + 1) as f64 / 9_007_199_254_740_993.0;
+            let (a, b) = (u(), u());
+            (-2.0 * a.ln()).sqrt() * (std::f64::consts::TAU * b).cos()
+        }
+
+        /// The curve at β: the reference × m(τ*) × (β/β0)^−SLOPE, scattered
+        /// by the measured relative errors, which it reports.
+        fn curve(&mut self, tau_stars: &[f64], beta: f64, fidelity: Fidelity) -> Curve {
+            let scale = if fidelity == Fidelity::Coarse {
+                2.0
+            } else {
+                1.0
+            };
+            let mut q_star = Vec::new();
+            let mut stderr = Vec::new();
+            for (k, &t) in tau_stars.iter().enumerate() {
+                let sigma = scale * MEASURED[k.min(MEASURED.len() - 1)];
+                let q = self.reference.q_star(t)
+                    * (t / 0.15).powf(self.shape)
+                    * (beta / self.beta0).powf(-SLOPE)
+                    * (sigma * self.normal()).exp();
+                q_star.push(q);
+                stderr.push(q * sigma);
+            }
+            Curve {
+                tau_stars: tau_stars.to_vec(),
+                q_star,
+                stderr,
+                classes: vec![],
+                failures: vec![],
+                seeds: vec![if scale > 1.0 { 1 } else { 4 }; tau_stars.len()],
+                reached: vec![true; tau_stars.len()],
+            }
+        }
+    }
+
+    #[test]
+    fn the_beta_range_holds_a_known_beta_in_nine_trials_of_ten() {
+        let plan = Plan::full();
+        let reference = Reference::WongParker;
+        let trials = 400;
+        let mut held = 0;
+        for trial in 0..trials {
+            let mut rng = Xoshiro256PlusPlus::seed_from_u64(trial);
+            let mut uniform = || (rng.next_u64() >> 11) as f64 / (1u64 << 53) as f64;
+            let beta0 = (2f64.ln() + 5f64.ln() * uniform()).exp();
+            // Curves that differ from the reference's shape by up to a
+            // factor 1.5 over the τ* range, as the model's do.
+            let shape = 0.2 * (2.0 * uniform() - 1.0);
+            // The truth: the β of the smallest expected misfit, where the
+            // weighted mean of ln m(τ*) − SLOPE ln(β/β0) vanishes (weights
+            // 1/(σ² + floor²)).
+            let (num, den) =
+                plan.tau_stars
+                    .iter()
+                    .enumerate()
+                    .fold((0.0, 0.0), |(n, d), (k, &t)| {
+                        let s = MEASURED[k.min(MEASURED.len() - 1)];
+                        let w = 1.0 / (s * s + 0.01);
+                        (n + w * shape * (t / 0.15).ln(), d + w)
+                    });
+            let truth = beta0 * (num / den / SLOPE).exp();
+            let mut synthetic = Synthetic {
+                rng,
+                beta0,
+                shape,
+                reference,
+            };
+            let tau_stars = plan.tau_stars.clone();
+            let found = search(&plan, reference, 0.1, |betas, fidelity, _| {
+                Ok(Some(
+                    betas
+                        .iter()
+                        .map(|&b| synthetic.curve(&tau_stars, b, fidelity))
+                        .collect(),
+                ))
+            })
+            .unwrap()
+            .unwrap();
+            let (lo, hi) = found.beta_range;
+            assert!(
+                lo <= found.beta && found.beta <= hi,
+                "trial {trial}: {} outside {lo}–{hi}",
+                found.beta
+            );
+            held += usize::from(lo <= truth && truth <= hi);
+        }
+        let share = held as f64 / trials as f64;
+        eprintln!("the range held the known beta in {held} of {trials} trials");
+        assert!(share >= 0.9, "{share}");
+    }
 }

@@ -204,6 +204,7 @@ fn write_outputs(ctx: &Context<'_>, r: &MixedStage) -> Result<(), HostError> {
         ),
         x_label: "class Shields number τ*_k = τ* d_max / d_k".into(),
         y_label: "fractional transport q*_k / f_k (q*_k: class k's q*, f_k: its fraction)".into(),
+        flags: Vec::new(),
     };
     save(&figure, &ctx.dir, "stage5")?;
     save_stage(&ctx.dir, "stage5", r)

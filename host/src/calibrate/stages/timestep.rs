@@ -231,6 +231,7 @@ fn write_outputs(ctx: &Context<'_>, r: &TimestepStage) -> Result<(), HostError> 
         dots: Vec::new(),
         x_ticks: rows.iter().map(|row| x(row)).collect(),
         marks: Vec::new(),
+        ..LinesFigure::default()
     };
     save(
         &chart(
@@ -290,6 +291,7 @@ fn write_outputs(ctx: &Context<'_>, r: &TimestepStage) -> Result<(), HostError> 
             title,
             x_label: TAU_STAR_AXIS.into(),
             y_label: Q_STAR_AXIS.into(),
+            flags: Vec::new(),
         };
         save(&figure, &ctx.dir, name)?;
     }
