@@ -9,6 +9,7 @@ use super::stages::{
     timestep::{TimestepRow, TimestepStage},
 };
 use super::Plan;
+use crate::calibrate::stages::timestep::PAPER_CONSTANTS_DT;
 use crate::config::Config;
 use crate::error::HostError;
 use crate::io::output::write_text;
@@ -71,14 +72,12 @@ fn settling_reason(stage: &SettlingStage, paper: f64) -> String {
     }
 }
 
-/// The fine grain of the paper's stage 4 (mm) and the constants_dt it found
-/// there (s).
-const PAPER_D_FINE_MM: f64 = 0.1;
-const PAPER_CONSTANTS_DT_FINE: f64 = 9.0e-6;
-/// The grain where the paper fitted α_m, α_cn and β (mm), and its
-/// constants_dt (s).
-const PAPER_D_BASE_MM: f64 = 0.5;
-const PAPER_CONSTANTS_DT_BASE: f64 = 2.0e-5;
+/// The paper's fine grain (mm) and its constants_dt (s), then the grain
+/// where it fitted α_m, α_cn and β with its constants_dt ([`PAPER_CONSTANTS_DT`]).
+const PAPER_D_FINE_MM: f64 = PAPER_CONSTANTS_DT[0].0;
+const PAPER_CONSTANTS_DT_FINE: f64 = PAPER_CONSTANTS_DT[0].1;
+const PAPER_D_BASE_MM: f64 = PAPER_CONSTANTS_DT[1].0;
+const PAPER_CONSTANTS_DT_BASE: f64 = PAPER_CONSTANTS_DT[1].1;
 
 /// Why constants_dt at the paper's fine grain differs: the size scaling of
 /// this run against the paper's two values.

@@ -2,7 +2,7 @@
 //! with dots and marked x values (packing, calibration stages, profiles).
 
 use super::axes::{draw_legend, draw_mesh, log_ticks};
-use super::style::{marker, Shape, SERIES_COLOURS, SHAPES};
+use super::style::{marker, SERIES_COLOURS, SHAPES};
 use super::{err, Figure, Px};
 use plotters::coord::ranged1d::ValueFormatter;
 use plotters::coord::Shift;
@@ -23,7 +23,8 @@ pub struct LinesFigure {
     pub y_label: String,
     /// Logarithmic x and y axes (all values must then be > 0).
     pub log_axes: bool,
-    /// A dot at every point of the lines (computed values rather than dense curves).
+    /// A marker of the line's own shape at every point of the lines
+    /// (computed values), or at a dozen points of a dense line.
     pub markers: bool,
     /// The x values to label (empty: chosen automatically).
     pub x_ticks: Vec<f64>,
@@ -122,11 +123,22 @@ impl LinesFigure {
                     .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + px.i(20), y)], style));
             }
             if self.markers {
+                // Each line its own shape; on a dense line (a settling
+                // curve) a dozen of them, staggered from line to line so that they do not stack.
+                let shape = SHAPES[i % SHAPES.len()];
+                let (every, skip) = if points.len() > 40 {
+                    let every = points.len().div_ceil(12);
+                    (every, i * every / self.series.len().max(1))
+                } else {
+                    (1, 0)
+                };
                 chart
                     .draw_series(
                         points
                             .iter()
-                            .map(|&p| marker(Shape::Circle, p, px.i(4), colour, px)),
+                            .skip(skip)
+                            .step_by(every)
+                            .map(|&p| marker(shape, p, px.i(4), colour, px)),
                     )
                     .map_err(err)?;
             }

@@ -6,14 +6,19 @@ use plotters::element::ComposedElement;
 use plotters::prelude::*;
 
 /// Colours of the simulated series: black, then none of the colours of
-/// [`REFERENCE_COLOURS`].
-pub(super) const SERIES_COLOURS: [RGBColor; 6] = [
+/// [`REFERENCE_COLOURS`]; ten, so that a figure of up to nine lines (a
+/// calibration stage's scan) gives each its own.
+pub(super) const SERIES_COLOURS: [RGBColor; 10] = [
     RGBColor(0, 0, 0),
     RGBColor(31, 119, 180),
     RGBColor(214, 39, 40),
     RGBColor(23, 190, 207),
     RGBColor(227, 119, 194),
     RGBColor(188, 189, 34),
+    RGBColor(0, 0, 128),
+    RGBColor(128, 0, 0),
+    RGBColor(85, 107, 47),
+    RGBColor(218, 165, 32),
 ];
 
 /// Colours of the reference relations.

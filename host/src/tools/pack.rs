@@ -100,7 +100,7 @@ pub fn settling_figure(series: Vec<(String, Vec<(f64, f64)>)>, title: String) ->
         x_label: "time t (s)".into(),
         y_label: "centre of gravity y_gc (mm)".into(),
         log_axes: false,
-        markers: false,
+        markers: true,
         dots: Vec::new(),
         x_ticks: Vec::new(),
         marks: Vec::new(),

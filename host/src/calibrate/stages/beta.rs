@@ -427,10 +427,10 @@ mod tests {
     use rand_core::{Rng, SeedableRng};
     use rand_xoshiro::Xoshiro256PlusPlus;
 
-    /// Relative standard errors of the precise points of the committed
-    /// full calibration (docs/calibration/stage3_transport.csv, after the
-    /// fit, τ* = 0.06 … 0.5); the coarse grid's one seed has twice them.
-    const MEASURED: [f64; 8] = [0.27, 0.21, 0.08, 0.04, 0.06, 0.04, 0.02, 0.02];
+    /// Relative standard errors of the precise points of a full
+    /// calibration to Wong & Parker (τ* = 0.06 … 0.5, after the fit,
+    /// 2026-11-27); the coarse grid's one seed has twice them.
+    const MEASURED: [f64; 8] = [0.25, 0.24, 0.37, 0.15, 0.08, 0.08, 0.06, 0.03];
 
     /// How q* falls with β on the default bed: ×1/10 from β = 1 to 3.6
     /// (docs/calibration/stage3_transport.csv), q* ∝ β^−1.8.
@@ -494,8 +494,9 @@ mod tests {
             let mut uniform = || (rng.next_u64() >> 11) as f64 / (1u64 << 53) as f64;
             let beta0 = (2f64.ln() + 5f64.ln() * uniform()).exp();
             // Curves that differ from the reference's shape by up to a
-            // factor 1.5 over the τ* range, as the model's do.
-            let shape = 0.2 * (2.0 * uniform() - 1.0);
+            // factor 2 either way over the τ* range, as the model's do
+            // (worst factor 1.98 against Wong & Parker).
+            let shape = 0.6 * (2.0 * uniform() - 1.0);
             // The truth: the β of the smallest expected misfit, where the
             // weighted mean of ln m(τ*) − SLOPE ln(β/β0) vanishes (weights
             // 1/(σ² + floor²)).

@@ -179,17 +179,29 @@ fn write_outputs(ctx: &Context<'_>, r: &MixedStage) -> Result<(), HostError> {
     write_csv(&ctx.dir.join("stage5.csv"), None, &lines)?;
     let mut diameters: Vec<f64> = r.points.iter().map(|p| p.diameter_mm).collect();
     diameters.dedup();
+    // Each class's points, then what Wilcock & Crowe (2003) give them (the
+    // table's comparison).
+    let class = |d: f64, value: &dyn Fn(&ClassPoint) -> f64| -> Vec<(f64, f64, f64)> {
+        r.points
+            .iter()
+            .filter(|p| p.diameter_mm == d)
+            .map(|p| (p.tau_star_class, value(p), 0.0))
+            .collect()
+    };
     let series = diameters
         .iter()
         .map(|&d| {
-            let pts = r
-                .points
-                .iter()
-                .filter(|p| p.diameter_mm == d)
-                .map(|p| (p.tau_star_class, p.q_star_fraction, 0.0))
-                .collect();
-            (format!("class d = {d} mm"), pts)
+            (
+                format!("class d = {d} mm"),
+                class(d, &|p| p.q_star_fraction),
+            )
         })
+        .chain(diameters.iter().map(|&d| {
+            (
+                format!("Wilcock & Crowe 2003, class d = {d} mm"),
+                class(d, &|p| p.wilcock_crowe),
+            )
+        }))
         .collect();
     let figure = TransportFigure {
         series,

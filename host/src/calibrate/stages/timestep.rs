@@ -16,6 +16,10 @@ use crate::figures::{save, LinesFigure, TransportFigure, Q_STAR_AXIS, TAU_STAR_A
 use crate::io::output::{decimal, write_csv};
 use serde::{Deserialize, Serialize};
 
+/// The paper's constants_dt (Fig. 11): (d in mm, constants_dt in s) at its
+/// fine grain and at the grain where it fitted α_m, α_cn and β.
+pub const PAPER_CONSTANTS_DT: [(f64, f64); 2] = [(0.1, 9.0e-6), (0.5, 2.0e-5)];
+
 /// One (d, nvd) search.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct TimestepRow {
@@ -218,9 +222,10 @@ fn write_outputs(ctx: &Context<'_>, r: &TimestepStage) -> Result<(), HostError> 
     let chart = |rows: &[&TimestepRow],
                  x: &dyn Fn(&TimestepRow) -> f64,
                  x_label: &str,
-                 title: String| LinesFigure {
+                 title: String,
+                 dots: Vec<(String, Vec<(f64, f64)>)>| LinesFigure {
         series: vec![(
-            String::new(),
+            "mbs".into(),
             rows.iter().map(|row| (x(row), row.constants_dt)).collect(),
         )],
         title,
@@ -228,7 +233,7 @@ fn write_outputs(ctx: &Context<'_>, r: &TimestepStage) -> Result<(), HostError> 
         y_label: "constants' time step constants_dt (s)".into(),
         log_axes: true,
         markers: true,
-        dots: Vec::new(),
+        dots,
         x_ticks: rows.iter().map(|row| x(row)).collect(),
         marks: Vec::new(),
         ..LinesFigure::default()
@@ -241,6 +246,10 @@ fn write_outputs(ctx: &Context<'_>, r: &TimestepStage) -> Result<(), HostError> 
             format!(
                 "Stage 4: constants_dt restoring agreement against d (nvd = {first_layers}; paper Fig. 11)"
             ),
+            vec![(
+                "the paper (Fig. 11): 9.0e-6 s at 0.1 mm, 2.0e-5 s at 0.5 mm".into(),
+                PAPER_CONSTANTS_DT.to_vec(),
+            )],
         ),
         &ctx.dir,
         "stage4_dt",
@@ -253,6 +262,7 @@ fn write_outputs(ctx: &Context<'_>, r: &TimestepStage) -> Result<(), HostError> 
             format!(
                 "Stage 4: constants_dt restoring agreement against nvd (d = {study_d} mm; paper Fig. 11)"
             ),
+            Vec::new(),
         ),
         &ctx.dir,
         "stage4_dt_layers",
