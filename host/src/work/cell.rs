@@ -85,11 +85,6 @@ pub struct CellResult {
 }
 
 impl CellResult {
-    /// The block means of q*.
-    pub fn block_means(&self) -> Vec<f64> {
-        q_means(&self.blocks)
-    }
-
     /// The block means of q* of the steady part (after the discarded
     /// blocks).
     pub fn steady_means(&self) -> Vec<f64> {
