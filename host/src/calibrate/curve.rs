@@ -11,8 +11,11 @@ pub struct Curve {
     pub tau_stars: Vec<f64>,
     /// Mean q* over seeds (NaN where a cell failed).
     pub q_star: Vec<f64>,
-    /// Standard error between seeds.
+    /// Standard error between seeds (one seed: of its batch means).
     pub stderr: Vec<f64>,
+    /// Degrees of freedom of each standard error (its t quantile; 0: none).
+    #[serde(default)]
+    pub dof: Vec<usize>,
     /// Per size class: mean q* per τ*.
     pub classes: Vec<Vec<f64>>,
     /// Kernel failures (cell message), if any.
@@ -152,6 +155,7 @@ mod tests {
             .collect();
         super::Curve {
             stderr: q_star.iter().zip(relative).map(|(q, e)| q * e).collect(),
+            dof: vec![3, 3],
             q_star,
             tau_stars,
             classes: vec![],

@@ -168,8 +168,8 @@ impl Context<'_> {
     /// Whether point `p` of `curve` needs no more seeds: its standard error
     /// reaches the target, or its factor to `judge` exceeds the plan's
     /// target factor by more than its 95 % interval (t quantile of its
-    /// degrees of freedom: seeds − 1, or one seed's batches − 1), so that
-    /// more seeds would not change the verdict.
+    /// degrees of freedom), so that more seeds would not change the
+    /// verdict.
     fn point_done(&self, curve: &Curve, p: usize, judge: Option<Reference>) -> bool {
         let (q, e) = (curve.q_star[p], curve.stderr[p]);
         if !q.is_finite() || !e.is_finite() {
@@ -181,10 +181,7 @@ impl Context<'_> {
         }
         judge.is_some_and(|reference| {
             let (r, sigma) = curve.log_ratios(reference)[p];
-            let dof = match curve.seeds[p] {
-                1 => crate::science::interval::BATCHES - 1,
-                s => s - 1,
-            };
+            let dof = curve.dof.get(p).copied().unwrap_or(0);
             r.abs() - crate::science::interval::t95(dof) * sigma > self.plan.target_factor.ln()
         })
     }
@@ -201,6 +198,7 @@ impl Context<'_> {
             tau_stars: tau_stars.to_vec(),
             q_star: Vec::new(),
             stderr: Vec::new(),
+            dof: Vec::new(),
             classes: vec![Vec::new(); n_classes],
             failures: Vec::new(),
             seeds: chunks.iter().map(|c| c.len()).collect(),
@@ -215,11 +213,11 @@ impl Context<'_> {
                 }
             }
             // As in `mbs run`: the seeds' spread, or one seed's batch means.
-            let (mean, err) = if cells.len() == chunk.len() {
+            let (mean, err, dof) = if cells.len() == chunk.len() {
                 let i = crate::work::experiment::q_star_interval(&cells);
-                (i.mean, i.stderr)
+                (i.mean, i.stderr, i.dof)
             } else {
-                (f64::NAN, f64::NAN)
+                (f64::NAN, f64::NAN, 0)
             };
             let per_class: Vec<Vec<f64>> = (0..n_classes)
                 .map(|k| {
@@ -231,6 +229,7 @@ impl Context<'_> {
                 .collect();
             curve.q_star.push(mean);
             curve.stderr.push(err);
+            curve.dof.push(dof);
             for (k, values) in per_class.iter().enumerate() {
                 curve.classes[k].push(crate::science::interval::mean_stderr(values).0);
             }

@@ -159,9 +159,15 @@ impl WindowRule {
             return true;
         }
         let q = q_means(blocks);
-        let t = Truncation::of(&q);
-        let kept = t.kept(&q);
-        t.steady && kept.len() as u64 >= self.durations.min_blocks && self.target.reached(kept)
+        let (t, reached) = self.verdict(&q);
+        reached && (q.len() - t.discard) as u64 >= self.durations.min_blocks
+    }
+
+    /// MSER's truncation of the block means `q` and whether it found a
+    /// steady part that reaches the target.
+    pub fn verdict(&self, q: &[f64]) -> (Truncation, bool) {
+        let t = Truncation::of(q);
+        (t, t.steady && self.target.reached(t.kept(q)))
     }
 }
 

@@ -9,7 +9,6 @@
 use crate::config::Config;
 use crate::error::HostError;
 use crate::io::text::number;
-use crate::science::truncation::Truncation;
 use crate::sim::control::{Checkpoints, Control};
 use crate::sim::frames::Dumps;
 use crate::sim::sims::{check_restored, with_sim, HostSim, SimJob};
@@ -211,12 +210,10 @@ impl SimJob for CellJob<'_> {
             d.finish()?;
         }
         let step_dt = sc.step_dt();
-        let q = q_means(&state.blocks);
-        let truncation = Truncation::of(&q);
+        let (truncation, reached) = rule.verdict(&q_means(&state.blocks));
         let kept = &state.blocks[truncation.discard..];
         // Fewer than all blocks: the rule stopped it on the target.
-        let target_reached = (state.blocks.len() as u64) < durations.max_blocks
-            || (truncation.steady && rule.target.reached(truncation.kept(&q)));
+        let target_reached = (state.blocks.len() as u64) < durations.max_blocks || reached;
         let mean = |value: &dyn Fn(&Block) -> f64| {
             kept.iter().map(value).sum::<f64>() / kept.len().max(1) as f64
         };

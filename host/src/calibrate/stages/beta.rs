@@ -475,6 +475,7 @@ mod tests {
                 tau_stars: tau_stars.to_vec(),
                 q_star,
                 stderr,
+                dof: vec![if scale > 1.0 { 4 } else { 3 }; tau_stars.len()],
                 classes: vec![],
                 failures: vec![],
                 seeds: vec![if scale > 1.0 { 1 } else { 4 }; tau_stars.len()],

@@ -317,6 +317,7 @@ mod tests {
             tau_stars: vec![],
             q_star: vec![],
             stderr: vec![],
+            dof: vec![],
             classes: vec![],
             failures: vec![],
             seeds: vec![],
