@@ -24,7 +24,11 @@ Standard library only.
 import argparse
 import csv
 import math
+import os
 import sys
+
+# The largest file read: 16 MiB (a profile of some 300 000 heights).
+BOUND = 16 << 20
 
 
 class Refused(Exception):
@@ -34,13 +38,16 @@ class Refused(Exception):
 def read(path, columns):
     try:
         with open(path, newline="") as f:
-            rows = list(csv.DictReader(f))
+            text = f.read(BOUND + 1)
+            if len(text) > BOUND:
+                raise Refused(f"{path}: longer than {BOUND >> 20} MiB, the largest profile: refused")
+            rows = list(csv.DictReader(text.splitlines()))
     except OSError as e:
         raise Refused(f"{path}: {e.strerror}")
     except (csv.Error, UnicodeDecodeError) as e:
         raise Refused(f"{path}: not a CSV file ({e})")
-    if not rows:
-        raise Refused(f"{path}: no rows")
+    if len(rows) < 2:
+        raise Refused(f"{path}: {len(rows)} rows; a profile needs at least 2")
     missing = [c for c in columns if c not in rows[0]]
     if missing:
         raise Refused(f"{path}: no column {', '.join(missing)}")
@@ -55,6 +62,22 @@ def number(path, row, column):
     if not math.isfinite(x):
         raise Refused(f"{path}: {column} = {row[column]!r} is not finite")
     return x
+
+
+def heights(path, zs):
+    """zs, if strictly increasing (interpolation needs it); else refused."""
+    for a, b in zip(zs, zs[1:]):
+        if not b > a:
+            raise Refused(f"{path}: heights must increase from row to row ({a} then {b})")
+    return zs
+
+
+def within(path, column, vs, lo, hi):
+    """vs, if every value lies in [lo, hi]; else refused naming the first."""
+    for v in vs:
+        if not lo <= v <= hi:
+            raise Refused(f"{path}: {column} = {v} must be in [{lo}, {hi}]")
+    return vs
 
 
 def interp(xs, ys, x):
@@ -84,6 +107,8 @@ def smooth(zs, vs, width=1.0):
 def surface(zs, phi, z0):
     sm = smooth(zs, phi)
     bed = [p for z, p in zip(zs, sm) if z0 <= z <= z0 + 3.0]
+    if not bed or sum(bed) <= 0:
+        return 0.0, None
     phi_b = sum(bed) / len(bed)
     half = phi_b / 2
     top = None
@@ -113,6 +138,9 @@ def main():
     mcols = ["z_over_d", "solid_fraction", "particle_velocity_m_s"]
     m = read(measured, mcols)
     mz, mphi, mup = ([number(measured, r, c) for r in m] for c in mcols)
+    heights(measured, mz)
+    within(measured, "solid_fraction", mphi, 0.0, 1.0)
+    within(measured, "particle_velocity_m_s", mup, -100.0, 100.0)
     has_uf = "fluid_velocity_m_s" in m[0]
     muf = [number(measured, r, "fluid_velocity_m_s") for r in m] if has_uf else None
 
@@ -121,7 +149,11 @@ def main():
     p = read(prof, pcols)
     tau = p[0]["tau_star"]
     p = [r for r in p if r["tau_star"] == tau]
+    if len(p) < 2:
+        raise Refused(f"{prof}: {len(p)} rows at tau* {tau}; a profile needs at least 2")
     pz, pphi, pup, puf = ([number(prof, r, c) for r in p] for c in pcols[1:])
+    heights(prof, pz)
+    within(prof, "solid_fraction", pphi, 0.0, 1.0)
     report(measured, run, tau, d, scale, mz, mphi, mup, muf, pz, pphi, pup, puf)
     stresses(measured, m, mz, prof, p, pz)
 
@@ -159,6 +191,8 @@ def report(measured, run, tau, d, scale, mz, mphi, mup, muf, pz, pphi, pup, puf)
 
     flux = [a * b for a, b in zip(mphi, mup)]
     fmax = max(flux)
+    if fmax <= 0:
+        raise Refused(f"{measured}: no transport (phi u_p is nowhere positive)")
     layer = [i for i, f in enumerate(flux) if f >= 0.01 * fmax]
     print(f"transport layer: measured z in [{mz[layer[0]]:.2f}, {mz[layer[-1]]:.2f}] d, {len(layer)} points")
     for name, shift in (("no shift", 0.0), ("surfaces aligned", ms - ps)):
@@ -175,13 +209,17 @@ def report(measured, run, tau, d, scale, mz, mphi, mup, muf, pz, pphi, pup, puf)
     tpath = run + "/transport.csv"
     t = read(tpath, ["q_star", "q_star_stderr"])[0]
     q, q_err = number(tpath, t, "q_star"), number(tpath, t, "q_star_stderr")
+    ratio = f"{q / q_meas:.2f}" if q_meas > 0 else "undefined (no measured transport)"
     print(f"q*: measured {q_meas:.3f}, run profile {q_prof:.3f}, run transport.csv {q:.3f}"
-          f" +- {q_err:.3f}; ratio {q / q_meas:.2f}")
-    top = max(i for i, f in enumerate(pphi) if f > 1e-3)
+          f" +- {q_err:.3f}; ratio {ratio}")
+    grains = [i for i, f in enumerate(pphi) if f > 1e-3]
+    if not grains:
+        raise Refused(f"{run}/profiles.csv: no grains (phi > 1e-3 nowhere)")
+    top = max(grains)
     print(f"max u_p (phi > 1e-3): run {pup[top]:.3f} m/s at {pz[top]:.2f} d; measured {max(mup):.3f}")
     if muf:
         above = [i for i, z in enumerate(mz) if z >= ms]
-        e = [interp(pz, puf, mz[i]) - muf[i] for i in above]
+        e = [interp(pz, puf, mz[i]) - muf[i] for i in above] or [0.0]
         print(f"u_f over the water above the measured surface (no shift): rms {math.sqrt(sum(x * x for x in e) / len(e)):.3f} m/s")
         print(f"u_f at the surface: run {puf[-1]:.3f}, measured {muf[-1]:.3f} m/s")
 
@@ -191,4 +229,9 @@ if __name__ == "__main__":
         main()
     except Refused as e:
         print(f"error: {e}", file=sys.stderr)
+        sys.exit(2)
+    except (ArithmeticError, ValueError, IndexError, KeyError) as e:
+        # A safety net: input that passed the checks above and still cannot
+        # be compared is named, never a traceback.
+        print(f"error: {sys.argv[1:3]} cannot be compared: {type(e).__name__}: {e}", file=sys.stderr)
         sys.exit(2)

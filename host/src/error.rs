@@ -158,6 +158,14 @@ pub enum ConfigError {
         /// The kernel's error (value and allowed range).
         source: mbs_kernel::Error,
     },
+    /// One of the errors above, with where the value was given: a line
+    /// of the configuration file or a `--set`.
+    Given {
+        /// The error.
+        error: Box<ConfigError>,
+        /// Where, e.g. `--set flow.kappa=2` or `case.toml line 12`.
+        at: String,
+    },
 }
 
 impl fmt::Display for ConfigError {
@@ -175,6 +183,7 @@ impl fmt::Display for ConfigError {
                 source: mbs_kernel::Error::InvalidParameter { value, allowed, .. },
             } => write!(f, "{key} = {}: must be {allowed}", number(*value)),
             ConfigError::Kernel { key, source } => write!(f, "{key}: {source}"),
+            ConfigError::Given { error, at } => write!(f, "{error} (given by {at})"),
         }
     }
 }
@@ -184,6 +193,7 @@ impl std::error::Error for ConfigError {
         match self {
             ConfigError::Read { source, .. } => Some(source),
             ConfigError::Kernel { source, .. } => Some(source),
+            ConfigError::Given { error, .. } => Some(error.as_ref()),
             _ => None,
         }
     }

@@ -41,10 +41,10 @@ pub enum Command {
     #[command(mut_arg("threads", |a| a.hide(true)))]
     #[command(mut_arg("sets", |a| a.hide(true)))]
     Merge(MergeArgs),
-    /// Prints the embedded default configuration (the paper's case), commented.
+    /// Prints the embedded default configuration (the paper's case), commented; with a
+    /// file or --set, checks it as `run` would and prints it with every default filled in.
     #[command(mut_arg("quiet", |a| a.hide(true)))]
     #[command(mut_arg("threads", |a| a.hide(true)))]
-    #[command(mut_arg("sets", |a| a.hide(true)))]
     Config(ConfigArgs),
     /// Packing test (docs/model.md §9 step 1): packing.csv and a plot of y_gc(t).
     #[command(mut_arg("threads", |a| a.hide(true)))]
@@ -72,7 +72,7 @@ impl Command {
             Command::Calibrate(args) => args.take_shared(),
             Command::Run(RunArgs { shared, .. })
             | Command::Merge(MergeArgs { shared, .. })
-            | Command::Config(ConfigArgs { shared })
+            | Command::Config(ConfigArgs { shared, .. })
             | Command::Pack(PackArgs { shared, .. })
             | Command::Snapshot(SnapshotArgs { shared, .. })
             | Command::Digest(DigestArgs { shared, .. })

@@ -1,16 +1,17 @@
 //! `mbs digest`: the state digests after settling and flow steps, digest
 //! traces, and their checks (docs/determinism.md).
 
-use super::common::print;
 use super::common::tau_arg;
 use super::common::Invocation;
 use super::common::Shared;
-use crate::config::Config;
+use super::common::{print, print_err};
 use crate::config::Precision;
+use crate::config::{canonical, long_steps_warning, steps_arg, Config, ConfigFile};
 use crate::error::ConfigError;
 use crate::error::HostError;
 use crate::io::input::read_text_bounded;
 use crate::io::output::write_text;
+use crate::io::text::shown;
 use crate::sim::sims::with_sim;
 use crate::sim::sims::HostSim;
 use crate::sim::sims::SimJob;
@@ -74,7 +75,9 @@ impl DigestArgs {
     /// A check of a trace (`--check`), or a digest run, with a trace if asked.
     pub fn execute(self, how: &Invocation) -> Result<(), HostError> {
         if let Some(file) = self.check {
-            how.refuse_sets("not with --check: a check runs with the trace's own overrides")?;
+            how.refuse_sets(
+                "absent with --check: a check runs the configuration the trace carries",
+            )?;
             return check_trace(&file, self.nudge);
         }
         if self.every == 0 {
@@ -100,7 +103,15 @@ impl DigestArgs {
             states: self.states,
         });
         let steps = (self.steps, self.flow_steps.unwrap_or(self.steps));
-        digest(&config, steps, self.precision, tau_arg(self.tau)?, trace)
+        steps_arg("--steps", steps.0)?;
+        steps_arg("--flow-steps", steps.1)?;
+        let tau = tau_arg(self.tau)?;
+        let bed = &config.scenario.bed;
+        let grains = bed.columns as usize * (bed.fixed_per_column() + bed.rows as usize);
+        if let Some(w) = long_steps_warning("mbs digest", steps.0.saturating_add(steps.1), grains) {
+            print_err(&format!("warning: {w}"));
+        }
+        digest(&config, steps, self.precision, tau, trace)
     }
 }
 
@@ -151,12 +162,18 @@ pub fn digest(
     trace: Option<TraceArgs<'_>>,
 ) -> Result<(), HostError> {
     if let Some(t) = trace {
+        let configuration =
+            toml::to_string(&canonical(&config.file)).map_err(|e| HostError::Io {
+                path: t.path.to_path_buf(),
+                error: std::io::Error::other(e),
+            })?;
         let run = crate::tools::trace::TraceRun {
             scenario: config.scenario_at(config.seeds[0]),
             capacity: config.capacity,
             spec: crate::tools::trace::TraceSpec {
                 config: t.config,
                 overrides: t.overrides,
+                configuration,
                 tau_star,
                 settle_steps: steps.0,
                 flow_steps: steps.1,
@@ -167,6 +184,7 @@ pub fn digest(
                 precision,
             },
         };
+        run.spec.validate()?;
         if let Err(allowed) = run.fits() {
             return Err(crate::config::ConfigError::Invalid {
                 key: "--every".into(),
@@ -232,10 +250,31 @@ pub fn check_trace(
         _ => HostError::io(path)(e),
     })?;
     let recorded = crate::tools::trace::parse(&text).map_err(refuse)?;
-    let config = match &recorded.spec.config {
-        Some(file) => Config::load_with(Some(Path::new(file)), &recorded.spec.overrides)?,
-        None => Config::golden_with(&recorded.spec.overrides)?,
-    };
+    // The trace's own configuration, checked like a file; it names no
+    // file that would be read (a measured profile is only drawn).
+    let mut file: ConfigFile = toml::from_str(&recorded.spec.configuration).map_err(|e| {
+        refuse(format!(
+            "its configuration: {}",
+            shown(e.message().to_string())
+        ))
+    })?;
+    file.run.measured_profiles = None;
+    let config = Config::validate(file).map_err(|e| refuse(format!("its configuration: {e}")))?;
+    recorded
+        .spec
+        .validate()
+        .map_err(|e| refuse(format!("it records a run the command line refuses: {e}")))?;
+    if let Some(n) = nudge.filter(|n| n.step > recorded.last_step()) {
+        return Err(crate::ConfigError::Invalid {
+            key: "--nudge".into(),
+            value: n.to_string(),
+            allowed: format!(
+                "a STEP at most the trace's last record, step {} (a later change is never compared)",
+                recorded.last_step()
+            ),
+        }
+        .into());
+    }
     let run = crate::tools::trace::TraceRun {
         scenario: config.scenario_at(config.seeds[0]),
         capacity: config.capacity,
@@ -245,11 +284,20 @@ pub fn check_trace(
             ..recorded.spec.clone()
         },
     };
+    if let Err(allowed) = run.fits() {
+        return Err(refuse(format!(
+            "it records a run the command line refuses: --every = {}: must be {allowed}",
+            run.spec.every
+        )));
+    }
     let hash = format!("{:#018x}", run.scenario_hash());
     if hash != recorded.scenario_hash {
         return Err(refuse(format!(
-            "its scenario hash is {}, the configuration now gives {hash}",
-            recorded.scenario_hash
+            "its scenario hash is {}, its configuration gives {hash} with this program \
+             ({}): the two derive the scenario differently (recorded by {})",
+            recorded.scenario_hash,
+            env!("CARGO_PKG_VERSION"),
+            recorded.program_name()
         )));
     }
     let verdict = crate::tools::trace::check(&run, &recorded, nudge).map_err(|e| match e {

@@ -27,6 +27,18 @@ impl MergeArgs {
     /// Merges, then says how to finish with `finish`, the command to run
     /// on the merged directory (e.g. `the same command without --shard`).
     pub fn merge(self, finish: &str) -> Result<(), HostError> {
+        super::common::directory("--out", &self.out)?;
+        for shard in &self.shards {
+            if !shard.is_dir() {
+                return Err(crate::ConfigError::Invalid {
+                    key: "SHARDS".into(),
+                    value: shard.display().to_string(),
+                    allowed: "output directories of runs with --shard (this is not a directory)"
+                        .into(),
+                }
+                .into());
+            }
+        }
         let added = merge(&self.shards, &self.out)?;
         print(&format!(
             "merged {added} new cells into {}; finish with {finish}\n",

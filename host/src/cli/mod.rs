@@ -8,7 +8,7 @@
 //! |---|---|
 //! | [`run`](mod@run) | `mbs run`: the main job, q* against τ* |
 //! | [`merge`](mod@merge) | `mbs merge`: shard directories into one |
-//! | [`config`](mod@config) | `mbs config`: the embedded default configuration |
+//! | [`config`](mod@config) | `mbs config`: the embedded default configuration, or a configuration checked |
 //! | [`pack`](mod@pack) | `mbs pack`: the packing test |
 //! | [`snapshot`](mod@snapshot) | `mbs snapshot`: pictures and frames of a bed |
 //! | [`digest`](mod@digest) | `mbs digest`: state digests and traces |
@@ -28,7 +28,6 @@ pub mod snapshot;
 
 pub use bench::bench_command;
 pub use calibrate::calibrate;
-pub use config::config;
 pub use digest::{check_trace, digest, TraceArgs};
 pub use pack::pack;
 pub use run::{dump_steps, resumed_config, run, RunOptions};
@@ -56,7 +55,7 @@ pub fn execute(cli: args::Cli) -> Result<(), HostError> {
     };
     match command {
         args::Command::Run(a) => a.execute(&how),
-        args::Command::Config(_) => config(),
+        args::Command::Config(a) => a.execute(&how),
         args::Command::Merge(a) => a.execute(),
         args::Command::Pack(a) => a.execute(&how),
         args::Command::Snapshot(a) => a.execute(&how),

@@ -108,6 +108,22 @@ impl RunArgs {
 /// Set by Ctrl-C: running cells checkpoint and stop.
 static STOP: AtomicBool = AtomicBool::new(false);
 
+/// Set once every cell is stored and the tables and figures are being
+/// written: Ctrl-C (or SIGTERM) then ends the process at once, exit 130 —
+/// a rerun writes them again from the store, and every file is replaced
+/// atomically, so none is left half-written.
+static REPORTING: AtomicBool = AtomicBool::new(false);
+
+/// The Ctrl-C and SIGTERM handler: checkpoint and stop while cells run,
+/// end at once while the reports are written.
+fn on_signal() {
+    if REPORTING.load(Ordering::Relaxed) {
+        print_err("stopped while writing the tables and figures: every cell is stored; run the same command again to write them");
+        std::process::exit(130);
+    }
+    STOP.store(true, Ordering::Relaxed);
+}
+
 /// Options of `mbs run` beyond the configuration.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct RunOptions {
@@ -256,7 +272,7 @@ fn run_logged(
     }
     write_text(&dir.join(RUN_CONFIG), text)?;
     // A second handler cannot be installed (e.g. in-process tests); Ctrl-C then just kills.
-    let _ = ctrlc::set_handler(|| STOP.store(true, Ordering::Relaxed));
+    let _ = ctrlc::set_handler(on_signal);
     let cells = (0..config.tau_stars.len() * config.seeds.len())
         .filter(|&k| options.shard.owns(k))
         .count() as u64;
@@ -315,7 +331,10 @@ fn run_logged(
         wall_time_s: start.elapsed().as_secs_f64(),
         warnings: log.warnings(),
     };
-    let console = crate::report::write_run(dir, config, &outcome, &rows, &facts)?;
+    REPORTING.store(true, Ordering::Relaxed);
+    let console = crate::report::write_run(dir, config, &outcome, &rows, &facts);
+    REPORTING.store(false, Ordering::Relaxed);
+    let console = console?;
     if !common.quiet {
         print(&console)?;
     }

@@ -2,14 +2,14 @@
 
 use super::common::logged;
 use super::common::output_dir;
-use super::common::print;
 use super::common::report_warnings;
 use super::common::seconds_arg;
 use super::common::tau_arg;
 use super::common::Common;
 use super::common::Invocation;
 use super::common::Shared;
-use crate::config::Config;
+use super::common::{print, print_err};
+use crate::config::{long_steps_warning, need, steps_arg, Config};
 use crate::error::HostError;
 use crate::io::output::create_dir;
 use crate::io::progress::Progress;
@@ -48,7 +48,24 @@ impl SnapshotArgs {
     pub fn execute(self, how: &Invocation) -> Result<(), HostError> {
         let tau = tau_arg(self.tau)?;
         seconds_arg("--every", self.every)?;
+        need(
+            (1..=MAX_FRAMES).contains(&self.frames),
+            "--frames",
+            self.frames,
+            &format!(
+                "in [1, {MAX_FRAMES}] (each frame is a file of every grain: more are a \
+                 mistake or fill the disk; ParaView plays a few hundred)"
+            ),
+        )?;
         let config = how.load(self.config.as_deref())?;
+        let steps = config.steps_of(self.every).saturating_mul(self.frames);
+        steps_arg("--frames x --every", steps)?;
+        let bed = &config.scenario.bed;
+        let grains = bed.columns as usize * (bed.fixed_per_column() + bed.rows as usize);
+        let total = steps.saturating_add(config.durations.settle);
+        if let Some(w) = long_steps_warning("mbs snapshot", total, grains) {
+            print_err(&format!("warning: {w}"));
+        }
         snapshot(
             &config,
             self.out.as_deref(),
@@ -59,6 +76,9 @@ impl SnapshotArgs {
         )
     }
 }
+
+/// The most frames of `mbs snapshot --frames`.
+pub const MAX_FRAMES: u64 = 10_000;
 
 /// `mbs snapshot`: pictures and particle frames of the bed under the flow.
 pub fn snapshot(
@@ -75,7 +95,10 @@ pub fn snapshot(
         report_warnings(config, log, true);
         let every = config.steps_of(every);
         let progress = Progress::steps(
-            config.durations.settle + frames * every,
+            config
+                .durations
+                .settle
+                .saturating_add(frames.saturating_mul(every)),
             "snapshot",
             common.quiet,
         );

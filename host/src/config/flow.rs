@@ -100,7 +100,7 @@ pub(super) fn flow_spec(file: &ConfigFile, d: f64, substeps: u32) -> Result<Flow
     )?;
     for (k, &t) in f.tau_stars.iter().enumerate() {
         need(
-            t.is_finite() && t > 0.0 && t <= 5.0,
+            t.is_finite() && t > 0.0 && t <= MAX_TAU_STAR,
             &format!("flow.tau_star[{k}]"),
             t,
             "in (0, 5]",
@@ -122,10 +122,18 @@ pub(super) fn flow_spec(file: &ConfigFile, d: f64, substeps: u32) -> Result<Flow
         "in (0, 100] m",
     )?;
     need(
-        f.roughness_d.is_finite() && f.roughness_d > 0.0 && f.roughness_d <= 100.0,
+        f.kappa.is_finite() && (0.1..=1.0).contains(&f.kappa),
+        "flow.kappa",
+        f.kappa,
+        "in [0.1, 1] (von Karman's constant of the log law (14): 0.41 in clear water, down \
+         to about 0.2 measured in flows carrying sediment)",
+    )?;
+    need(
+        f.roughness_d.is_finite() && (0.01..=100.0).contains(&f.roughness_d),
         "flow.roughness_d",
         f.roughness_d,
-        "in (0, 100]",
+        "in [0.01, 100] (k_s/d of the log law (14): 1-3 for a plane bed of grains; outside, \
+         the law describes no bed made of these grains)",
     )?;
     need(
         f.bed_level_span.is_finite() && (1.0..=1e6).contains(&f.bed_level_span),
@@ -137,7 +145,13 @@ pub(super) fn flow_spec(file: &ConfigFile, d: f64, substeps: u32) -> Result<Flow
         ("flow.hold_steps", f.hold_steps),
         ("flow.bed_level_interval", f.bed_level_interval),
     ] {
-        need(steps >= 1, key, steps, ">= 1 (steps of constants_dt)")?;
+        need(
+            (1..=1_000_000).contains(&steps),
+            key,
+            steps,
+            ">= 1 (steps of constants_dt) and <= 1000000 (the paper: 100 and 10; longer \
+             than any window)",
+        )?;
     }
     Ok(FlowSpec {
         kappa: f.kappa,
@@ -164,22 +178,24 @@ pub(super) fn fluid_spec(
     substeps: u32,
 ) -> Result<(FluidSpec, f64), ConfigError> {
     need(
-        f.cell_d.is_finite() && f.cell_d > 0.0 && f.cell_d <= 10.0,
+        f.cell_d.is_finite() && (0.01..=10.0).contains(&f.cell_d),
         "fluid.cell_d",
         f.cell_d,
-        "in (0, 10] largest diameters",
+        "in [0.01, 10] largest diameters (HydroForceEngine resolves a grain with 3-30 \
+         cells; finer cells than 1/100 of a grain resolve nothing the drag sees)",
     )?;
     need(
-        f.viscosity_m2_s.is_finite() && f.viscosity_m2_s > 0.0 && f.viscosity_m2_s <= 1.0,
+        f.viscosity_m2_s.is_finite() && (1e-8..=1.0).contains(&f.viscosity_m2_s),
         "fluid.viscosity_m2_s",
         f.viscosity_m2_s,
-        "in (0, 1] m^2/s (water: 1.0e-6)",
+        "in [1e-8, 1] m^2/s (water: 1.0e-6; liquid metals 1e-7, glycerol 1e-3)",
     )?;
     need(
-        f.phi_max.is_finite() && f.phi_max > 0.0 && f.phi_max < 1.0,
+        f.phi_max.is_finite() && f.phi_max >= 0.1 && f.phi_max < 1.0,
         "fluid.phi_max",
         f.phi_max,
-        "in (0, 1)",
+        "in [0.1, 1) (the bed's solid fraction where the mixing length (C3) stops growing: \
+         HydroForceEngine 0.61, Frey's beads 0.51)",
     )?;
     need(
         (1..=1_000_000).contains(&f.update_steps),
@@ -257,6 +273,9 @@ pub(super) fn closures_need_coupled(file: &ConfigFile) -> Result<(), ConfigError
     )
 }
 
+/// The largest Shields number a configuration may ask for: sheet flow.
+const MAX_TAU_STAR: f64 = 5.0;
+
 /// The coupled flow of `scenario` at each τ* fits the host's column and is
 /// driven forward: its cells at most [`FLUID_CELLS`], and the bed slope
 /// alone not a stronger flow than τ* (docs/model.md §13: the driving
@@ -281,6 +300,19 @@ pub(super) fn coupled_flow_fits(scenario: &Scenario, tau_stars: &[f64]) -> Resul
         let (s, d) = (scenario.material.s, scenario.bed.max_diameter());
         let (h, angle) = (scenario.flow.depth, scenario.slope_angle);
         let least = uniform_flow_shields_number(h, angle.sin(), s, d);
+        // A slope that alone drives more than the largest τ*: no τ* could
+        // be asked for, so the slope (or the depth) is what to change.
+        let steepest = (MAX_TAU_STAR * (s - 1.0) * d / h).min(1.0).asin();
+        need(
+            least <= MAX_TAU_STAR,
+            "bed.slope_rad",
+            angle,
+            &format!(
+                "<= {steepest:.4e} rad with flow.depth = {h} m: on a steeper bed the slope alone \
+                 drives the coupled flow beyond tau* = {MAX_TAU_STAR} (h sin(theta)/((s - 1) \
+                 d_max) = {least:.4e}); a smaller slope or a shallower flow"
+            ),
+        )?;
         need(
             flow.fluid.driving >= 0.0,
             &format!("flow.tau_star[{k}]"),

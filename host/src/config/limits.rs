@@ -60,6 +60,27 @@ pub(super) const PHASE_REASON: &str =
 /// The most integration steps of a cell (settling, spin-up and window).
 pub const MAX_CELL_STEPS: u64 = 100_000_000_000;
 
+/// Checks a count of integration steps given on the command line (`mbs
+/// digest --steps`, a trace's phases): at most [`MAX_CELL_STEPS`], the
+/// limit of a cell of the main job.
+///
+/// ```
+/// assert!(mbs::config::steps_arg("--steps", 2000).is_ok());
+/// let e = mbs::config::steps_arg("--flow-steps", 1_000_000_000_000).unwrap_err();
+/// assert!(e.to_string().starts_with("--flow-steps = 1000000000000: must be <= 1e11"), "{e}");
+/// ```
+pub fn steps_arg(key: &str, steps: u64) -> Result<(), crate::error::ConfigError> {
+    super::errors::need(
+        steps <= MAX_CELL_STEPS,
+        key,
+        steps,
+        &format!(
+            "<= {MAX_CELL_STEPS:e} integration steps (the limit of a cell of the main job: at \
+             ~{GRAIN_STEPS_PER_S_PER_CORE:e} grain-steps/s, days even for 100 grains)"
+        ),
+    )
+}
+
 /// The smallest constants' time step constants_dt (s).
 pub const MIN_CONSTANTS_DT: f64 = 1e-8;
 

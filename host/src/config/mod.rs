@@ -11,7 +11,7 @@
 //! |---|---|
 //! | `file.rs` | the file format: the sections as serde reads and writes them, [`canonical`] |
 //! | `defaults.rs` | the defaults: [`DEFAULT_TOML`], each section's `Default` (the paper's case), [`DEFAULT_COLUMNS`] |
-//! | `overrides.rs` | `--set SECTION.KEY=VALUE` on the TOML text ([`apply_overrides`]) |
+//! | `overrides.rs` | `--set SECTION.KEY=VALUE`: parsed one by one ([`Override`]), applied to the TOML text ([`apply_overrides`]), errors named by their `--set` |
 //! | `load.rs` | loading: every file read (the configuration file, the files it names), then validation |
 //! | `validate.rs` | validation, pure: a parsed file and the files it names, as read, into the run plan |
 //! | `specs.rs` | kernel specifications of the grains, bed, material, contact; substeps and stability |
@@ -33,6 +33,7 @@ mod warnings;
 
 pub use crate::error::ConfigError;
 pub use defaults::{DEFAULT_COLUMNS, DEFAULT_TOML};
+pub(crate) use errors::need;
 pub use file::{
     canonical, BedSection, ClassEntry, ConfigFile, ContactSection, FlowModelKey, FlowSection,
     FluidSection, FractionBasis, GrainsSection, RunSection, SettleUntil, Substeps, TargetSection,
@@ -41,15 +42,15 @@ pub use file::{
 pub use flow::flow_forms;
 pub(crate) use limits::grain_capacities;
 pub use limits::{
-    capacities_listed, CAPACITIES, CONFIG_BOUND, FLUID_CELLS, GRAIN_STEPS_PER_S_PER_CORE,
-    MAX_CAPACITY, MAX_CELL_STEPS, MAX_PHASE_S, MIN_CONSTANTS_DT, MIN_DIAMETER_MM,
-    SUBSTEP_DAMPING_NUMBER,
+    capacities_listed, steps_arg, CAPACITIES, CONFIG_BOUND, FLUID_CELLS,
+    GRAIN_STEPS_PER_S_PER_CORE, MAX_CAPACITY, MAX_CELL_STEPS, MAX_PHASE_S, MIN_CONSTANTS_DT,
+    MIN_DIAMETER_MM, SUBSTEP_DAMPING_NUMBER,
 };
-pub use overrides::apply_overrides;
+pub use overrides::{apply_overrides, Override};
 pub use specs::{number_fractions, volume_fractions};
 pub use warnings::{
-    f32_frozen_speed, f32_width_warning, long_run_warning, narrow_bed_warning, warnings,
-    CONVERGED_WIDTH_D, DAMPING_NUMBER_CONVERGED, F32_RESOLVED_SPEED, LONG_RUN_S,
+    f32_frozen_speed, f32_width_warning, long_run_warning, long_steps_warning, narrow_bed_warning,
+    warnings, CONVERGED_WIDTH_D, DAMPING_NUMBER_CONVERGED, F32_RESOLVED_SPEED, LONG_RUN_S,
 };
 
 use crate::science::measured::MeasuredProfile;

@@ -205,6 +205,35 @@ pub(super) fn material(file: &ConfigFile) -> Result<Material, ConfigError> {
         "in (1, 20]",
     )?;
     let (f, c) = (&file.flow, &file.contact);
+    for (key, value, max, why) in [
+        (
+            "contact.friction",
+            c.friction,
+            10.0,
+            "Coulomb's coefficient mu of (9): sand 0.5-0.7, glass 0.1-0.4; beyond 10 a \
+             contact never slides",
+        ),
+        (
+            "flow.drag_coefficient",
+            f.drag_coefficient,
+            100.0,
+            "C_D of a sphere: 0.4 at the grain Reynolds numbers of bed load; 100 is its \
+             value at Re = 0.25, a creeping flow the quadratic drag (6) does not describe",
+        ),
+        (
+            "flow.added_mass",
+            f.added_mass,
+            10.0,
+            "C_M of a sphere: 0.5; near a wall at most about 1",
+        ),
+    ] {
+        need(
+            value.is_finite() && (0.0..=max).contains(&value),
+            key,
+            value,
+            &format!("in [0, {max}] ({why})"),
+        )?;
+    }
     let material = Material {
         rho: f.fluid_density,
         s,
@@ -245,6 +274,22 @@ pub(super) fn time_rule(
              than 1e8 integration steps)"
         ),
     )?;
+    for (key, value, least) in [
+        ("contact.alpha_m", c.alpha_m, 0.01),
+        ("contact.beta", c.beta, 0.01),
+        ("contact.alpha_cn", c.alpha_cn, 0.0),
+    ] {
+        need(
+            value.is_finite() && value >= least && value <= 1e4,
+            key,
+            value,
+            &format!(
+                "in [{least}, 10000] (docs/model.md (10), (17), (18): a contact's period is \
+                 alpha_m beta steps of constants_dt, the paper's 20 x 15.8; outside, k_n or \
+                 eta_n leave the range of floating-point numbers before any grain moves)"
+            ),
+        )?;
+    }
     let rule = TimeStepRule {
         alpha_m: c.alpha_m,
         alpha_cn: c.alpha_cn,

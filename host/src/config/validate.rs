@@ -101,16 +101,18 @@ pub(super) fn validate(mut file: ConfigFile, named: Named) -> Result<Config, Con
         "a directory path",
     )?;
     need(
-        r.skin_d.is_finite() && r.skin_d > 0.0 && r.skin_d <= 1.0,
+        r.skin_d.is_finite() && (0.01..=1.0).contains(&r.skin_d),
         "run.skin_d",
         r.skin_d,
-        "in (0, 1]",
+        "in [0.01, 1] largest diameters (a thinner skin rebuilds the neighbour lists \
+         nearly every step)",
     )?;
     need(
-        r.measured_shift_d.is_finite(),
+        r.measured_shift_d.is_finite() && r.measured_shift_d.abs() <= 1000.0,
         "run.measured_shift_d",
         r.measured_shift_d,
-        "finite",
+        "in [-1000, 1000] largest diameters (a shift of the measured heights; the profiles \
+         span at most a flow depth, flow.depth <= 100 m)",
     )?;
     let measured = match &r.measured_profiles {
         None => None,

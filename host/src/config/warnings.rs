@@ -90,6 +90,28 @@ pub fn long_run_warning(config: &Config, cores: usize) -> Option<String> {
     })
 }
 
+/// A warning for a command that runs `steps` integration steps of a bed of
+/// `grains` on one core (`mbs digest`, `mbs snapshot`) for longer than
+/// [`LONG_RUN_S`]: the estimated time, so that a mistyped count is seen.
+///
+/// ```
+/// assert!(mbs::config::long_steps_warning("mbs digest", 4000, 55).is_none());
+/// let w = mbs::config::long_steps_warning("mbs digest", 100_000_000_000, 55).unwrap();
+/// assert!(w.contains("2.5 days"), "{w}");
+/// ```
+pub fn long_steps_warning(what: &str, steps: u64, grains: usize) -> Option<String> {
+    let grain_steps = steps as f64 * grains as f64;
+    let wall = grain_steps / GRAIN_STEPS_PER_S_PER_CORE;
+    (wall > LONG_RUN_S).then(|| {
+        format!(
+            "a long run: {what} runs {:.3e} integration steps of {grains} grains, about {:.1} \
+             days at ~{GRAIN_STEPS_PER_S_PER_CORE:e} grain-steps/s; Ctrl-C stops it",
+            steps as f64,
+            wall / 86400.0
+        )
+    })
+}
+
 /// Warnings about a valid but questionable configuration, for runs with
 /// flow (`under_flow`) or without.
 pub fn warnings(config: &Config, under_flow: bool) -> Vec<String> {

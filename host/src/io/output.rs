@@ -40,11 +40,17 @@ pub fn remove_temporaries(dir: &Path) -> Result<(), HostError> {
 /// Name of the lock file of an output directory.
 pub const LOCK: &str = ".mbs-lock";
 
-/// A lock file holds a process id and a newline.
+/// A lock file holds a process id and what the file is ([`LOCK_NOTE`]).
 const LOCK_BOUND: Bound = Bound {
-    bytes: 64,
-    reason: "a lock file (a process id)",
+    bytes: 256,
+    reason: "a lock file (a process id and a note)",
 };
+
+/// What a lock file says after the holder's id: it stays in a finished
+/// directory, and why that is harmless.
+pub const LOCK_NOTE: &str =
+    "is or was the process of mbs working in this directory (an advisory lock: \
+     it stays when mbs ends and binds nothing then; delete it freely)";
 
 /// An exclusive advisory lock on an output directory, held while the value
 /// lives; the operating system releases it when the process ends, however
@@ -72,7 +78,7 @@ pub fn lock_dir(dir: &Path) -> Result<DirLock, HostError> {
                 refuse_link(&dir.join(own))?;
             }
             file.set_len(0)
-                .and_then(|()| writeln!(file, "{}", std::process::id()))
+                .and_then(|()| writeln!(file, "{} {LOCK_NOTE}", std::process::id()))
                 .map_err(HostError::io(&path))?;
             Ok(DirLock(file))
         }
@@ -80,7 +86,7 @@ pub fn lock_dir(dir: &Path) -> Result<DirLock, HostError> {
             dir: dir.to_path_buf(),
             holder: read_text_bounded(&path, LOCK_BOUND)
                 .ok()
-                .and_then(|t| t.trim().parse().ok()),
+                .and_then(|t| t.split_whitespace().next()?.parse().ok()),
         }),
         Err(std::fs::TryLockError::Error(e)) => Err(HostError::io(&path)(e)),
     }

@@ -54,13 +54,29 @@ pub fn number(x: f64) -> String {
     }
 }
 
-/// `value` (a message's quoted value) with a number of more than 24
-/// characters in exponent form ([`number`]).
+/// `value` (a message's quoted value, or a message) with every number of
+/// more than 24 characters in exponent form ([`number`]), also within
+/// lists and sentences: `0.000…0001` (330 characters) becomes `1e-320`.
 pub fn shown(value: String) -> String {
-    match value.parse::<f64>() {
-        Ok(x) if value.len() > NUMBER => number(x),
-        _ => value,
+    let numeric = |c: char| c.is_ascii_digit() || matches!(c, '.' | 'e' | 'E' | '+' | '-');
+    if !value.contains(|c: char| c.is_ascii_digit()) || value.len() <= NUMBER {
+        return value;
     }
+    let mut out = String::with_capacity(value.len());
+    let mut rest = value.as_str();
+    while let Some(start) = rest.find(numeric) {
+        out.push_str(&rest[..start]);
+        let run = &rest[start..];
+        let end = run.find(|c: char| !numeric(c)).unwrap_or(run.len());
+        let token = &run[..end];
+        match token.parse::<f64>() {
+            Ok(x) if token.len() > NUMBER => out.push_str(&number(x)),
+            _ => out.push_str(token),
+        }
+        rest = &run[end..];
+    }
+    out.push_str(rest);
+    out
 }
 
 #[cfg(test)]
@@ -93,5 +109,17 @@ mod tests {
         }
         assert_eq!(shown(1e308.to_string()), "1e308");
         assert_eq!(shown("[1, 2]".into()), "[1, 2]");
+        let long = format!("0.{}1", "0".repeat(319));
+        assert_eq!(shown(format!("[{long}, 0.5]")), "[1e-320, 0.5]");
+        assert_eq!(
+            shown(format!(
+                "invalid type: floating point `{long}`, expected u32"
+            )),
+            "invalid type: floating point `1e-320`, expected u32"
+        );
+        assert_eq!(
+            shown("run 3 of 1e-3 s, step 12345678901234567890123456".into()),
+            "run 3 of 1e-3 s, step 1.2345678901234568e25"
+        );
     }
 }

@@ -55,6 +55,22 @@ pub const RUN_FILES: [&str; 10] = [
     "summary.json",
 ];
 
+/// `x` in at most 9 characters for the console's table: as given where
+/// that fits (`0.06`), else to 4 significant digits (a τ* derived from u*,
+/// `0.05606`); transport.csv keeps every digit.
+fn column(x: f64) -> String {
+    let plain = x.to_string();
+    if plain.len() <= 9 {
+        return plain;
+    }
+    if (1e-3..1e4).contains(&x) {
+        let decimals = (3 - x.log10().floor() as i32).max(0) as usize;
+        format!("{x:.decimals$}")
+    } else {
+        format!("{x:.3e}")
+    }
+}
+
 /// Writes the report of a complete run into `dir` ([`RUN_FILES`]) and
 /// returns the console table: a line per τ*, then what was computed and
 /// written.
@@ -91,7 +107,11 @@ fn console_table(
     for r in rows {
         text += &format!(
             "{:<9} {:<9.4} {:<9.4} {:<9.4} {:<9.4}\n",
-            r.tau_star, r.q_star, r.q_star_stderr, r.mpm, r.wong_parker
+            column(r.tau_star),
+            r.q_star,
+            r.q_star_stderr,
+            r.mpm,
+            r.wong_parker
         );
     }
     let (computed, wall) = (facts.computed(outcome), facts.wall_time_s);
@@ -190,6 +210,10 @@ mod tests {
         assert!(
             summary.contains("\"warnings\": [\n    \"a warning\"\n  ]"),
             "{summary}"
+        );
+        assert_eq!(
+            [0.06, 0.056057825966082844, 1.23456789e-7, 1234.56789].map(column),
+            ["0.06", "0.05606", "1.235e-7", "1235"]
         );
         // 3 cells and their beds computed in 2 s: 3500 grain-steps / 2 s.
         assert!(

@@ -3,8 +3,23 @@
 //! columns `z_over_d`, `solid_fraction`, `particle_velocity_m_s` and
 //! optionally `fluid_velocity_m_s`, one height a line.
 
+use crate::io::input::{read_text_bounded, Bound};
 use serde::Deserialize;
 use std::path::Path;
+
+/// The longest measured profile: 1 MiB, some 20 000 heights (Frey's
+/// profiles have 30-100).
+const PROFILE_BOUND: Bound = Bound {
+    bytes: 1 << 20,
+    reason: "the largest measured profile (some 20000 heights)",
+};
+
+/// The heights a profile may give, in largest diameters (as
+/// `run.measured_shift_d`).
+const MAX_HEIGHT_D: f64 = 1000.0;
+
+/// The fastest velocity a profile may give (m/s): faster than any river.
+const MAX_SPEED: f64 = 100.0;
 
 /// A measured profile, its heights shifted onto the run's y/d.
 #[derive(Debug, Clone, PartialEq)]
@@ -35,7 +50,8 @@ impl MeasuredProfile {
     /// text) if it cannot be read, lacks a column, has no line or a value
     /// that is not finite.
     pub fn read(path: &Path, shift_d: f64) -> Result<MeasuredProfile, String> {
-        let mut reader = csv::Reader::from_path(path).map_err(|e| e.to_string())?;
+        let text = read_text_bounded(path, PROFILE_BOUND).map_err(|e| e.to_string())?;
+        let mut reader = csv::Reader::from_reader(text.as_bytes());
         let mut m = MeasuredProfile {
             label: format!(
                 "measured ({})",
@@ -49,13 +65,45 @@ impl MeasuredProfile {
         };
         for (i, line) in reader.deserialize::<Line>().enumerate() {
             let l = line.map_err(|e| e.to_string())?;
-            let values = [l.z_over_d, l.solid_fraction, l.particle_velocity_m_s];
-            if !values
-                .iter()
-                .chain(&l.fluid_velocity_m_s)
-                .all(|v| v.is_finite())
-            {
-                return Err(format!("line {}: a value that is not finite", i + 2));
+            let speeds = [Some(l.particle_velocity_m_s), l.fluid_velocity_m_s];
+            let checks = [
+                (
+                    "z_over_d",
+                    l.z_over_d,
+                    l.z_over_d.abs() <= MAX_HEIGHT_D,
+                    format!("in [-{MAX_HEIGHT_D}, {MAX_HEIGHT_D}] diameters"),
+                ),
+                (
+                    "solid_fraction",
+                    l.solid_fraction,
+                    (0.0..=1.0).contains(&l.solid_fraction),
+                    "in [0, 1]".to_string(),
+                ),
+            ]
+            .into_iter()
+            .chain(
+                speeds
+                    .into_iter()
+                    .zip(["particle_velocity_m_s", "fluid_velocity_m_s"])
+                    .filter_map(|(u, name)| {
+                        u.map(|u| {
+                            (
+                                name,
+                                u,
+                                u.abs() <= MAX_SPEED,
+                                format!("in [-{MAX_SPEED}, {MAX_SPEED}] m/s"),
+                            )
+                        })
+                    }),
+            );
+            for (name, value, ok, allowed) in checks {
+                if !(ok && value.is_finite()) {
+                    return Err(format!(
+                        "line {}: {name} = {}: must be {allowed}",
+                        i + 2,
+                        crate::io::text::number(value)
+                    ));
+                }
             }
             m.y_over_d.push(l.z_over_d - shift_d);
             m.solid_fraction.push(l.solid_fraction);

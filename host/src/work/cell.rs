@@ -401,8 +401,10 @@ impl TransportSpec {
 /// How a cell ended.
 #[derive(Debug, Clone, PartialEq)]
 pub enum CellOutcome {
-    /// Finished (boxed: a result with its profiles is large).
-    Done(Box<CellResult>),
+    /// Finished (boxed: a result with its profiles is large), with the
+    /// grain-steps this invocation computed (less than the result's
+    /// `grain_steps` for a cell resumed from its checkpoint, 0 if reused).
+    Done(Box<CellResult>, u64),
     /// Stopped after writing its checkpoint.
     Stopped,
 }

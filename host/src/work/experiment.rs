@@ -194,7 +194,7 @@ pub fn run_all(
                     done.q_star
                 ));
                 count(progress);
-                return Ok((CellOutcome::Done(Box::new(done)), 1));
+                return Ok((CellOutcome::Done(Box::new(done), 0), 1));
             }
             let key = cell_key(&serde_json::to_string(&spec).unwrap_or_default());
             let refuse = |message: String| HostError::Checkpoint {
@@ -250,7 +250,7 @@ pub fn run_all(
             .inspect_err(|e| log.event(&format!("cell failed  {cell}: {e}")))?;
             let wall = clock.elapsed().as_secs_f64();
             match &outcome {
-                CellOutcome::Done(result) => {
+                CellOutcome::Done(result, _) => {
                     store.put(&spec, &Ok::<_, String>(result.as_ref().clone()))?;
                     remove_if_present(&path)?;
                     log.event(&format!(
@@ -283,10 +283,8 @@ pub fn run_all(
         out.reused += usize::from(how == 1);
         out.resumed += usize::from(how == 2);
         match outcome {
-            CellOutcome::Done(r) => {
-                if how != 1 {
-                    out.computed_grain_steps += r.grain_steps;
-                }
+            CellOutcome::Done(r, now) => {
+                out.computed_grain_steps += now;
                 out.results.push(*r);
             }
             CellOutcome::Stopped => stopped += 1,

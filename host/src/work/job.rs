@@ -130,6 +130,8 @@ impl SimJob for CellJob<'_> {
             Some(f) => Some(Dumps::start(&f.dir, f.every, settled, sim)?),
         };
         let kernel_error = |e| fail()(e);
+        // Where this invocation starts: a resumed cell did its earlier steps before.
+        let started = sim.step_count();
         let (d_max, s) = (sc.bed.max_diameter(), sc.material.s);
         // q* per unit of the slice's thickness b (a channel's width with
         // side walls): the kernel's is per d_max (docs/model.md §8).
@@ -217,27 +219,31 @@ impl SimJob for CellJob<'_> {
         let mean = |value: &dyn Fn(&Block) -> f64| {
             kept.iter().map(value).sum::<f64>() / kept.len().max(1) as f64
         };
-        Ok(CellOutcome::Done(Box::new(CellResult {
-            tau_star: self.tau_star,
-            seed: self.seed,
-            q_star: mean(&|b| b.q_star),
-            q_star_class: (0..classes.len())
-                .map(|c| mean(&|b| b.q_star_class[c]))
-                .collect(),
-            discarded: truncation.discard,
-            steady: truncation.steady,
-            window_s: state.done as f64 * step_dt,
-            target_reached,
-            blocks: state.blocks,
-            bed_level: sim.bed_level(),
-            grain_steps: (sim.step_count() - settled) * sim.len() as u64,
-            bed: BedRecord {
-                status: self.bed.status,
-                settle_s: self.bed.seconds(step_dt),
-                max_overlap_d: self.bed.max_overlap / d_max,
-            },
-            profile: Some(state.profile.means()),
-        })))
+        let grain_steps_now = (sim.step_count() - started) * sim.len() as u64;
+        Ok(CellOutcome::Done(
+            Box::new(CellResult {
+                tau_star: self.tau_star,
+                seed: self.seed,
+                q_star: mean(&|b| b.q_star),
+                q_star_class: (0..classes.len())
+                    .map(|c| mean(&|b| b.q_star_class[c]))
+                    .collect(),
+                discarded: truncation.discard,
+                steady: truncation.steady,
+                window_s: state.done as f64 * step_dt,
+                target_reached,
+                blocks: state.blocks,
+                bed_level: sim.bed_level(),
+                grain_steps: (sim.step_count() - settled) * sim.len() as u64,
+                bed: BedRecord {
+                    status: self.bed.status,
+                    settle_s: self.bed.seconds(step_dt),
+                    max_overlap_d: self.bed.max_overlap / d_max,
+                },
+                profile: Some(state.profile.means()),
+            }),
+            grain_steps_now,
+        ))
     }
 }
 
@@ -269,7 +275,7 @@ pub fn run_cell(
         frames: None,
     };
     match run_cell_job(job)? {
-        CellOutcome::Done(r) => Ok(*r),
+        CellOutcome::Done(r, _) => Ok(*r),
         CellOutcome::Stopped => Err(HostError::Interrupted { jobs: 1 }),
     }
 }

@@ -16,4 +16,5 @@ mod links;
 mod log;
 mod paper_case;
 mod resume;
+mod round2;
 mod trace;

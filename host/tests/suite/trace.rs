@@ -31,7 +31,7 @@ fn digest_writes_a_trace_of_the_run() {
     let body = &file["body"];
     // The checksum covers the body's compact JSON.
     assert_eq!(file["checksum"], checksum(body));
-    assert_eq!(body["format"], "mbs-trace 2");
+    assert_eq!(body["format"], "mbs-trace 3");
     assert_eq!(body["from"], 0);
     assert_eq!(body["until"], 400);
     assert_eq!(body["states"], false);
@@ -330,4 +330,129 @@ fn a_trace_with_a_foreign_first_state_is_refused() {
     let (code, err) = check(&trace, None);
     assert_eq!(code, Some(2), "{err}");
     assert!(err.contains("not base64"), "{err}");
+}
+
+/// Issue 42, class 3: a trace carries its configuration as text and
+/// `--check` runs that text: the file it was recorded from may change or
+/// vanish, an edited configuration names no file that would be read, and
+/// every bound the recording command enforces is enforced again.
+#[test]
+fn a_trace_is_data_not_a_pointer() {
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = crate::common::write(dir.path(), "case.toml", "[bed]\ncolumns = 5\n");
+    let file = dir.path().join("t.json");
+    mbs()
+        .args(["digest", "--steps", "100", "--every", "50", "--trace"])
+        .arg(&file)
+        .arg(&cfg)
+        .assert()
+        .success();
+    // The file it was recorded from: edited, then gone.
+    std::fs::write(&cfg, "[grains]\nspecific_gravity = 2.0\n").unwrap();
+    assert_eq!(check(&file, None).0, Some(0));
+    std::fs::remove_file(&cfg).unwrap();
+    assert_eq!(check(&file, None).0, Some(0));
+    // A configuration naming a file to read (checksum recomputed): the
+    // file is never opened, its text never printed.
+    let secret = crate::common::write(dir.path(), "secret.txt", "TOP-SECRET\n");
+    let pointed = dir.path().join("pointed.json");
+    std::fs::copy(&file, &pointed).unwrap();
+    edit_with_checksum(&pointed, |body| {
+        body["config"] = secret.to_str().unwrap().into();
+        let text = body["configuration"].as_str().unwrap().to_string();
+        let line = format!(
+            "[run]\nmeasured_profiles = {:?}\n",
+            secret.to_str().unwrap()
+        );
+        assert!(text.contains("[run]\n"), "{text}");
+        body["configuration"] = text.replace("[run]\n", &line).into();
+    });
+    let (code, err) = check(&pointed, None);
+    assert!(!err.contains("TOP-SECRET"), "{err}");
+    assert_eq!(code, Some(0), "only drawn, never read: {err}");
+    // Bounds of the recording command, enforced again.
+    for (field, value, why) in [
+        (
+            "flow_steps",
+            serde_json::json!(1_000_000_000_000u64),
+            "--flow-steps",
+        ),
+        ("settle_steps", serde_json::json!(u64::MAX), "--steps"),
+        ("tau_star", serde_json::json!(9.0), "--tau"),
+        ("from", serde_json::json!(10_000), "--from"),
+        ("every", serde_json::json!(0), "every = 0"),
+    ] {
+        let edited = dir.path().join(format!("{field}.json"));
+        std::fs::copy(&file, &edited).unwrap();
+        edit_with_checksum(&edited, |body| body[field] = value.clone());
+        let (code, err) = check(&edited, None);
+        assert_eq!(code, Some(2), "{field}: {err}");
+        assert!(err.contains(why), "{field}: {err}");
+    }
+    // A configuration out of range inside the trace is named as such.
+    let bad = dir.path().join("bad.json");
+    std::fs::copy(&file, &bad).unwrap();
+    edit_with_checksum(&bad, |body| {
+        let text = body["configuration"].as_str().unwrap().to_string();
+        body["configuration"] = text.replace("kappa = 0.4", "kappa = 1e308").into();
+    });
+    let (code, err) = check(&bad, None);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(
+        err.contains("its configuration: flow.kappa = 1e308"),
+        "{err}"
+    );
+}
+
+/// Issue 42, class 6: a nudge after the trace's last record, a trace
+/// starting past the run's end, are named errors (exit 2).
+#[test]
+fn nudges_and_starts_past_the_end_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = trace_in(dir.path());
+    let (code, err) = check(&file, Some("401:3:x"));
+    assert_eq!(code, Some(2), "{err}");
+    assert!(
+        err.contains(
+            "--nudge = 401:3:x:1: must be a STEP at most the trace's last record, step 400"
+        ),
+        "{err}"
+    );
+    assert_eq!(
+        check(&file, Some("400:3:x")).0,
+        Some(1),
+        "the last record still counts"
+    );
+    let past = dir.path().join("past.json");
+    mbs()
+        .args([
+            "digest", "--steps", "100", "--every", "10", "--from", "500", "--trace",
+        ])
+        .arg(&past)
+        .assert()
+        .code(2)
+        .stderr(predicates::str::contains(
+            "--from = 500: must be <= the run's last step, 200",
+        ));
+    assert!(!past.exists());
+    mbs()
+        .args(["digest", "--steps", "1000000000000"])
+        .assert()
+        .code(2)
+        .stderr(predicates::str::contains(
+            "--steps = 1000000000000: must be <= 1e11",
+        ));
+    mbs()
+        .args([
+            "digest",
+            "--steps",
+            "10",
+            "--flow-steps",
+            "18446744073709551615",
+            "--trace",
+        ])
+        .arg(dir.path().join("huge.json"))
+        .assert()
+        .code(2)
+        .stderr(predicates::str::contains("--flow-steps"));
 }

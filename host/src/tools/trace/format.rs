@@ -7,7 +7,7 @@ use crate::io::input::Bound;
 use crate::sim::sims::{checkpoint_len, NEIGHBOURS};
 
 /// The trace format's name and version (the `format` field).
-pub const FORMAT: &str = "mbs-trace 2";
+pub const FORMAT: &str = "mbs-trace 3";
 
 /// The most records a trace holds (`mbs digest --trace` refuses an `--every`
 /// that would give more): far more than a comparison needs.
@@ -159,6 +159,7 @@ mod tests {
             spec: TraceSpec {
                 config: None,
                 overrides: Vec::new(),
+                configuration: String::new(),
                 tau_star: 0.0,
                 settle_steps: 0,
                 flow_steps: 0,

@@ -23,7 +23,8 @@ pub use check::check;
 pub use format::{parse, to_text, FORMAT, MAX_RECORDS, TRACE_BOUND};
 pub use record::step_path;
 
-use crate::config::Precision;
+use crate::config::{need, steps_arg, ConfigError, Precision};
+use crate::io::text::number;
 use mbs_kernel::{GrainField, Scenario};
 use serde::Serialize;
 use std::collections::BTreeMap;
@@ -97,11 +98,18 @@ impl std::str::FromStr for Nudge {
 /// at the phases' ends.
 #[derive(Debug, Clone, PartialEq, Serialize, serde::Deserialize)]
 pub struct TraceSpec {
-    /// The configuration file, or `None` (null) for the golden run.
+    /// The configuration file's name as given when recording, or `None`
+    /// (null) for the golden run: a label, never opened.
     pub config: Option<String>,
-    /// `--set` overrides on top of it (empty: none).
+    /// `--set` overrides given on top of it (empty: none), as a record.
     #[serde(default)]
     pub overrides: Vec<String>,
+    /// The configuration as run, overrides applied: its TOML with every
+    /// default filled in ([`canonical`](crate::config::canonical): no
+    /// output directory, no measured profile). `--check` runs this text,
+    /// checked like any configuration: a trace is data, not a pointer to
+    /// files.
+    pub configuration: String,
     /// Shields number of the flow phase.
     pub tau_star: f64,
     /// Steps without flow.
@@ -118,6 +126,31 @@ pub struct TraceSpec {
     pub states: bool,
     /// Working precision.
     pub precision: Precision,
+}
+
+impl TraceSpec {
+    /// Checks what the command line checks when such a trace is recorded:
+    /// τ* in (0, 5], each phase at most [`steps_arg`]'s limit, `every` > 0,
+    /// `from` at most the last step. A trace read from a file is checked
+    /// again, as strictly as the command that would have written it.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        need(
+            self.tau_star.is_finite() && self.tau_star > 0.0 && self.tau_star <= 5.0,
+            "--tau",
+            number(self.tau_star),
+            "in (0, 5]",
+        )?;
+        steps_arg("--steps", self.settle_steps)?;
+        steps_arg("--flow-steps", self.flow_steps)?;
+        need(self.every >= 1, "--every", self.every, "> 0")?;
+        let last = (self.settle_steps + self.flow_steps).min(self.until);
+        need(
+            self.from <= last,
+            "--from",
+            self.from,
+            &format!("<= the run's last step, {last} (--steps, --flow-steps, --until)"),
+        )
+    }
 }
 
 /// A trace to run: its [`TraceSpec`] on the scenario the configuration
@@ -189,6 +222,23 @@ pub struct Trace {
     pub step_dt_s: f64,
     /// The records, in step order.
     pub records: Vec<Record>,
+}
+
+impl Trace {
+    /// The step of its last record.
+    pub fn last_step(&self) -> u64 {
+        self.records.last().map_or(0, |r| r.step)
+    }
+
+    /// The program that recorded it: name, version and commit as known.
+    pub fn program_name(&self) -> String {
+        let field = |k: &str| self.program.get(k).cloned().flatten();
+        [field("name"), field("version"), field("commit")]
+            .into_iter()
+            .flatten()
+            .collect::<Vec<_>>()
+            .join(" ")
+    }
 }
 
 /// What `mbs digest --check` found.
