@@ -18,6 +18,10 @@ pub struct Curve {
     pub dof: Vec<usize>,
     /// Per size class: mean q* per τ*.
     pub classes: Vec<Vec<f64>>,
+    /// Per size class: the standard error of that mean between seeds (0
+    /// with one seed).
+    #[serde(default)]
+    pub class_stderr: Vec<Vec<f64>>,
     /// Kernel failures (cell message), if any.
     pub failures: Vec<String>,
     /// Seeds averaged per τ*.
@@ -159,6 +163,7 @@ mod tests {
             q_star,
             tau_stars,
             classes: vec![],
+            class_stderr: vec![],
             failures: vec![],
             seeds: vec![4, 4],
             reached: vec![true, true],

@@ -200,6 +200,7 @@ impl Context<'_> {
             stderr: Vec::new(),
             dof: Vec::new(),
             classes: vec![Vec::new(); n_classes],
+            class_stderr: vec![Vec::new(); n_classes],
             failures: Vec::new(),
             seeds: chunks.iter().map(|c| c.len()).collect(),
             reached: Vec::new(),
@@ -231,7 +232,9 @@ impl Context<'_> {
             curve.stderr.push(err);
             curve.dof.push(dof);
             for (k, values) in per_class.iter().enumerate() {
-                curve.classes[k].push(crate::science::interval::mean_stderr(values).0);
+                let (mean, stderr) = crate::science::interval::mean_stderr(values);
+                curve.classes[k].push(mean);
+                curve.class_stderr[k].push(if stderr.is_finite() { stderr } else { 0.0 });
             }
         }
         curve

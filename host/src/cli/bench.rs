@@ -51,6 +51,13 @@ pub struct BenchArgs {
 impl BenchArgs {
     /// Prepares the bed and times the case.
     pub fn execute(self, how: &Invocation) -> Result<(), HostError> {
+        crate::config::steps_arg("--steps", self.steps)?;
+        crate::config::need(
+            self.beta.is_finite() && (0.01..=1e4).contains(&self.beta),
+            "--beta",
+            self.beta,
+            "in [0.01, 10000], as contact.beta",
+        )?;
         let job = Bench {
             bed: BenchBed {
                 grains: self.grains as usize,

@@ -29,7 +29,7 @@ impl MergeArgs {
     pub fn merge(self, finish: &str) -> Result<(), HostError> {
         super::common::directory("--out", &self.out)?;
         for shard in &self.shards {
-            if !shard.is_dir() {
+            if shard.exists() && !shard.is_dir() {
                 return Err(crate::ConfigError::Invalid {
                     key: "SHARDS".into(),
                     value: shard.display().to_string(),

@@ -44,6 +44,9 @@ impl PackArgs {
             seconds_arg("--duration", d)?;
         }
         let config = how.load(self.config.as_deref())?;
+        if let Some(d) = self.duration {
+            crate::config::steps_arg("--duration", config.steps_of(d))?;
+        }
         pack(&config, self.out.as_deref(), self.duration, how.common)
     }
 }

@@ -244,7 +244,9 @@ fn run_logged(
             crate::io::text::number(every)
         ));
     }
-    let started = std::fs::read_to_string(dir.join(RUN_CONFIG)).ok();
+    let started =
+        crate::io::input::read_text_bounded(&dir.join(RUN_CONFIG), crate::config::CONFIG_BOUND)
+            .ok();
     let has_checkpoints = std::fs::read_dir(dir.join("checkpoints"))
         .map(|mut d| d.next().is_some())
         .unwrap_or(false);

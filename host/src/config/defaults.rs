@@ -141,6 +141,7 @@ impl Default for RunSection {
             skin_d: Scenario::paper().skin,
             measured_profiles: None,
             measured_shift_d: 0.0,
+            measured_label: None,
         }
     }
 }

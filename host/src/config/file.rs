@@ -408,6 +408,9 @@ pub struct RunSection {
     /// Its heights are drawn at z/d minus this (largest diameters).
     #[serde(skip_serializing_if = "is_zero")]
     pub measured_shift_d: f64,
+    /// Its legend label (absent: "measured (FILE)"), e.g. a simulation's name.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub measured_label: Option<String>,
 }
 
 /// A configuration file as written (every section optional).
@@ -454,6 +457,7 @@ pub fn canonical(config: &ConfigFile) -> ConfigFile {
     // Only drawn: a cell store stays reusable with another measured profile.
     c.run.measured_profiles = None;
     c.run.measured_shift_d = 0.0;
+    c.run.measured_label = None;
     c
 }
 

@@ -120,8 +120,24 @@ pub(super) fn validate(mut file: ConfigFile, named: Named) -> Result<Config, Con
             let read = named
                 .measured
                 .unwrap_or_else(|| Err("not read".to_string()));
+            if let Some(label) = &r.measured_label {
+                need(
+                    !label.is_empty()
+                        && label.chars().count() <= 100
+                        && !label.contains(char::is_control),
+                    "run.measured_label",
+                    format!("{label:?}"),
+                    "1 to 100 characters on one line (a legend label)",
+                )?;
+            }
             Some(
                 read.map(|profile| shifted(profile, r.measured_shift_d))
+                    .map(|mut profile| {
+                        if let Some(label) = &r.measured_label {
+                            profile.label.clone_from(label);
+                        }
+                        profile
+                    })
                     .map_err(|why| ConfigError::Invalid {
                         key: "run.measured_profiles".into(),
                         value: shown(path.display().to_string()),

@@ -128,7 +128,10 @@ fn coupled_runs_repeat_bit_for_bit() {
 fn bad_coupled_keys_are_named() {
     let dir = tempfile::tempdir().unwrap();
     for (set, message) in [
-        ("fluid.phi_max=1.0", "fluid.phi_max = 1: must be in (0, 1)"),
+        (
+            "fluid.phi_max=1.0",
+            "fluid.phi_max = 1: must be in [0.1, 1)",
+        ),
         (
             "fluid.cell_d=0.01",
             "fluid.cell_d = 0.01: must be large enough for at most 2048 cells",
@@ -143,15 +146,19 @@ fn bad_coupled_keys_are_named() {
         ),
         (
             "fluid.viscosity_m2_s=0",
-            "fluid.viscosity_m2_s = 0: must be in (0, 1]",
+            "fluid.viscosity_m2_s = 0: must be in [1e-8, 1]",
         ),
         (
             "bed.slope_rad=0.5",
             "bed.slope_rad = 0.5: must be in [0, 0.5) rad",
         ),
         (
-            "bed.slope_rad=0.1",
+            "bed.slope_rad=0.01",
             "flow.tau_star[0] = 0.1: must be >= h sin(theta)/((s - 1) d_max)",
+        ),
+        (
+            "bed.slope_rad=0.1",
+            "bed.slope_rad = 0.1: must be <= 2.0626e-2 rad with flow.depth = 0.2 m",
         ),
         ("flow.model=\"laminar\"", "unknown variant `laminar`"),
         ("fluid.drag=\"stokes\"", "unknown variant `stokes`"),

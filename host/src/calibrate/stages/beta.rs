@@ -477,6 +477,7 @@ mod tests {
                 stderr,
                 dof: vec![if scale > 1.0 { 4 } else { 3 }; tau_stars.len()],
                 classes: vec![],
+                class_stderr: vec![],
                 failures: vec![],
                 seeds: vec![if scale > 1.0 { 1 } else { 4 }; tau_stars.len()],
                 reached: vec![true; tau_stars.len()],

@@ -29,6 +29,9 @@ pub struct ClassPoint {
     /// Fractional transport q*_k / f_k, q*_k on the class's own scale
     /// (q_Bk/√((s − 1) g d_k³)) and f_k its volume fraction.
     pub q_star_fraction: f64,
+    /// Its standard error between seeds (0 with one seed).
+    #[serde(default)]
+    pub q_star_fraction_stderr: f64,
     /// Reference at the class's Shields number (no hiding).
     pub reference: f64,
     /// Wilcock & Crowe (2003) for this class in this mixture (hiding).
@@ -119,12 +122,14 @@ pub fn run(
         for (i, &t) in curve.tau_stars.iter().enumerate() {
             let tau_k = t * d_max / d;
             let q_k = curve.classes.get(k).and_then(|q| q.get(i)).copied();
+            let e_k = curve.class_stderr.get(k).and_then(|e| e.get(i)).copied();
             points.push(ClassPoint {
                 tau_star: t,
                 diameter_mm: d,
                 fraction: f,
                 tau_star_class: tau_k,
                 q_star_fraction: q_k.unwrap_or(f64::NAN) * own_scale / f,
+                q_star_fraction_stderr: e_k.unwrap_or(0.0) * own_scale / f,
                 reference: ctx.reference.q_star(tau_k),
                 wilcock_crowe: wilcock_crowe(tau_k, d, d_sm, sand),
             });
@@ -157,6 +162,8 @@ struct ClassLine {
     #[serde(serialize_with = "decimal")]
     q_star_fraction: f64,
     #[serde(serialize_with = "decimal")]
+    q_star_fraction_stderr: f64,
+    #[serde(serialize_with = "decimal")]
     reference: f64,
     #[serde(serialize_with = "decimal")]
     wilcock_crowe: f64,
@@ -172,6 +179,7 @@ fn write_outputs(ctx: &Context<'_>, r: &MixedStage) -> Result<(), HostError> {
             fraction: p.fraction,
             tau_star_class: p.tau_star_class,
             q_star_fraction: p.q_star_fraction,
+            q_star_fraction_stderr: p.q_star_fraction_stderr,
             reference: p.reference,
             wilcock_crowe: p.wilcock_crowe,
         })
@@ -181,11 +189,14 @@ fn write_outputs(ctx: &Context<'_>, r: &MixedStage) -> Result<(), HostError> {
     diameters.dedup();
     // Each class's points, then what Wilcock & Crowe (2003) give them (the
     // table's comparison).
-    let class = |d: f64, value: &dyn Fn(&ClassPoint) -> f64| -> Vec<(f64, f64, f64)> {
+    let class = |d: f64, value: &dyn Fn(&ClassPoint) -> (f64, f64)| -> Vec<(f64, f64, f64)> {
         r.points
             .iter()
             .filter(|p| p.diameter_mm == d)
-            .map(|p| (p.tau_star_class, value(p), 0.0))
+            .map(|p| {
+                let (v, e) = value(p);
+                (p.tau_star_class, v, e)
+            })
             .collect()
     };
     let series = diameters
@@ -193,13 +204,13 @@ fn write_outputs(ctx: &Context<'_>, r: &MixedStage) -> Result<(), HostError> {
         .map(|&d| {
             (
                 format!("class d = {d} mm"),
-                class(d, &|p| p.q_star_fraction),
+                class(d, &|p| (p.q_star_fraction, p.q_star_fraction_stderr)),
             )
         })
         .chain(diameters.iter().map(|&d| {
             (
                 format!("Wilcock & Crowe 2003, class d = {d} mm"),
-                class(d, &|p| p.wilcock_crowe),
+                class(d, &|p| (p.wilcock_crowe, 0.0)),
             )
         }))
         .collect();
@@ -207,7 +218,7 @@ fn write_outputs(ctx: &Context<'_>, r: &MixedStage) -> Result<(), HostError> {
         series,
         references: vec![ctx.reference],
         title: format!(
-            "Stage 5: fractional transport per size class, mixed bed of d = {} mm",
+            "Stage 5: fractional transport per size class, mixed bed of d = {} mm (bars: ±1 standard error between seeds)",
             diameters
                 .iter()
                 .map(f64::to_string)

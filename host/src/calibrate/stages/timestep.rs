@@ -319,6 +319,7 @@ mod tests {
             stderr: vec![],
             dof: vec![],
             classes: vec![],
+            class_stderr: vec![],
             failures: vec![],
             seeds: vec![],
             reached: vec![],
