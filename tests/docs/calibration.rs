@@ -32,11 +32,23 @@ pub(crate) fn settling_time(rows: &[HashMap<String, String>], value: f64) -> f64
     field(row_where(rows, "value", value).unwrap(), "settling_time")
 }
 
+/// The calibration of 2026-11-25 (before the MSER truncation and the
+/// batch-means intervals of issue 41), which the findings written with it
+/// quote: its stage files and report, kept under docs/findings/data/.
+pub(crate) const CALIBRATION_2026_11_25: &str = "docs/findings/data/calibration-2026-11-25";
+
 impl Calibration {
+    /// The committed calibration, docs/calibration/.
     pub(crate) fn read() -> Self {
-        let stage1 = csv("docs/calibration/stage1.csv");
-        let stage2 = csv("docs/calibration/stage2.csv");
-        let report = read("docs/calibration/report.md");
+        Self::read_from("docs/calibration")
+    }
+
+    /// The calibration whose stage files and report.md are in `dir`.
+    pub(crate) fn read_from(dir: &str) -> Self {
+        let file = |name: &str| format!("{dir}/{name}");
+        let stage1 = csv(&file("stage1.csv"));
+        let stage2 = csv(&file("stage2.csv"));
+        let report = read(&file("report.md"));
         let spans = report
             .split_once("spans **[")
             .and_then(|(_, r)| r.split_once("]**"))
@@ -48,10 +60,10 @@ impl Calibration {
             alpha_cn: fastest(&stage2),
             stage1,
             stage2,
-            stage3: csv("docs/calibration/stage3.csv"),
-            transport: csv("docs/calibration/stage3_transport.csv"),
-            stage4: csv("docs/calibration/stage4.csv"),
-            stage5: csv("docs/calibration/stage5.csv"),
+            stage3: csv(&file("stage3.csv")),
+            transport: csv(&file("stage3_transport.csv")),
+            stage4: csv(&file("stage4.csv")),
+            stage5: csv(&file("stage5.csv")),
             beta_range: (a.trim().to_string(), b.trim().to_string()),
         }
     }
@@ -506,7 +518,8 @@ pub(crate) fn check_list(c: &mut Check, what: &str, printed: &str, values: &[f64
 #[test]
 pub(crate) fn glue_quotes_the_committed_calibration() {
     let doc = "docs/findings/glue.md";
-    let cal = Calibration::read();
+    // Written with the calibration of 2026-11-25.
+    let cal = Calibration::read_from(CALIBRATION_2026_11_25);
     let t = table(doc, "glue-full");
     let dashpot = col(&t[0], "`\"dashpot\"`");
     let mut c = Check::default();

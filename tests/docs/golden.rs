@@ -171,7 +171,8 @@ pub(crate) fn findings_quote_the_golden_table() {
     // The clear-water column of the calibration comparison: the committed calibration.
     let t = table(doc, "coupled-calibration");
     let clear = col(&t[0], "clear water, `\"dashpot\"`");
-    let cal = Calibration::read();
+    // Written with the calibration of 2026-11-25.
+    let cal = Calibration::read_from(crate::calibration::CALIBRATION_2026_11_25);
     for r in &t[1..] {
         let cell = &r[clear];
         let w = format!("{doc} clear water {}", r[0]);

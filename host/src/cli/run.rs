@@ -91,6 +91,7 @@ impl RunArgs {
             resuming: self.resume.is_some(),
             shard: self.shard.unwrap_or(Shard::ALL),
             dump_every: self.dump_every,
+            stop: None,
         };
         let (config, out) = match self.resume {
             Some(dir) => {
@@ -138,6 +139,10 @@ pub struct RunOptions {
     /// `--dump-every SECONDS`: particle frames of each computed cell every
     /// SECONDS of simulated time under the flow ([`dump_steps`]).
     pub dump_every: Option<f64>,
+    /// A stop flag the caller sets (a library user, e.g. Python on
+    /// KeyboardInterrupt): running cells checkpoint and stop as on Ctrl-C,
+    /// and no signal handler is installed. `None`: Ctrl-C and SIGTERM.
+    pub stop: Option<&'static AtomicBool>,
 }
 
 /// `--dump-every SECONDS` in integration steps (rounded): from one
@@ -274,7 +279,9 @@ fn run_logged(
     }
     write_text(&dir.join(RUN_CONFIG), text)?;
     // A second handler cannot be installed (e.g. in-process tests); Ctrl-C then just kills.
-    let _ = ctrlc::set_handler(on_signal);
+    if options.stop.is_none() {
+        let _ = ctrlc::set_handler(on_signal);
+    }
     let cells = (0..config.tau_stars.len() * config.seeds.len())
         .filter(|&k| options.shard.owns(k))
         .count() as u64;
@@ -289,7 +296,7 @@ fn run_logged(
     let control = RunControl {
         dir,
         every: options.checkpoint_every.map(Duration::from_secs_f64),
-        stop: &STOP,
+        stop: options.stop.unwrap_or(&STOP),
         stop_after: options.stop_after_steps,
         shard: options.shard,
         log,

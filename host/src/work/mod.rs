@@ -5,5 +5,6 @@ pub mod cell;
 pub mod experiment;
 pub mod job;
 pub mod profiles;
+pub mod session;
 pub mod shard;
 pub mod store;

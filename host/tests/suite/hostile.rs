@@ -126,8 +126,17 @@ fn golden_trace() -> mbs::tools::trace::Trace {
     run.run().unwrap()
 }
 
+/// `default` cases, or `PROPTEST_CASES` where set (longer fuzzing runs:
+/// docs/guarantees.md, "Fuzzing").
+fn cases(default: u32) -> u32 {
+    std::env::var("PROPTEST_CASES")
+        .ok()
+        .and_then(|n| n.parse().ok())
+        .unwrap_or(default)
+}
+
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 200, ..ProptestConfig::default() })]
+    #![proptest_config(ProptestConfig { cases: cases(200), ..ProptestConfig::default() })]
 
     /// `--set SECTION.KEY=VALUE` with any key and value: a configuration
     /// whose plan holds, or a short named error of exit status 2.

@@ -218,7 +218,7 @@ fn write_outputs(ctx: &Context<'_>, r: &MixedStage) -> Result<(), HostError> {
         series,
         references: vec![ctx.reference],
         title: format!(
-            "Stage 5: fractional transport per size class, mixed bed of d = {} mm (bars: ±1 standard error between seeds)",
+            "Stage 5: fractional transport per class, d = {} mm (bars: ±1 s.e. over seeds)",
             diameters
                 .iter()
                 .map(f64::to_string)
