@@ -39,4 +39,7 @@ pub mod work;
 
 pub use config::{Config, ConfigError, Precision};
 pub use error::HostError;
+/// The progress bars' crate, for a library user who takes the run's bar
+/// (`cli::RunOptions::progress_to`).
+pub use indicatif;
 pub use sim::sims::boxed_sim;

@@ -178,16 +178,36 @@ def run(
     directory is locked, ``mbs.log`` appended, as on the command line; the
     GIL is released while cells run. KeyboardInterrupt (Ctrl-C) makes the
     running cells checkpoint before it is raised; ``run(resume=DIR)`` then
-    finishes the same table, byte for byte. ``progress`` shows the command
-    line's progress bar on standard error."""
+    finishes the same table, byte for byte. ``progress``: a tqdm bar of the
+    integration steps where tqdm is installed, else the command line's bar
+    on standard error."""
     native = None if config is None else config._native
-    dir = _mbs.run(
-        native,
-        None if out is None else _os.fspath(out),
-        threads,
-        None if resume is None else _os.fspath(resume),
-        not progress,
-    )
+    bar, on_progress, quiet = None, None, True
+    if progress:
+        try:
+            from tqdm.auto import tqdm
+        except ImportError:
+            quiet = False
+        else:
+            bar = tqdm(total=0, unit="step", unit_scale=True, desc="mbs run")
+
+            def on_progress(done: int, total: int) -> None:
+                if bar.total != total:
+                    bar.total = total
+                bar.update(done - bar.n)
+
+    try:
+        dir = _mbs.run(
+            native,
+            None if out is None else _os.fspath(out),
+            threads,
+            None if resume is None else _os.fspath(resume),
+            quiet,
+            on_progress,
+        )
+    finally:
+        if bar is not None:
+            bar.close()
     return Results(dir)
 
 
@@ -272,6 +292,17 @@ class Sim:
         """q* now, as a window samples it (all classes, on the largest
         diameter)."""
         return self._native.q_star()
+
+    def profile(self) -> Dict[str, _np.ndarray]:
+        """The profiles now, as a window samples them: per cell of the column,
+        bottom up, ``y_over_d`` (the cell's centre over the largest diameter;
+        0: the fixed grains' mean centre), ``solid_fraction``,
+        ``grain_velocity_m_s``, ``fluid_velocity_m_s`` and the shear stresses
+        ``contact_stress_pa``, ``kinetic_stress_pa``, ``viscous_stress_pa``,
+        ``reynolds_stress_pa`` (numpy copies; ``profiles.csv`` holds their
+        means over a cell's window)."""
+        raw = self._native.profile()
+        return {k: _np.frombuffer(v, dtype="<f8").copy() for k, v in raw.items()}
 
     def digest(self) -> int:
         """The 64-bit state digest (docs/determinism.md)."""

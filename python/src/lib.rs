@@ -107,14 +107,36 @@ impl NativeConfig {
 /// checkpoint and stop, as on Ctrl-C.
 static STOP: AtomicBool = AtomicBool::new(false);
 
+/// The running job's progress bar, handed over by `mbs::cli::run`.
+static BAR: std::sync::Mutex<Option<mbs::indicatif::ProgressBar>> = std::sync::Mutex::new(None);
+
+/// Calls `on_progress(done, total)` with the bar's steps, if both are there.
+fn report_progress(py: Python<'_>, on_progress: Option<&PyObject>) -> PyResult<()> {
+    let Some(f) = on_progress else {
+        return Ok(());
+    };
+    let state = BAR
+        .lock()
+        .ok()
+        .and_then(|b| b.as_ref().map(|b| (b.position(), b.length())));
+    if let Some((done, Some(total))) = state {
+        f.call1(py, (done, total))?;
+    }
+    Ok(())
+}
+
 /// Runs `job` on another thread with the GIL released, checking Python's
 /// signals every 0.1 s: a KeyboardInterrupt sets [`STOP`], waits for the
 /// job to checkpoint and raises KeyboardInterrupt.
 fn interruptible(
     py: Python<'_>,
+    on_progress: Option<&PyObject>,
     job: impl FnOnce() -> Result<(), mbs::HostError> + Send + 'static,
 ) -> PyResult<()> {
     STOP.store(false, Ordering::Relaxed);
+    if let Ok(mut bar) = BAR.lock() {
+        *bar = None;
+    }
     let (tx, rx) = std::sync::mpsc::channel();
     let rx = std::sync::Mutex::new(rx);
     std::thread::spawn(move || {
@@ -128,6 +150,7 @@ fn interruptible(
         });
         match got {
             Ok(result) => {
+                report_progress(py, on_progress)?;
                 return match (interrupted, result) {
                     (Some(e), _) => Err(e),
                     (None, r) => r.map_err(py_err),
@@ -140,6 +163,11 @@ fn interruptible(
             }
             Err(std::sync::mpsc::RecvTimeoutError::Timeout) => {
                 if interrupted.is_none() {
+                    if let Err(e) = report_progress(py, on_progress) {
+                        STOP.store(true, Ordering::Relaxed);
+                        interrupted = Some(e);
+                        continue;
+                    }
                     if let Err(e) = py.check_signals() {
                         STOP.store(true, Ordering::Relaxed);
                         interrupted = Some(e);
@@ -154,7 +182,7 @@ fn interruptible(
 /// line's store, resume, lock and log; resuming `resume` (a directory)
 /// with the configuration it started with. Returns the output directory.
 #[pyfunction]
-#[pyo3(signature = (config=None, out=None, threads=0, resume=None, quiet=true))]
+#[pyo3(signature = (config=None, out=None, threads=0, resume=None, quiet=true, on_progress=None))]
 fn run(
     py: Python<'_>,
     config: Option<NativeConfig>,
@@ -162,6 +190,7 @@ fn run(
     threads: usize,
     resume: Option<PathBuf>,
     quiet: bool,
+    on_progress: Option<PyObject>,
 ) -> PyResult<PathBuf> {
     mbs::cli::check_threads(threads).map_err(py_err)?;
     let (config, out, resuming) = match resume {
@@ -182,10 +211,11 @@ fn run(
     let options = mbs::cli::RunOptions {
         resuming,
         stop: Some(&STOP),
+        progress_to: Some(&BAR),
         ..mbs::cli::RunOptions::default()
     };
     let common = mbs::cli::Common { quiet, threads };
-    interruptible(py, move || {
+    interruptible(py, on_progress.as_ref(), move || {
         mbs::cli::run(&config, out.as_deref(), options, common)
     })?;
     Ok(dir)
@@ -304,6 +334,23 @@ impl NativeSim {
     /// q* now, as a window samples it.
     fn q_star(&self) -> f64 {
         self.session.q_star()
+    }
+
+    /// The profiles now: y/d of each cell's centre, φ, u_p, u_f and the
+    /// shear stresses (f64 bytes each).
+    fn profile<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let p = self.session.profile().map_err(py_err)?;
+        let d = PyDict::new(py);
+        d.set_item("y_over_d", f64_bytes(py, &self.session.profile_heights_d()))?;
+        d.set_item("solid_fraction", f64_bytes(py, &p.solid_fraction))?;
+        d.set_item("grain_velocity_m_s", f64_bytes(py, &p.grain_velocity))?;
+        d.set_item("fluid_velocity_m_s", f64_bytes(py, &p.fluid_velocity))?;
+        let [contact, kinetic, viscous, reynolds] = p.stresses.columns();
+        d.set_item("contact_stress_pa", f64_bytes(py, contact))?;
+        d.set_item("kinetic_stress_pa", f64_bytes(py, kinetic))?;
+        d.set_item("viscous_stress_pa", f64_bytes(py, viscous))?;
+        d.set_item("reynolds_stress_pa", f64_bytes(py, reynolds))?;
+        Ok(d)
     }
 
     /// The state digest.

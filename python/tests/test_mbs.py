@@ -113,6 +113,23 @@ def test_arrays_are_copies_that_outlive_the_sim():
     assert np.all(g["radius"] > 0)
 
 
+def test_progress_and_profiles(tmp_path, capsys):
+    pytest.importorskip("tqdm")
+    mbs.run(small(), out=tmp_path / "p", progress=True)
+    assert "mbs run" in capsys.readouterr().err, "a tqdm bar"
+    sim = mbs.Sim(small(), 0.3, 1)
+    sim.settle()
+    p = sim.profile()
+    assert set(p) >= {"y_over_d", "solid_fraction", "grain_velocity_m_s", "fluid_velocity_m_s"}
+    n = len(p["y_over_d"])
+    assert n > 10 and all(len(v) == n for v in p.values())
+    assert np.all(np.diff(p["y_over_d"]) > 0)
+    assert 0.3 < p["solid_fraction"].max() <= 1.0
+    # In the bed (y ≈ 1 d) the grains are packed; far above it there are none.
+    assert p["solid_fraction"][np.argmin(abs(p["y_over_d"] - 1.0))] > 0.3
+    assert p["solid_fraction"][-1] == 0.0
+
+
 def test_errors_are_python_exceptions():
     with pytest.raises(mbs.ConfigError, match=r"tau_star = 9: must be in \(0, 5\]"):
         mbs.Sim(small(), tau_star=9.0)

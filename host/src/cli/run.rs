@@ -92,6 +92,7 @@ impl RunArgs {
             shard: self.shard.unwrap_or(Shard::ALL),
             dump_every: self.dump_every,
             stop: None,
+            progress_to: None,
         };
         let (config, out) = match self.resume {
             Some(dir) => {
@@ -143,6 +144,9 @@ pub struct RunOptions {
     /// KeyboardInterrupt): running cells checkpoint and stop as on Ctrl-C,
     /// and no signal handler is installed. `None`: Ctrl-C and SIGTERM.
     pub stop: Option<&'static AtomicBool>,
+    /// Where to hand a handle on the run's progress bar (steps done and
+    /// their total), for a library user's own display (Python's tqdm).
+    pub progress_to: Option<&'static std::sync::Mutex<Option<indicatif::ProgressBar>>>,
 }
 
 /// `--dump-every SECONDS` in integration steps (rounded): from one
@@ -292,6 +296,9 @@ fn run_logged(
         &format!("cells 0/{cells}"),
         common.quiet,
     );
+    if let Some(Ok(mut slot)) = options.progress_to.map(|m| m.lock()) {
+        *slot = Some(progress.bar().clone());
+    }
     let start = Instant::now();
     let control = RunControl {
         dir,

@@ -78,14 +78,6 @@ fn mean_profile(results: &[CellResult], tau_star: f64) -> Option<CellProfile> {
     Some(sums.means())
 }
 
-/// Heights of the cell centres over the largest diameter (y = 0: the fixed
-/// grains' mean centre height).
-fn heights(config: &Config) -> Vec<f64> {
-    let grid = ProfileGrid::of(config).grid;
-    let d = config.scenario.bed.max_diameter();
-    (0..grid.cells()).map(|j| grid.centre(j) / d).collect()
-}
-
 /// Writes `profiles.csv`: per τ* and fluid cell of the column, bottom up, the
 /// height y/d of its centre, φ, u_p, u_f and the shear stresses (the
 /// grains' by contacts and by fluctuations, the fluid's viscous and
@@ -95,7 +87,7 @@ pub fn write_profiles(
     config: &Config,
     results: &[CellResult],
 ) -> Result<(), HostError> {
-    let y = heights(config);
+    let y = ProfileGrid::heights_d(config);
     let mut lines = Vec::new();
     for &tau_star in &config.tau_stars {
         let Some(p) = mean_profile(results, tau_star) else {
@@ -130,7 +122,7 @@ pub const ABOVE_BED_D: f64 = 15.0;
 /// [`ABOVE_BED_D`] above the highest grain; the measured profile of
 /// `run.measured_profiles` as dots.
 pub fn profiles_figure(config: &Config, results: &[CellResult]) -> Panels {
-    let y = heights(config);
+    let y = ProfileGrid::heights_d(config);
     let profiles: Vec<(f64, CellProfile)> = config
         .tau_stars
         .iter()

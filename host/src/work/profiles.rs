@@ -132,6 +132,14 @@ impl ProfileGrid {
             below,
         }
     }
+
+    /// Heights of the cells' centres over the largest diameter (y = 0: the
+    /// fixed grains' mean centre height), bottom up.
+    pub fn heights_d(config: &Config) -> Vec<f64> {
+        let grid = ProfileGrid::of(config).grid;
+        let d = config.scenario.bed.max_diameter();
+        (0..grid.cells()).map(|j| grid.centre(j) / d).collect()
+    }
 }
 
 /// Slab sums of the grains on the profiles' fluid cells, reused between samples

@@ -7,6 +7,7 @@
 use super::beds::{BedJob, BedKey, BedState, BedStatus};
 use super::cell::CellResult;
 use super::job::run_cell;
+use super::profiles::{CellProfile, ProfileGrid, ProfileSums, Sampler};
 use crate::config::{grain_capacities, Config, Precision};
 use crate::error::HostError;
 use crate::sim::control::Control;
@@ -61,6 +62,11 @@ trait Held: Send + Sync {
     fn grains(&self) -> GrainArrays;
     fn contacts(&self) -> ContactArrays;
     fn q_star(&self, d_max: f64, s: f64, per_slice: f64) -> f64;
+    fn profile(
+        &self,
+        sampler: &mut Sampler,
+        cells: usize,
+    ) -> Result<CellProfile, mbs_kernel::Error>;
 }
 
 impl<R: Real, const N: usize> Held for HostSim<R, N> {
@@ -116,6 +122,15 @@ impl<R: Real, const N: usize> Held for HostSim<R, N> {
     }
     fn q_star(&self, d_max: f64, s: f64, per_slice: f64) -> f64 {
         self.observe().q_star(d_max, s, G) * per_slice
+    }
+    fn profile(
+        &self,
+        sampler: &mut Sampler,
+        cells: usize,
+    ) -> Result<CellProfile, mbs_kernel::Error> {
+        let mut sums = ProfileSums::new(cells);
+        sampler.sample(self, &mut sums)?;
+        Ok(sums.means())
     }
 }
 
@@ -274,6 +289,26 @@ impl Session {
         let d_max = sc.bed.max_diameter();
         self.sim
             .q_star(d_max, sc.material.s, d_max / sc.slice_thickness())
+    }
+
+    /// The profiles now, as a window samples them (docs/model.md §8): φ,
+    /// u_p, u_f and the shear stresses per cell of the column, bottom up,
+    /// at the heights [`Session::profile_heights_d`].
+    pub fn profile(&self) -> Result<CellProfile, HostError> {
+        let mut sampler = Sampler::new(&self.config);
+        let (tau, seed) = (self.tau_star, self.seed);
+        let cells = ProfileGrid::of(&self.config).grid.cells();
+        self.sim
+            .profile(&mut sampler, cells)
+            .map_err(HostError::kernel(format!(
+                "tau* = {tau}, seed {seed}: profiles"
+            )))
+    }
+
+    /// The heights of [`Session::profile`]'s cells over the largest
+    /// diameter (y = 0: the fixed grains' mean centre height).
+    pub fn profile_heights_d(&self) -> Vec<f64> {
+        ProfileGrid::heights_d(&self.config)
     }
 
     /// The state digest (docs/determinism.md).
