@@ -2,7 +2,7 @@
 //! package's `mbs.Sim` wraps): built, settled exactly as `mbs run` settles
 //! a seed's bed ([`BedJob`]), stepped under the flow, observed, digested,
 //! checkpointed and restored. The simulation's precision and capacity are
-//! chosen at run time; [`Held`] hides them behind one object-safe trait.
+//! chosen at run time; a private object-safe trait hides them.
 
 use super::beds::{BedJob, BedKey, BedState, BedStatus};
 use super::cell::CellResult;
