@@ -167,6 +167,13 @@ impl BedSpec {
         self.spacing * self.max_diameter()
     }
 
+    /// Grains of the bed, fixed ones included: columns × (fixed per column +
+    /// rows) (saturating: never a panic).
+    pub fn grains(&self) -> usize {
+        (self.columns as usize)
+            .saturating_mul(self.fixed_per_column().saturating_add(self.rows as usize))
+    }
+
     /// Fixed grains per lattice column: ⌈d_max/d_min⌉ **\[choice\]**, so that
     /// the fixed layer of a mixed bed is as tight for the finest grains as a
     /// single-size layer is for its grains (1 for a single size).

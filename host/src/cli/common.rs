@@ -190,16 +190,7 @@ impl Invocation {
 
 /// Checks a Shields number given on the command line.
 pub fn tau_arg(tau: f64) -> Result<f64, HostError> {
-    if tau.is_finite() && tau > 0.0 && tau <= 5.0 {
-        Ok(tau)
-    } else {
-        Err(ConfigError::Invalid {
-            key: "--tau".into(),
-            value: tau.to_string(),
-            allowed: "in (0, 5]".into(),
-        }
-        .into())
-    }
+    Ok(crate::config::tau_star_arg("--tau", tau)?)
 }
 
 /// Checks a physical time given on the command line: in (0, 1000] s, the

@@ -106,8 +106,7 @@ impl DigestArgs {
         steps_arg("--steps", steps.0)?;
         steps_arg("--flow-steps", steps.1)?;
         let tau = tau_arg(self.tau)?;
-        let bed = &config.scenario.bed;
-        let grains = bed.columns as usize * (bed.fixed_per_column() + bed.rows as usize);
+        let grains = config.scenario.bed.grains();
         if let Some(w) = long_steps_warning("mbs digest", steps.0.saturating_add(steps.1), grains) {
             print_err(&format!("warning: {w}"));
         }

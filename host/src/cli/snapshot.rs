@@ -60,8 +60,7 @@ impl SnapshotArgs {
         let config = how.load(self.config.as_deref())?;
         let steps = config.steps_of(self.every).saturating_mul(self.frames);
         steps_arg("--frames x --every", steps)?;
-        let bed = &config.scenario.bed;
-        let grains = bed.columns as usize * (bed.fixed_per_column() + bed.rows as usize);
+        let grains = config.scenario.bed.grains();
         let total = steps.saturating_add(config.durations.settle);
         if let Some(w) = long_steps_warning("mbs snapshot", total, grains) {
             print_err(&format!("warning: {w}"));

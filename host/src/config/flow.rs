@@ -15,7 +15,7 @@ use super::errors::need;
 use super::file::{
     ChannelSection, ConfigFile, DragKey, FlowModelKey, FlowSection, FluctuationsKey, FluidSection,
 };
-use super::limits::FLUID_CELLS;
+use super::limits::{tau_star_arg, FLUID_CELLS, MAX_TAU_STAR};
 use crate::error::ConfigError;
 use mbs_kernel::{
     shields_number, uniform_flow_shields_number, FlowModel, FlowSpec, FluidSpec, IntegrationSteps,
@@ -67,7 +67,7 @@ pub fn flow_forms(file: &mut ConfigFile, s: f64, d: f64) -> Result<(), ConfigErr
     for (k, &v) in given.iter().enumerate() {
         let tau = tau_of(v);
         need(
-            v.is_finite() && v > 0.0 && tau > 0.0 && tau <= 5.0,
+            v.is_finite() && v > 0.0 && tau > 0.0 && tau <= MAX_TAU_STAR,
             &format!("{key}[{k}]"),
             v,
             &format!(
@@ -99,12 +99,7 @@ pub(super) fn flow_spec(file: &ConfigFile, d: f64, substeps: u32) -> Result<Flow
         "a list of 1 to 1000 values",
     )?;
     for (k, &t) in f.tau_stars.iter().enumerate() {
-        need(
-            t.is_finite() && t > 0.0 && t <= MAX_TAU_STAR,
-            &format!("flow.tau_star[{k}]"),
-            t,
-            "in (0, 5]",
-        )?;
+        tau_star_arg(&format!("flow.tau_star[{k}]"), t)?;
     }
     let mut sorted = f.tau_stars.clone();
     sorted.sort_by(f64::total_cmp);
@@ -272,9 +267,6 @@ pub(super) fn closures_need_coupled(file: &ConfigFile) -> Result<(), ConfigError
         only,
     )
 }
-
-/// The largest Shields number a configuration may ask for: sheet flow.
-const MAX_TAU_STAR: f64 = 5.0;
 
 /// The coupled flow of `scenario` at each τ* fits the host's column and is
 /// driven forward: its cells at most [`FLUID_CELLS`], and the bed slope

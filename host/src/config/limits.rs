@@ -60,6 +60,27 @@ pub(super) const PHASE_REASON: &str =
 /// The most integration steps of a cell (settling, spin-up and window).
 pub const MAX_CELL_STEPS: u64 = 100_000_000_000;
 
+/// The largest Shields number: sheet flow.
+pub const MAX_TAU_STAR: f64 = 5.0;
+
+/// Checks a Shields number given as `key` (`--tau`, a trace's, a `Sim`'s):
+/// in (0, [`MAX_TAU_STAR`]], as `flow.tau_star`.
+///
+/// ```
+/// assert_eq!(mbs::config::tau_star_arg("--tau", 0.2).unwrap(), 0.2);
+/// let e = mbs::config::tau_star_arg("--tau", 9.0).unwrap_err();
+/// assert_eq!(e.to_string(), "--tau = 9: must be in (0, 5]");
+/// ```
+pub fn tau_star_arg(key: &str, tau_star: f64) -> Result<f64, crate::error::ConfigError> {
+    super::errors::need(
+        tau_star.is_finite() && tau_star > 0.0 && tau_star <= MAX_TAU_STAR,
+        key,
+        crate::io::text::number(tau_star),
+        &format!("in (0, {MAX_TAU_STAR}]"),
+    )
+    .map(|()| tau_star)
+}
+
 /// Checks a count of integration steps given on the command line (`mbs
 /// digest --steps`, a trace's phases): at most [`MAX_CELL_STEPS`], the
 /// limit of a cell of the main job.

@@ -42,9 +42,9 @@ pub use file::{
 pub use flow::flow_forms;
 pub(crate) use limits::grain_capacities;
 pub use limits::{
-    capacities_listed, steps_arg, CAPACITIES, CONFIG_BOUND, FLUID_CELLS,
-    GRAIN_STEPS_PER_S_PER_CORE, MAX_CAPACITY, MAX_CELL_STEPS, MAX_PHASE_S, MIN_CONSTANTS_DT,
-    MIN_DIAMETER_MM, SUBSTEP_DAMPING_NUMBER,
+    capacities_listed, steps_arg, tau_star_arg, CAPACITIES, CONFIG_BOUND, FLUID_CELLS,
+    GRAIN_STEPS_PER_S_PER_CORE, MAX_CAPACITY, MAX_CELL_STEPS, MAX_PHASE_S, MAX_TAU_STAR,
+    MIN_CONSTANTS_DT, MIN_DIAMETER_MM, SUBSTEP_DAMPING_NUMBER,
 };
 pub use overrides::{apply_overrides, Override};
 pub use specs::{number_fractions, volume_fractions};

@@ -155,7 +155,7 @@ pub(super) fn validate(mut file: ConfigFile, named: Named) -> Result<Config, Con
         r.capacity,
         &format!("one of {}", capacities_listed()),
     )?;
-    let grains = bed.columns as usize * (bed.fixed_per_column() + bed.rows as usize);
+    let grains = bed.grains();
     need(
         grains <= r.capacity,
         "run.capacity",

@@ -68,7 +68,7 @@ pub const LONG_RUN_S: f64 = 86400.0;
 /// wall time at [`GRAIN_STEPS_PER_S_PER_CORE`].
 pub fn long_run_warning(config: &Config, cores: usize) -> Option<String> {
     let sc = &config.scenario;
-    let grains = sc.bed.columns as f64 * (sc.bed.fixed_per_column() + sc.bed.rows as usize) as f64;
+    let grains = sc.bed.grains() as f64;
     let cells = config.tau_stars.len() * config.seeds.len();
     let steps = config.durations.cell() as f64;
     let settling = config.seeds.len() as f64 * config.durations.settle as f64;

@@ -54,8 +54,7 @@ impl Derived {
                 sc.step_dt(),
             ),
             width: sc.bed.width(),
-            max_grains: sc.bed.columns as usize
-                * (sc.bed.fixed_per_column() + sc.bed.rows as usize),
+            max_grains: sc.bed.grains(),
         }
     }
 }

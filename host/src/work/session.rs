@@ -188,12 +188,7 @@ impl Session {
     /// The bed of `seed` of `config`, built (its lattice, not settled), to
     /// run under the flow of `tau_star`.
     pub fn new(config: &Config, tau_star: f64, seed: u64) -> Result<Session, HostError> {
-        crate::config::need(
-            tau_star.is_finite() && tau_star > 0.0 && tau_star <= 5.0,
-            "tau_star",
-            crate::io::text::number(tau_star),
-            "in (0, 5]",
-        )?;
+        crate::config::tau_star_arg("tau_star", tau_star)?;
         let mut sim = held(config.precision, config.capacity);
         let scenario = config.scenario_at(seed);
         sim.build(&scenario).map_err(HostError::kernel(format!(

@@ -92,7 +92,7 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
         let d_max = spec.max_diameter();
         let pitch = spec.pitch();
         let columns = spec.columns as usize;
-        let needed = columns * (spec.fixed_per_column() + spec.rows as usize);
+        let needed = spec.grains();
         if needed > N {
             return Err(Error::CapacityExceeded {
                 what: Capacity::Grains,

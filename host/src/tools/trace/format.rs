@@ -46,8 +46,7 @@ impl TraceRun {
     /// (every grain with every neighbour slot a contact).
     pub fn max_bytes(&self) -> u64 {
         let bed = &self.scenario.bed;
-        let grains = (bed.columns as usize)
-            .saturating_mul(bed.fixed_per_column().saturating_add(bed.rows as usize));
+        let grains = bed.grains();
         let state = if self.spec.states {
             let bytes = checkpoint_len(
                 self.spec.precision,

@@ -23,8 +23,7 @@ pub use check::check;
 pub use format::{parse, to_text, FORMAT, MAX_RECORDS, TRACE_BOUND};
 pub use record::step_path;
 
-use crate::config::{need, steps_arg, ConfigError, Precision};
-use crate::io::text::number;
+use crate::config::{need, steps_arg, tau_star_arg, ConfigError, Precision};
 use mbs_kernel::{GrainField, Scenario};
 use serde::Serialize;
 use std::collections::BTreeMap;
@@ -134,12 +133,7 @@ impl TraceSpec {
     /// `from` at most the last step. A trace read from a file is checked
     /// again, as strictly as the command that would have written it.
     pub fn validate(&self) -> Result<(), ConfigError> {
-        need(
-            self.tau_star.is_finite() && self.tau_star > 0.0 && self.tau_star <= 5.0,
-            "--tau",
-            number(self.tau_star),
-            "in (0, 5]",
-        )?;
+        tau_star_arg("--tau", self.tau_star)?;
         steps_arg("--steps", self.settle_steps)?;
         steps_arg("--flow-steps", self.flow_steps)?;
         need(self.every >= 1, "--every", self.every, "> 0")?;
