@@ -96,12 +96,15 @@
 //!    of both precisions and their operations; its passes `drag` (4)–(5)
 //!    and §13, `pairs` (6)–(9) and `grains` (1)–(3); `params`, what they
 //!    read) and `step::index` (its pair index; `step::no_lanes` stands in
-//!    for it elsewhere). Both paths give the same bits.
+//!    for it elsewhere), and `step::phased` (the **phased step**: the
+//!    scalar step's operations in two phases over ranges of grains, run by
+//!    the caller's [`Executor`] on one core or many, with [`Phases`], its
+//!    buffers). All paths give the same bits.
 //! 5. **Sim** (`sim`): [`Sim`], its state and configuration ([`SimConfig`]),
 //!    adding grains, switching the flow, reading the state, and the
 //!    `impl Sim` blocks of its topics, one file each: `sim::step`
-//!    ([`Sim::step`], [`Sim::run`]: the neighbour refresh, the flow's
-//!    bookkeeping, the dispatch to the two paths), `sim::coupled` (the
+//!    ([`Sim::step`], [`Sim::run`], [`Sim::step_phased`]: the neighbour
+//!    refresh, the flow's bookkeeping, the dispatch to the paths), `sim::coupled` (the
 //!    coupled flow's start and its update every M steps), `sim::bed` (the
 //!    initial bed, settling, [`RestWatch`], the mean bed level),
 //!    `sim::observe` ([`Sim::observe`]), `sim::checkpoint`
@@ -160,4 +163,5 @@ pub use observe::{q_star, transport_scale, Observation};
 pub use real::Real;
 pub use scenario::{Scenario, G};
 pub use sim::{ContactForce, RestWatch, Sim, SimConfig, CHECKPOINT_VERSION};
+pub use step::phased::{Executor, Phase, Phases, Ranges, Serial};
 pub use steps::IntegrationSteps;

@@ -80,6 +80,10 @@ pub struct Neighbours<R: Real, const N: usize, const K: usize> {
     pub(crate) stale: bool,
     /// Rebuilds since the simulation was reset (a diagnostic).
     pub(crate) rebuilds: u64,
+    /// Changes of the lists (rebuilds and clears), never reset: what the
+    /// phased step's list of incoming pairs was built from
+    /// ([`crate::Phases`]).
+    pub(crate) generation: u64,
     /// Largest cut-off of the last build: largest diameter + skin.
     pub(crate) cutoff: R,
 }
@@ -101,6 +105,7 @@ impl<R: Real, const N: usize, const K: usize> Neighbours<R, N, K> {
             step_dt: R::ZERO,
             stale: false,
             rebuilds: 0,
+            generation: 0,
             cutoff: R::ZERO,
         }
     }
@@ -111,6 +116,7 @@ impl<R: Real, const N: usize, const K: usize> Neighbours<R, N, K> {
         self.travel = R::ZERO;
         self.stale = true;
         self.rebuilds = 0;
+        self.generation = self.generation.wrapping_add(1);
     }
 
     /// Sets the largest skin (m) and the integration step (s).
@@ -217,6 +223,7 @@ impl<R: Real, const N: usize, const K: usize> Neighbours<R, N, K> {
         self.travel = R::ZERO;
         self.stale = false;
         self.rebuilds = self.rebuilds.saturating_add(1);
+        self.generation = self.generation.wrapping_add(1);
         Ok(())
     }
 

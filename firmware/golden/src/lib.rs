@@ -6,7 +6,7 @@
 #![no_std]
 
 use core::fmt;
-use mbs_kernel::{BedSpec, Error, FieldGroup, Real, Scenario, Sim};
+use mbs_kernel::{BedSpec, Error, FieldGroup, Phases, Ranges, Real, Scenario, Sim};
 
 /// Steps of each phase of the paper's run (`mbs digest`'s default).
 pub const STEPS: u64 = 2000;
@@ -143,6 +143,34 @@ pub fn run<R: Real, const N: usize, const K: usize, const C: usize>(
         flow,
         cost,
     })
+}
+
+/// Ranges a phase of the phased step is cut into by [`run_phased`]: what
+/// three host threads would each run, here one after the other.
+pub const PHASED_RANGES: usize = 3;
+
+/// [`run`] without the meter, stepping by the phased step
+/// ([`Sim::step_phased`]) cut into [`PHASED_RANGES`] ranges on this one
+/// core: the digests after settling and after the flow, which equal
+/// [`run`]'s and the host's on any number of threads. Printed as
+/// `phased settling 0x…` and `phased flow 0x…`.
+pub fn run_phased<R: Real, const N: usize, const K: usize, const C: usize>(
+    sim: &mut Sim<R, N, K, C>,
+    phases: &mut Phases<R, N, K>,
+    scenario: &Scenario,
+    steps: u64,
+) -> Result<(u64, u64), Error> {
+    scenario.build(sim)?;
+    let ranges = Ranges(PHASED_RANGES);
+    let mut phase = |sim: &mut Sim<R, N, K, C>| -> Result<u64, Error> {
+        for _ in 0..steps {
+            sim.step_phased(phases, &ranges)?;
+        }
+        Ok(sim.digest())
+    };
+    let settled = phase(sim)?;
+    sim.set_flow(Some(&scenario.flow(Scenario::PAPER_TAU_STAR)))?;
+    Ok((settled, phase(sim)?))
 }
 
 /// Settling steps of the living bed (tests/golden.rs): its committed

@@ -25,7 +25,7 @@ pub mod stages;
 pub use curve::{Curve, FAILED_MISFIT, Q_FLOOR};
 pub use plan::{Fidelity, Plan, Slots};
 
-use crate::config::{Config, ConfigFile};
+use crate::config::{Config, ConfigFile, WindowUntil};
 use crate::error::HostError;
 use crate::io::log::Log;
 use crate::science::references::Reference;
@@ -90,6 +90,7 @@ impl Context<'_> {
                 let mut c = c.clone();
                 c.time.window = fidelity.window;
                 c.time.window_min = fidelity.window_min;
+                c.time.window_until = WindowUntil::Steady;
                 c.time.block = fidelity.block();
                 c
             })

@@ -4,9 +4,10 @@
 use serde::{Deserialize, Serialize};
 
 /// To what error the points of a curve are computed (docs/calibration.md,
-/// "Error-driven points"). A cell averages from `window_min` on, in
-/// blocks of `window_min`/5, until its standard error reaches the base
-/// configuration's `[target]` or `window` is up; a point starts with
+/// "Error-driven points"). A cell averages in blocks of `window_min`/10
+/// until MSER finds a steady part of `window_min` or `window` is up
+/// (`time.window_until = "steady"`: the point's error is its seeds'
+/// spread, not each window's); a point starts with
 /// `seeds` seeds (1, 2, …) and adds `seeds` more while the standard error
 /// of their mean misses the same target, up to its cap, unless the point is
 /// already beyond the fit's target factor by twice its error.
@@ -37,9 +38,12 @@ impl Fidelity {
         }
     }
 
-    /// The block of a cell's window (s).
+    /// The block of a cell's window (s): a tenth of the shortest, so that
+    /// MSER can judge a window of `window_min` (2 × [`MIN_TAIL`] blocks).
+    ///
+    /// [`MIN_TAIL`]: crate::science::truncation::MIN_TAIL
     pub fn block(&self) -> f64 {
-        self.window_min / 5.0
+        self.window_min / 10.0
     }
 }
 

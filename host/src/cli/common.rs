@@ -121,9 +121,7 @@ pub(crate) fn config_text(config: &Config, dir: &Path) -> Result<String, HostErr
 /// The configuration a run directory was started with (`mbs run --resume`).
 pub const RUN_CONFIG: &str = "config.toml";
 
-/// Threads above this are refused: more than any machine `mbs` runs on
-/// has cores, and each worker holds a simulation in memory.
-pub const MAX_THREADS: usize = 1024;
+pub use crate::config::MAX_THREADS;
 
 /// Checks `--threads`: at most [`MAX_THREADS`] (exit 2 above); more than
 /// the machine's cores is a warning (results are the same, not faster).

@@ -5,7 +5,7 @@
 use super::file::{
     BedSection, ContactSection, DragKey, FlowModelKey, FlowSection, FluctuationsKey, FluidSection,
     FractionBasis, GrainsSection, RunSection, SettleUntil, Substeps, TargetSection, TensionRule,
-    TimeSection,
+    TimeSection, WindowUntil,
 };
 use super::Precision;
 use mbs_kernel::Scenario;
@@ -85,6 +85,7 @@ impl Default for TimeSection {
             spin_up: 0.2,
             window: 2.0,
             window_min: 1.0,
+            window_until: WindowUntil::Target,
             block: 0.1,
             sample_steps: 10,
         }
@@ -142,6 +143,7 @@ impl Default for RunSection {
             measured_profiles: None,
             measured_shift_d: 0.0,
             measured_label: None,
+            threads_per_cell: 1,
         }
     }
 }

@@ -70,6 +70,10 @@ fn is_zero(value: &f64) -> bool {
     *value == 0.0
 }
 
+fn is_one(value: &u32) -> bool {
+    *value == 1
+}
+
 /// `contact.tension`: what part of the normal force may pull a separating
 /// pair (docs/model.md (8), (8')), the kernel's [`Tension`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
@@ -191,6 +195,29 @@ pub enum SettleUntil {
     Time,
 }
 
+/// `time.window_until`: when a cell's averaging window ends
+/// (docs/model.md §12).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum WindowUntil {
+    /// When its steady part spans `time.window_min` and its own error
+    /// reaches `[target]` ([`crate::work::cell::WindowRule`]), or at
+    /// `time.window`.
+    #[default]
+    Target,
+    /// When its steady part spans `time.window_min`, or at `time.window`:
+    /// the error comes from the seeds, as independent replicates (the
+    /// calibration's points).
+    Steady,
+}
+
+impl WindowUntil {
+    /// The default (left out of a cell's key, which stays as it was).
+    pub fn is_target(&self) -> bool {
+        *self == WindowUntil::Target
+    }
+}
+
 /// `[contact]` (docs/model.md §4–§5).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -233,6 +260,9 @@ pub struct TimeSection {
     pub window: f64,
     /// The shortest averaging window (s).
     pub window_min: f64,
+    /// When the window ends between `window_min` and `window`.
+    #[serde(skip_serializing_if = "WindowUntil::is_target")]
+    pub window_until: WindowUntil,
     /// Block of the window (s): q* is averaged per block (the time series,
     /// the batch-means standard error, the stopping rule).
     pub block: f64,
@@ -411,6 +441,11 @@ pub struct RunSection {
     /// Its legend label (absent: "measured (FILE)"), e.g. a simulation's name.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub measured_label: Option<String>,
+    /// Threads inside each cell's bed (the phased step: the same bits on
+    /// any number); 0: automatic, the cores left over when every cell has
+    /// one, shared among the cells.
+    #[serde(skip_serializing_if = "is_one")]
+    pub threads_per_cell: u32,
 }
 
 /// A configuration file as written (every section optional).
@@ -458,6 +493,8 @@ pub fn canonical(config: &ConfigFile) -> ConfigFile {
     c.run.measured_profiles = None;
     c.run.measured_shift_d = 0.0;
     c.run.measured_label = None;
+    // How many threads a cell runs on changes none of its bits.
+    c.run.threads_per_cell = 1;
     c
 }
 

@@ -63,6 +63,11 @@ pub const MAX_CELL_STEPS: u64 = 100_000_000_000;
 /// The largest Shields number: sheet flow.
 pub const MAX_TAU_STAR: f64 = 5.0;
 
+/// Threads above this are refused (`--threads`, `run.threads_per_cell`):
+/// more than any machine `mbs` runs on has cores, and each worker holds a
+/// simulation in memory.
+pub const MAX_THREADS: usize = 1024;
+
 /// Checks a Shields number given as `key` (`--tau`, a trace's, a `Sim`'s):
 /// in (0, [`MAX_TAU_STAR`]], as `flow.tau_star`.
 ///

@@ -37,14 +37,14 @@ pub(crate) use errors::need;
 pub use file::{
     canonical, BedSection, ClassEntry, ConfigFile, ContactSection, FlowModelKey, FlowSection,
     FluidSection, FractionBasis, GrainsSection, RunSection, SettleUntil, Substeps, TargetSection,
-    TensionRule, TimeSection,
+    TensionRule, TimeSection, WindowUntil,
 };
 pub use flow::flow_forms;
 pub(crate) use limits::grain_capacities;
 pub use limits::{
     capacities_listed, steps_arg, tau_star_arg, CAPACITIES, CONFIG_BOUND, FLUID_CELLS,
     GRAIN_STEPS_PER_S_PER_CORE, MAX_CAPACITY, MAX_CELL_STEPS, MAX_PHASE_S, MAX_TAU_STAR,
-    MIN_CONSTANTS_DT, MIN_DIAMETER_MM, SUBSTEP_DAMPING_NUMBER,
+    MAX_THREADS, MIN_CONSTANTS_DT, MIN_DIAMETER_MM, SUBSTEP_DAMPING_NUMBER,
 };
 pub use overrides::{apply_overrides, Override};
 pub use specs::{number_fractions, volume_fractions};
@@ -124,6 +124,8 @@ pub struct Durations {
     pub min_blocks: u64,
     /// Blocks of the longest window (at least `min_blocks`).
     pub max_blocks: u64,
+    /// When the window ends between them.
+    pub window_until: WindowUntil,
 }
 
 impl Durations {

@@ -155,6 +155,15 @@ pub(super) fn validate(mut file: ConfigFile, named: Named) -> Result<Config, Con
         r.capacity,
         &format!("one of {}", capacities_listed()),
     )?;
+    need(
+        r.threads_per_cell <= super::MAX_THREADS as u32,
+        "run.threads_per_cell",
+        r.threads_per_cell,
+        &format!(
+            "in [0, {}] (0: automatic; results do not depend on it)",
+            super::MAX_THREADS
+        ),
+    )?;
     let grains = bed.grains();
     need(
         grains <= r.capacity,
@@ -257,6 +266,7 @@ pub(super) fn validate(mut file: ConfigFile, named: Named) -> Result<Config, Con
         block_samples,
         min_blocks: blocks(t.window_min),
         max_blocks: blocks(t.window).max(blocks(t.window_min)),
+        window_until: t.window_until,
     };
     let target = &file.target;
     for (key, value) in [

@@ -34,6 +34,7 @@
 use crate::error::HostError;
 use crate::io::input::{read_bounded, Bound};
 use crate::io::output::{create_dir, remove_if_present, write_json, write_text};
+use crate::sim::threads::Stepping;
 use base64::Engine;
 use indicatif::ProgressBar;
 use mbs_kernel::{GrainSpec, Real, Sim};
@@ -352,10 +353,12 @@ impl Dumps {
 
     /// Runs `steps` steps in pieces that end on every frame (written) and
     /// at least every [`TRACK_SECONDS`] (a look): the same bits as one
-    /// `sim.run(steps)`. A kernel error goes through `fail`.
+    /// `sim.run(steps)`, each piece run by `stepping`. A kernel error goes
+    /// through `fail`.
     pub fn run<R: Real, const N: usize, const K: usize, const C: usize>(
         &mut self,
         sim: &mut Sim<R, N, K, C>,
+        stepping: &mut Stepping<R, N, K>,
         steps: u64,
         fail: impl Fn(mbs_kernel::Error) -> HostError,
     ) -> Result<(), HostError> {
@@ -363,7 +366,7 @@ impl Dumps {
         while left > 0 {
             let to_frame = self.every - self.since(sim) % self.every;
             let n = left.min(self.track).min(to_frame);
-            sim.run(n).map_err(&fail)?;
+            stepping.run(sim, n).map_err(&fail)?;
             left -= n;
             if n == to_frame {
                 self.write(sim)?;

@@ -3,3 +3,4 @@
 pub mod control;
 pub mod frames;
 pub mod sims;
+pub mod threads;

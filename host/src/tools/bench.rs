@@ -16,6 +16,7 @@ use crate::io::input::{read_bounded, Bound};
 use crate::io::output::{create_dir, write_atomic};
 use crate::io::text::number;
 use crate::sim::sims::{with_sim, HostSim, SimJob};
+use crate::sim::threads::Stepping;
 use mbs_kernel::contact::{ContactLaw, Spring};
 use mbs_kernel::{BedSpec, Error, Fnv1a, GrainSpec, Real, Scenario, Sim};
 use std::path::{Path, PathBuf};
@@ -275,6 +276,8 @@ pub struct Prepared<'s, R: Real, const N: usize, const K: usize, const C: usize>
     /// Time of the timed steps that rebuilt the neighbour lists (with
     /// `split`).
     rebuild_time: Duration,
+    /// How steps run ([`Prepared::threads`]).
+    stepping: Stepping<R, N, K>,
 }
 
 impl<'s, R: Real, const N: usize, const K: usize, const C: usize> Prepared<'s, R, N, K, C> {
@@ -309,7 +312,15 @@ impl<'s, R: Real, const N: usize, const K: usize, const C: usize> Prepared<'s, R
             rebuilds: 0,
             split: false,
             rebuild_time: Duration::ZERO,
+            stepping: Stepping::new(1),
         })
+    }
+
+    /// From now on, steps run the phased step on `threads` threads of the
+    /// current rayon pool ([`Stepping`]); 1: the step on one core. The bits
+    /// are the same either way.
+    pub fn threads(&mut self, threads: usize) {
+        self.stepping = Stepping::new(threads);
     }
 
     /// The simulation.
@@ -381,7 +392,7 @@ impl<'s, R: Real, const N: usize, const K: usize, const C: usize> Prepared<'s, R
         for _ in 0..times {
             let rebuilds = self.sim.neighbour_rebuilds();
             let clock = Instant::now();
-            self.sim.step()?;
+            self.stepping.run(self.sim, 1)?;
             if self.sim.neighbour_rebuilds() != rebuilds {
                 self.rebuild_time += clock.elapsed();
             }
@@ -392,7 +403,7 @@ impl<'s, R: Real, const N: usize, const K: usize, const C: usize> Prepared<'s, R
     /// `times` repetitions.
     fn repeat(&mut self, times: u64) -> Result<(), Error> {
         match self.case {
-            Case::Still | Case::Flow => self.sim.run(times),
+            Case::Still | Case::Flow => self.stepping.run(self.sim, times),
             Case::Rebuild => (0..times).try_for_each(|_| self.sim.rebuild_neighbours()),
             Case::Contacts => {
                 (0..times).for_each(|_| self.law.pass());
@@ -439,6 +450,9 @@ pub struct Bench<'a> {
     pub repetitions: u64,
     /// Directory of prepared beds, if any.
     pub beds: Option<&'a Path>,
+    /// Threads of one step (1: the step on one core; more: the phased
+    /// step, [`Prepared::threads`]).
+    pub threads: usize,
 }
 
 impl SimJob for Bench<'_> {
@@ -447,6 +461,7 @@ impl SimJob for Bench<'_> {
     fn run<R: Real, const N: usize>(self, sim: &mut HostSim<R, N>) -> Self::Output {
         let mut bed = Prepared::new(sim, &self.bed, self.case, self.beds)?;
         bed.split_rebuilds();
+        bed.threads(self.threads);
         let n = bed.sim().len() as f64;
         let contacts = bed.sim().observe().contacts as f64;
         let reps = self.repetitions;

@@ -23,11 +23,11 @@
 //! refused or, if consistent, gives a cell this configuration could have
 //! produced (docs/guarantees.md).
 
-use crate::config::{canonical, Config, ConfigFile, Durations};
+use crate::config::{canonical, Config, ConfigFile, Durations, WindowUntil};
 pub use crate::io::framing::CheckpointError;
 use crate::io::framing::{Reader, Writer};
 use crate::science::stats::Target;
-use crate::science::truncation::Truncation;
+use crate::science::truncation::{Truncation, MIN_TAIL};
 use crate::work::beds::BedRecord;
 use crate::work::profiles::{CellProfile, ProfileSums, Stresses, PROFILE_SAMPLES};
 use mbs_kernel::Fnv1a;
@@ -152,15 +152,22 @@ impl WindowRule {
     /// Whether a window with these finished blocks (and no partial one)
     /// ends: at the longest window, or when MSER finds a steady part
     /// ([`Truncation`]) at least as long as the shortest window that
-    /// reaches the target. Before that the discarded blocks are the
-    /// spin-up's automatic extension.
+    /// reaches the target (`time.window_until = "target"`) or at all, in a
+    /// window of at least 2 × [`MIN_TAIL`] blocks (`"steady"`). Before that
+    /// the discarded blocks are the spin-up's automatic extension.
     pub fn ends(&self, blocks: &[Block]) -> bool {
         if blocks.len() as u64 >= self.durations.max_blocks {
             return true;
         }
         let q = q_means(blocks);
         let (t, reached) = self.verdict(&q);
-        reached && (q.len() - t.discard) as u64 >= self.durations.min_blocks
+        // "steady" alone once MSER could have discarded half the series
+        // (n − MIN_TAIL ≥ n/2); before that it cannot tell a transient.
+        let enough = match self.durations.window_until {
+            WindowUntil::Target => reached,
+            WindowUntil::Steady => t.steady && q.len() >= 2 * MIN_TAIL,
+        };
+        enough && (q.len() - t.discard) as u64 >= self.durations.min_blocks
     }
 
     /// MSER's truncation of the block means `q` and whether it found a
@@ -478,5 +485,58 @@ mod tests {
             CellCheckpoint::decode(b"nope", 42),
             Err(CheckpointError::Magic("cell checkpoint"))
         );
+    }
+
+    #[test]
+    fn a_steady_window_ends_at_its_shortest_a_target_window_when_precise() {
+        let rule = |until| WindowRule {
+            durations: Durations {
+                settle_until: crate::config::SettleUntil::Rest,
+                settle: 0,
+                spin_up: 0,
+                sample: 1,
+                block_samples: 1,
+                min_blocks: 5,
+                max_blocks: 40,
+                window_until: until,
+            },
+            target: Target {
+                relative: 1e-3,
+                absolute: 0.0,
+            },
+            cells: 1,
+        };
+        let blocks = |q: &[f64]| -> Vec<Block> {
+            q.iter()
+                .map(|&q_star| Block {
+                    q_star,
+                    bed_level: 0.0,
+                    q_star_class: vec![q_star],
+                })
+                .collect()
+        };
+        // A transient of three blocks, then noise of 10 % about 1: steady
+        // from the first window MSER can judge (ten blocks), far from a 0.1 %
+        // error.
+        let mut q = vec![5.0, 3.0, 2.0];
+        let mut state = 3u64;
+        q.extend((0..37).map(|_| {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            1.0 + 0.2 * ((state >> 11) as f64 / (1u64 << 53) as f64 - 0.5)
+        }));
+        let (steady, target) = (rule(WindowUntil::Steady), rule(WindowUntil::Target));
+        let first = |r: &WindowRule| (1..=q.len()).find(|&n| r.ends(&blocks(&q[..n])));
+        assert_eq!(first(&steady), Some(10));
+        assert_eq!(first(&target), Some(40), "the cap");
+        // Precise enough for the target too: both end once steady.
+        let quiet: Vec<f64> = q
+            .iter()
+            .map(|&x| if x < 1.5 { 1.0 + (x - 1.0) * 1e-3 } else { x })
+            .collect();
+        let first = |r: &WindowRule| (1..=quiet.len()).find(|&n| r.ends(&blocks(&quiet[..n])));
+        assert_eq!(first(&steady), Some(10));
+        assert!(first(&target).is_some_and(|n| (10..40).contains(&n)));
     }
 }

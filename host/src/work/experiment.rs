@@ -173,6 +173,7 @@ pub fn run_all(
     if beds_stopped > 0 {
         return Err(HostError::Interrupted { jobs: beds_stopped });
     }
+    let cell_threads = threads_per_cell(config.file.run.threads_per_cell, cells.len());
     let finished = AtomicUsize::new(0);
     let count = |progress: &ProgressBar| {
         let k = finished.fetch_add(1, Ordering::Relaxed) + 1;
@@ -246,6 +247,7 @@ pub fn run_all(
                     dir: frames_dir(control.dir, tau_star, seed),
                     every,
                 }),
+                threads: cell_threads,
             })
             .inspect_err(|e| log.event(&format!("cell failed  {cell}: {e}")))?;
             let wall = clock.elapsed().as_secs_f64();
@@ -398,4 +400,14 @@ pub fn aggregate(config: &Config, results: &[CellResult]) -> Vec<TransportRow> {
             }
         })
         .collect()
+}
+
+/// Threads inside each cell's bed: `[run] threads_per_cell`, or with 0 the
+/// cores of the pool left over when each of `cells` has one, shared among
+/// them (one thread each when there are more cells than cores).
+pub fn threads_per_cell(asked: u32, cells: usize) -> usize {
+    match asked {
+        0 => (rayon::current_num_threads() / cells.max(1)).max(1),
+        n => n as usize,
+    }
 }

@@ -11,7 +11,8 @@ use crate::error::HostError;
 use crate::io::text::number;
 use crate::sim::control::{Checkpoints, Control};
 use crate::sim::frames::Dumps;
-use crate::sim::sims::{check_restored, with_sim, HostSim, SimJob};
+use crate::sim::sims::{check_restored, with_sim, HostSim, SimJob, NEIGHBOURS};
+use crate::sim::threads::Stepping;
 use crate::work::beds::{BedRecord, BedState};
 use crate::work::cell::{
     q_means, Block, CellCheckpoint, CellOutcome, CellResult, CellState, Phase, WindowRule,
@@ -35,16 +36,18 @@ pub struct FramePlan {
     pub every: u64,
 }
 
-/// Runs `n` steps, through `dumps` if the cell writes frames: the same bits.
+/// Runs `n` steps by `stepping`, through `dumps` if the cell writes
+/// frames: the same bits.
 fn advance<R: Real, const N: usize>(
     sim: &mut HostSim<R, N>,
+    stepping: &mut Stepping<R, N, NEIGHBOURS>,
     dumps: Option<&mut Dumps>,
     n: u64,
     fail: &dyn Fn(mbs_kernel::Error) -> HostError,
 ) -> Result<(), HostError> {
     match dumps {
-        Some(d) => d.run(sim, n, fail),
-        None => sim.run(n).map_err(fail),
+        Some(d) => d.run(sim, stepping, n, fail),
+        None => stepping.run(sim, n).map_err(fail),
     }
 }
 
@@ -68,6 +71,9 @@ pub struct CellJob<'a> {
     pub progress: &'a ProgressBar,
     /// Particle frames under the flow, if any.
     pub frames: Option<FramePlan>,
+    /// Threads of the cell's steps (`[run] threads_per_cell`; the same bits
+    /// on any number, [`Stepping`]).
+    pub threads: usize,
 }
 
 impl SimJob for CellJob<'_> {
@@ -124,6 +130,7 @@ impl SimJob for CellJob<'_> {
             }
         };
         // The frames' time is the time since the flow started (step `settled`).
+        let mut stepping = Stepping::new(self.threads);
         let mut dumps = match &self.frames {
             None => None,
             Some(f) if resumed => Some(Dumps::resume(&f.dir, f.every, settled, sim)?),
@@ -176,7 +183,7 @@ impl SimJob for CellJob<'_> {
             }
             if state.phase == Phase::Window {
                 let sample = durations.sample;
-                advance(sim, dumps.as_mut(), sample, &kernel_error)?;
+                advance(sim, &mut stepping, dumps.as_mut(), sample, &kernel_error)?;
                 let o = sim.observe();
                 state.block_sum += o.q_star(d_max, s, G) * per_slice;
                 for (c, sum) in state.class_sums.iter_mut().enumerate() {
@@ -202,7 +209,7 @@ impl SimJob for CellJob<'_> {
                 self.progress.inc(sample);
             } else {
                 let n = (durations.spin_up - state.done).min(CHUNK);
-                advance(sim, dumps.as_mut(), n, &kernel_error)?;
+                advance(sim, &mut stepping, dumps.as_mut(), n, &kernel_error)?;
                 state.done += n;
                 stepped += n;
                 self.progress.inc(n);
@@ -273,6 +280,7 @@ pub fn run_cell(
         control: &control,
         progress,
         frames: None,
+        threads: 1,
     };
     match run_cell_job(job)? {
         CellOutcome::Done(r, _) => Ok(*r),

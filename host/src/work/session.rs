@@ -12,6 +12,7 @@ use crate::config::{grain_capacities, Config, Precision};
 use crate::error::HostError;
 use crate::sim::control::Control;
 use crate::sim::sims::{boxed_sim, with_sim, HostSim, NEIGHBOURS};
+use crate::sim::threads::Stepping;
 use mbs_kernel::{FlowConfig, Real, Scenario, G};
 use std::sync::atomic::AtomicBool;
 
@@ -69,36 +70,43 @@ trait Held: Send + Sync {
     ) -> Result<CellProfile, mbs_kernel::Error>;
 }
 
-impl<R: Real, const N: usize> Held for HostSim<R, N> {
+/// A host simulation and how its steps run ([`Stepping`]: on one core or,
+/// with `run.threads_per_cell`, on several, the same bits).
+struct Stepped<R: Real, const N: usize> {
+    sim: Box<HostSim<R, N>>,
+    stepping: Stepping<R, N, NEIGHBOURS>,
+}
+
+impl<R: Real, const N: usize> Held for Stepped<R, N> {
     fn build(&mut self, scenario: &Scenario) -> Result<(), mbs_kernel::Error> {
-        scenario.build(self).map(|_| ())
+        scenario.build(&mut *self.sim).map(|_| ())
     }
     fn run(&mut self, steps: u64) -> Result<(), mbs_kernel::Error> {
-        HostSim::run(self, steps)
+        self.stepping.run(&mut *self.sim, steps)
     }
     fn set_flow(&mut self, flow: Option<&FlowConfig>) -> Result<(), mbs_kernel::Error> {
-        HostSim::set_flow(self, flow)
+        HostSim::set_flow(&mut *self.sim, flow)
     }
     fn restore(&mut self, bytes: &[u8]) -> Result<(), mbs_kernel::Error> {
-        HostSim::restore(self, bytes)
+        HostSim::restore(&mut *self.sim, bytes)
     }
     fn checkpoint(&self) -> Vec<u8> {
         let mut out = Vec::new();
-        HostSim::checkpoint(self, |b| out.extend_from_slice(b));
+        HostSim::checkpoint(&*self.sim, |b| out.extend_from_slice(b));
         out
     }
     fn digest(&self) -> u64 {
-        HostSim::digest(self)
+        HostSim::digest(&*self.sim)
     }
     fn step_count(&self) -> u64 {
-        HostSim::step_count(self)
+        HostSim::step_count(&*self.sim)
     }
     fn time(&self) -> f64 {
-        HostSim::time(self)
+        HostSim::time(&*self.sim)
     }
     fn grains(&self) -> GrainArrays {
         let mut a = GrainArrays::default();
-        for g in (0..self.len()).filter_map(|i| self.grain(i)) {
+        for g in (0..self.sim.len()).filter_map(|i| self.sim.grain(i)) {
             a.x.push(g.x);
             a.y.push(g.y);
             a.u.push(g.u);
@@ -112,7 +120,7 @@ impl<R: Real, const N: usize> Held for HostSim<R, N> {
     }
     fn contacts(&self) -> ContactArrays {
         let mut a = ContactArrays::default();
-        self.contact_forces(|c| {
+        self.sim.contact_forces(|c| {
             a.i.push(c.i);
             a.j.push(c.j);
             a.fx.push(c.force[0]);
@@ -121,7 +129,7 @@ impl<R: Real, const N: usize> Held for HostSim<R, N> {
         a
     }
     fn q_star(&self, d_max: f64, s: f64, per_slice: f64) -> f64 {
-        self.observe().q_star(d_max, s, G) * per_slice
+        self.sim.observe().q_star(d_max, s, G) * per_slice
     }
     fn profile(
         &self,
@@ -129,32 +137,34 @@ impl<R: Real, const N: usize> Held for HostSim<R, N> {
         cells: usize,
     ) -> Result<CellProfile, mbs_kernel::Error> {
         let mut sums = ProfileSums::new(cells);
-        sampler.sample(self, &mut sums)?;
+        sampler.sample(&*self.sim, &mut sums)?;
         Ok(sums.means())
     }
 }
 
 macro_rules! held_of_capacity {
-    ($capacity:expr, $r:ty; $last:literal) => {{
-        let held: Box<dyn Held> = boxed_sim::<$r, $last, NEIGHBOURS>();
+    ($capacity:expr, $threads:expr, $r:ty; $last:literal) => {{
+        let held: Box<dyn Held> = Box::new(Stepped {
+            sim: boxed_sim::<$r, $last, NEIGHBOURS>(),
+            stepping: Stepping::new($threads),
+        });
         held
     }};
-    ($capacity:expr, $r:ty; $first:literal, $($rest:literal),+) => {
+    ($capacity:expr, $threads:expr, $r:ty; $first:literal, $($rest:literal),+) => {
         if $capacity <= $first {
-            let held: Box<dyn Held> = boxed_sim::<$r, $first, NEIGHBOURS>();
-            held
+            held_of_capacity!($capacity, $threads, $r; $first)
         } else {
-            held_of_capacity!($capacity, $r; $($rest),+)
+            held_of_capacity!($capacity, $threads, $r; $($rest),+)
         }
     };
 }
 
 /// An empty simulation of `precision` and the smallest compiled capacity
-/// holding `capacity` grains.
-fn held(precision: Precision, capacity: usize) -> Box<dyn Held> {
+/// holding `capacity` grains, stepped on `threads` threads.
+fn held(precision: Precision, capacity: usize, threads: usize) -> Box<dyn Held> {
     match precision {
-        Precision::F32 => grain_capacities!(held_of_capacity!(capacity, f32;)),
-        Precision::F64 => grain_capacities!(held_of_capacity!(capacity, f64;)),
+        Precision::F32 => grain_capacities!(held_of_capacity!(capacity, threads, f32;)),
+        Precision::F64 => grain_capacities!(held_of_capacity!(capacity, threads, f64;)),
     }
 }
 
@@ -189,7 +199,9 @@ impl Session {
     /// run under the flow of `tau_star`.
     pub fn new(config: &Config, tau_star: f64, seed: u64) -> Result<Session, HostError> {
         crate::config::tau_star_arg("tau_star", tau_star)?;
-        let mut sim = held(config.precision, config.capacity);
+        // One bed: `run.threads_per_cell` threads, 0 the whole pool.
+        let threads = super::experiment::threads_per_cell(config.file.run.threads_per_cell, 1);
+        let mut sim = held(config.precision, config.capacity, threads);
         let scenario = config.scenario_at(seed);
         sim.build(&scenario).map_err(HostError::kernel(format!(
             "building the bed of seed {seed}"

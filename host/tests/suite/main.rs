@@ -17,4 +17,5 @@ mod log;
 mod paper_case;
 mod resume;
 mod round2;
+mod threads;
 mod trace;

@@ -14,6 +14,7 @@ use crate::sim::{Redraw, Sim};
 #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
 use crate::step::batch;
 use crate::step::mover::Mover;
+use crate::step::phased::{ClearDrag, Executor, MovePhase, PairPhase, Phases};
 use crate::step::scalar;
 use crate::step::GEOMETRY_AHEAD;
 
@@ -43,44 +44,7 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
     /// with buffers of `BUFFER` contacts to find the pair geometry one grain
     /// ahead, or none ([`scalar::step`]). All give the same bits.
     fn step_with<const BUFFER: usize, const BATCHED: bool>(&mut self) -> Result<(), Error> {
-        check(self.configured, "sim", 0.0, "configured by reset() first")?;
-        if self.nbrs.stale {
-            self.rebuild()?;
-        }
-        let mut events = Events::ZERO;
-        if self.flow_on {
-            let since = self.step.saturating_sub(self.flow_epoch);
-            let update = u64::from(self.flow.fluid.spec.update_steps.0.max(1));
-            let exchange = self.fluid.on && since > 0 && since.is_multiple_of(update);
-            if exchange {
-                self.exchange()?;
-            }
-            let bed_level =
-                since.is_multiple_of(u64::from(self.flow.spec.bed_level_interval.0.max(1)));
-            if bed_level {
-                self.update_bed_level();
-                events.bed_level_updates = 1;
-            }
-            if self.fluid.on && (exchange || bed_level) {
-                self.refresh_coupling();
-            }
-            let hold = u64::from(self.flow.spec.hold_steps.0.max(1));
-            let turbulence = self.log_law.turbulence;
-            if turbulence && self.fluid.on && self.fluid.closures.hfe {
-                // HydroForceEngine's (C9): every eddy turnover.
-                if self.step >= self.redraw.next {
-                    self.draw_fluctuations(self.redraw.period);
-                    self.redraw = Redraw {
-                        next: self.step.saturating_add(self.eddy_turnover_steps()),
-                        period: self.redraw.period.wrapping_add(1),
-                    };
-                    events.turbulence_redraws = 1;
-                }
-            } else if turbulence && since.is_multiple_of(hold) {
-                self.draw_fluctuations(since / hold);
-                events.turbulence_redraws = 1;
-            }
-        }
+        let mut events = self.prepare()?;
         let coupled = self.flow_on && self.fluid.on;
         let mover = self.mover();
         #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
@@ -127,6 +91,121 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
                 scalar::step::<R, N, K, BUFFER>(g, nb, self.law, self.width, mover, &mut events)
             }
         };
+        self.finish(moved, events)
+    }
+
+    /// Advances one integration step as [`Sim::step`] does, with the same
+    /// bits, in the phases of the phased step (`step::phased`): the pairs'
+    /// forces into `phases`, then each grain's sums gathered in the scalar
+    /// step's order and its move, each phase run by `executor` over ranges
+    /// of grains (whole, cut, on threads: any cut gives the same bits). The
+    /// neighbour refresh, the flow's bookkeeping and the coupled flow's drag
+    /// run before, on the calling core. One `phases` serves one simulation
+    /// (it is re-indexed when given another's, or when the lists change).
+    ///
+    /// ```
+    /// use mbs_kernel::{Phases, Ranges, Scenario, Sim};
+    ///
+    /// let mut sim = Sim::<f32, 64, 8>::new();
+    /// Scenario::paper().build(&mut sim)?;
+    /// let mut phases = Phases::<f32, 64, 8>::new();
+    /// sim.step_phased(&mut phases, &Ranges(2))?;
+    /// assert_eq!(sim.step_count(), 1);
+    /// # Ok::<(), mbs_kernel::Error>(())
+    /// ```
+    pub fn step_phased<E: Executor>(
+        &mut self,
+        phases: &mut Phases<R, N, K>,
+        executor: &E,
+    ) -> Result<(), Error> {
+        let mut events = self.prepare()?;
+        let owner = core::ptr::from_ref(self) as usize;
+        let drag = if self.flow_on && self.fluid.on {
+            scalar::add_coupled_drag(&mut self.grains, &mut self.fluid, &self.log_law);
+            None
+        } else if self.flow_on {
+            Some(ClearDrag {
+                log_law: self.log_law,
+                bed_level: self.bed_level,
+                surface: self.surface,
+            })
+        } else {
+            None
+        };
+        let mover = self.mover();
+        self.index.history_to_slots(&mut self.nbrs.spring);
+        let n = self.grains.len.min(N);
+        let moved = match phases.index(&self.nbrs, n, owner) {
+            Ok(()) => {
+                let pairs = PairPhase::new(
+                    &self.grains,
+                    &mut self.nbrs,
+                    phases,
+                    n,
+                    self.law,
+                    self.width,
+                );
+                executor.execute(pairs).add_to(&mut events);
+                let moves = MovePhase::new(&mut self.grains, &self.nbrs, phases, n, drag, mover);
+                executor.execute(moves).map(|(max_v2, crossings)| {
+                    events.seam_crossings = events.seam_crossings.wrapping_add(crossings);
+                    max_v2
+                })
+            }
+            Err(e) => Err(e),
+        };
+        self.finish(moved, events)
+    }
+
+    /// The step's start, shared by both entries: the neighbour refresh and
+    /// the flow's bookkeeping (the coupled flow's update every M steps, the
+    /// mean bed level, the fluctuation draws); the events so far.
+    fn prepare(&mut self) -> Result<Events, Error> {
+        check(self.configured, "sim", 0.0, "configured by reset() first")?;
+        if self.nbrs.stale {
+            self.rebuild()?;
+        }
+        let mut events = Events::ZERO;
+        if self.flow_on {
+            let since = self.step.saturating_sub(self.flow_epoch);
+            let update = u64::from(self.flow.fluid.spec.update_steps.0.max(1));
+            let exchange = self.fluid.on && since > 0 && since.is_multiple_of(update);
+            if exchange {
+                self.exchange()?;
+            }
+            let bed_level =
+                since.is_multiple_of(u64::from(self.flow.spec.bed_level_interval.0.max(1)));
+            if bed_level {
+                self.update_bed_level();
+                events.bed_level_updates = 1;
+            }
+            if self.fluid.on && (exchange || bed_level) {
+                self.refresh_coupling();
+            }
+            let hold = u64::from(self.flow.spec.hold_steps.0.max(1));
+            let turbulence = self.log_law.turbulence;
+            if turbulence && self.fluid.on && self.fluid.closures.hfe {
+                // HydroForceEngine's (C9): every eddy turnover.
+                if self.step >= self.redraw.next {
+                    self.draw_fluctuations(self.redraw.period);
+                    self.redraw = Redraw {
+                        next: self.step.saturating_add(self.eddy_turnover_steps()),
+                        period: self.redraw.period.wrapping_add(1),
+                    };
+                    events.turbulence_redraws = 1;
+                }
+            } else if turbulence && since.is_multiple_of(hold) {
+                self.draw_fluctuations(since / hold);
+                events.turbulence_redraws = 1;
+            }
+        }
+        Ok(events)
+    }
+
+    /// The step's end, shared by both entries: on success the travel since
+    /// the last rebuild, the step count and the events; on failure the
+    /// forces cleared.
+    fn finish(&mut self, moved: Result<R, Error>, mut events: Events) -> Result<(), Error> {
         match moved {
             Ok(max_v2) => {
                 // The grains moved at most max_v2^½ step_dt.
@@ -656,5 +735,28 @@ mod tests {
         let (error, digest) = fail(false);
         assert!(matches!(error, Err(Error::LeftDomain { .. })), "{error:?}");
         assert_eq!(fail(true), (error, digest));
+        // The phased step reports the same error (the first grain's in
+        // grain order), however cut; its state after it is left undefined.
+        for parts in [1, 2, 5] {
+            let mut sim = Sim::<R, 64, 8>::new();
+            Scenario::paper().build(&mut sim).unwrap();
+            sim.run(100).unwrap();
+            let i = (0..sim.len())
+                .rev()
+                .find(|&i| !sim.grains.fixed[i])
+                .unwrap()
+                - 2;
+            sim.grains.v[i] = R::from_f64(1e9);
+            // A second failing grain in an earlier range: the first is named.
+            sim.grains.v[i - 20] = R::from_f64(1e9);
+            let mut phases = crate::Phases::<R, 64, 8>::new();
+            let phased = sim.step_phased(&mut phases, &crate::Ranges(parts));
+            let mut whole = Sim::<R, 64, 8>::new();
+            Scenario::paper().build(&mut whole).unwrap();
+            whole.run(100).unwrap();
+            whole.grains.v[i] = R::from_f64(1e9);
+            whole.grains.v[i - 20] = R::from_f64(1e9);
+            assert_eq!(phased, whole.step_with::<0, false>(), "{parts} ranges");
+        }
     }
 }

@@ -12,7 +12,9 @@
 //!   do not fit the index): one grain at a time.
 //!
 //! Both move grains with the same integrator ([`mover`]). Without vector
-//! lanes, `no_lanes` stands in for the pair index.
+//! lanes, `no_lanes` stands in for the pair index. The **phased step**
+//! ([`phased`]) runs the scalar step's operations in two phases over ranges
+//! of grains, for several cores, with its bits.
 //!
 //! With the coupled flow (docs/model.md §13) each path finds the drag of
 //! every mobile grain from the column as it finds the clear-water drag,
@@ -27,6 +29,7 @@ pub(crate) mod index;
 pub(crate) mod mover;
 #[cfg(not(all(target_arch = "x86_64", target_feature = "avx2")))]
 pub(crate) mod no_lanes;
+pub(crate) mod phased;
 pub(crate) mod scalar;
 
 /// Whether the scalar step finds each grain's contact geometry while the

@@ -67,7 +67,7 @@ pub(crate) fn step<R: Real, const N: usize, const K: usize, const BUFFER: usize>
             0,
             &nb.other[0][..count],
             springs,
-            &mut forces.broken,
+            &mut forces.counts.broken,
         );
     }
     for i in 0..n {
@@ -84,7 +84,7 @@ pub(crate) fn step<R: Real, const N: usize, const K: usize, const BUFFER: usize>
             if i + 1 < n {
                 let count = usize::from(nb.count[i + 1]).min(K);
                 let springs = &mut nb.spring[i + 1][..count];
-                let broken = &mut forces.broken;
+                let broken = &mut forces.counts.broken;
                 next.find(&state, i + 1, &nb.other[i + 1][..count], springs, broken);
             }
             let springs = &mut nb.spring[i];
@@ -98,7 +98,7 @@ pub(crate) fn step<R: Real, const N: usize, const K: usize, const BUFFER: usize>
             let pairs = nb.other[i][..count].iter().zip(&mut nb.spring[i][..count]);
             if let Some(own) = state.own(i) {
                 for (&j, spring) in pairs {
-                    if let Some(c) = state.contact(&own, j, spring, &mut forces.broken) {
+                    if let Some(c) = state.contact(&own, j, spring, &mut forces.counts.broken) {
                         forces.add(&law, spring, &c, ri, &mut sums);
                     }
                 }
@@ -109,9 +109,7 @@ pub(crate) fn step<R: Real, const N: usize, const K: usize, const BUFFER: usize>
             motion.advance(i, &sums)?;
         }
     }
-    events.contacts_made = events.contacts_made.wrapping_add(forces.made);
-    events.contacts_broken = events.contacts_broken.wrapping_add(forces.broken);
-    events.contacts_sliding = events.contacts_sliding.wrapping_add(forces.sliding);
+    forces.counts.add_to(events);
     events.seam_crossings = events.seam_crossings.wrapping_add(motion.crossings);
     Ok(motion.max_v2)
 }
@@ -213,9 +211,7 @@ fn split<R: Real, const N: usize>(
         fy: &mut g.fy[..n],
         torque: &mut g.torque[..n],
         r: &g.r[..n],
-        made: 0,
-        broken: 0,
-        sliding: 0,
+        counts: Counts::default(),
     };
     (motion, forces, &g.fixed[..n])
 }
@@ -265,7 +261,8 @@ impl<R: Real> Motion<'_, R> {
 
 /// The start-of-step state the geometry reads: positions, velocities,
 /// spins and radii of the grains, and the periodic width.
-struct State<'a, R: Real> {
+#[derive(Clone, Copy)]
+pub(crate) struct State<'a, R: Real> {
     x: &'a [R],
     y: &'a [R],
     u: &'a [R],
@@ -278,7 +275,7 @@ struct State<'a, R: Real> {
 }
 
 /// Grain i's part of its pairs' geometry.
-struct Own<R: Real> {
+pub(crate) struct Own<R: Real> {
     x: R,
     y: R,
     u: R,
@@ -292,7 +289,7 @@ impl<'a, R: Real> State<'a, R> {
     /// The state of arrays x, y, u, v, ω, r (m, m/s, rad/s) in a periodic
     /// width (m).
     #[inline(always)]
-    fn new([x, y, u, v, w, r]: [&'a [R]; 6], width: R) -> Self {
+    pub(crate) fn new([x, y, u, v, w, r]: [&'a [R]; 6], width: R) -> Self {
         State {
             x,
             y,
@@ -307,7 +304,7 @@ impl<'a, R: Real> State<'a, R> {
 
     /// Grain i's state, if it exists.
     #[inline(always)]
-    fn own(&self, i: usize) -> Option<Own<R>> {
+    pub(crate) fn own(&self, i: usize) -> Option<Own<R>> {
         let (&x, &y, &u) = (self.x.get(i)?, self.y.get(i)?, self.u.get(i)?);
         let (&v, &w, &r) = (self.v.get(i)?, self.w.get(i)?, self.r.get(i)?);
         Some(Own {
@@ -325,7 +322,7 @@ impl<'a, R: Real> State<'a, R> {
     /// counting it in `broken` if it was a contact; `None` also for j out
     /// of range and coincident centres.
     #[inline(always)]
-    fn contact(
+    pub(crate) fn contact(
         &self,
         own: &Own<R>,
         j: u32,
@@ -371,7 +368,7 @@ impl<'a, R: Real> State<'a, R> {
 
 /// The geometry of a pair (i, j) in contact: what the law (6)–(9) needs.
 #[derive(Clone, Copy)]
-struct Contact<R: Real> {
+pub(crate) struct Contact<R: Real> {
     j: u32,
     /// Unit normal from i to j.
     nx: R,
@@ -410,9 +407,7 @@ struct Forces<'a, R: Real> {
     fy: &'a mut [R],
     torque: &'a mut [R],
     r: &'a [R],
-    made: u64,
-    broken: u64,
-    sliding: u64,
+    counts: Counts,
 }
 
 impl<R: Real> Forces<'_, R> {
@@ -428,13 +423,9 @@ impl<R: Real> Forces<'_, R> {
         ri: R,
         own: &mut Sums<R>,
     ) {
-        let first = spring.e_n == R::ZERO;
-        let Some((f_n, f_s, slides)) = law.apply_sliding(spring, c.overlap, c.v_n, c.v_s) else {
-            self.broken = self.broken.wrapping_add(u64::from(!first));
+        let Some((fx_pair, fy_pair, f_s)) = pair_force(law, spring, c, &mut self.counts) else {
             return;
         };
-        self.made = self.made.wrapping_add(u64::from(first));
-        self.sliding = self.sliding.wrapping_add(u64::from(slides));
         let j = c.j as usize;
         let (Some(fxj), Some(fyj), Some(tj), Some(&rj)) = (
             self.fx.get_mut(j),
@@ -444,10 +435,6 @@ impl<R: Real> Forces<'_, R> {
         ) else {
             return;
         };
-        // t = (sin α, −cos α) = (n_y, −n_x)
-        let (tx, ty) = (c.ny, -c.nx);
-        let fx_pair = -f_n * c.nx + f_s * tx;
-        let fy_pair = -f_n * c.ny + f_s * ty;
         own.fx += fx_pair;
         own.fy += fy_pair;
         *fxj -= fx_pair;
@@ -455,6 +442,47 @@ impl<R: Real> Forces<'_, R> {
         own.torque -= ri * f_s;
         *tj -= rj * f_s;
     }
+}
+
+/// Contacts made, broken and sliding (docs/model.md (6)–(9)), counted as
+/// the step meets them.
+#[derive(Debug, Clone, Copy, Default)]
+pub(crate) struct Counts {
+    pub(crate) made: u64,
+    pub(crate) broken: u64,
+    pub(crate) sliding: u64,
+}
+
+impl Counts {
+    /// Adds the counts to `events`.
+    pub(crate) fn add_to(&self, events: &mut Events) {
+        events.contacts_made = events.contacts_made.wrapping_add(self.made);
+        events.contacts_broken = events.contacts_broken.wrapping_add(self.broken);
+        events.contacts_sliding = events.contacts_sliding.wrapping_add(self.sliding);
+    }
+}
+
+/// Advances a contact's history by the law (6)–(9) and gives its force
+/// −f_n n + f_s t on grain i and its tangential force f_s (the torques are
+/// −r f_s on each grain), counting it in `counts`; `None` if the law
+/// breaks it. Both the scalar and the phased step call this.
+#[inline(always)]
+pub(crate) fn pair_force<R: Real>(
+    law: &ContactLaw<R>,
+    spring: &mut Spring<R>,
+    c: &Contact<R>,
+    counts: &mut Counts,
+) -> Option<(R, R, R)> {
+    let first = spring.e_n == R::ZERO;
+    let Some((f_n, f_s, slides)) = law.apply_sliding(spring, c.overlap, c.v_n, c.v_s) else {
+        counts.broken = counts.broken.wrapping_add(u64::from(!first));
+        return None;
+    };
+    counts.made = counts.made.wrapping_add(u64::from(first));
+    counts.sliding = counts.sliding.wrapping_add(u64::from(slides));
+    // t = (sin α, −cos α) = (n_y, −n_x)
+    let (tx, ty) = (c.ny, -c.nx);
+    Some((-f_n * c.nx + f_s * tx, -f_n * c.ny + f_s * ty, f_s))
 }
 
 /// The contacts of one grain found ahead of its laws: slot and geometry.

@@ -1,0 +1,122 @@
+//! One bed on several cores: the kernel's phased step
+//! ([`mbs_kernel::Sim::step_phased`]) with each phase cut among rayon's
+//! threads. Any cut gives the bits of the whole (the kernel's
+//! `step::phased` says why), so results do not depend on the thread count.
+
+use mbs_kernel::{Executor, Phase, Phases, Real, Sim};
+
+/// Beds smaller than this many grains per range are not cut further: a
+/// range's work must outweigh the cost of handing it to a thread (a few
+/// microseconds against about 10 ns per grain-step).
+pub const MIN_GRAINS_PER_RANGE: usize = 2048;
+
+/// Cuts each phase into `parts` ranges of about equal size and runs them
+/// on the current rayon pool (`rayon::join`, halves within halves).
+///
+/// ```
+/// use mbs::sim::threads::Threads;
+/// use mbs_kernel::{Phases, Scenario, Sim};
+///
+/// let scenario = Scenario::paper();
+/// let mut one = Sim::<f64, 64, 8>::new();
+/// scenario.build(&mut one)?;
+/// let mut three = one.clone();
+/// let mut phases = Box::new(Phases::<f64, 64, 8>::new());
+/// for _ in 0..100 {
+///     one.step()?;
+///     three.step_phased(&mut phases, &Threads::exactly(3))?;
+/// }
+/// assert_eq!(one.digest(), three.digest());
+/// # Ok::<(), mbs_kernel::Error>(())
+/// ```
+#[derive(Debug, Clone, Copy)]
+pub struct Threads {
+    /// Ranges per phase (at least 1).
+    parts: usize,
+    /// The fewest grains a range is cut to.
+    min_grains: usize,
+}
+
+impl Threads {
+    /// `threads` ranges per phase, each at least [`MIN_GRAINS_PER_RANGE`]
+    /// grains (a small bed gets fewer ranges).
+    pub fn new(threads: usize) -> Threads {
+        Threads {
+            parts: threads.max(1),
+            min_grains: MIN_GRAINS_PER_RANGE,
+        }
+    }
+
+    /// `parts` ranges per phase however small (for tests: every range
+    /// boundary exercised on a small bed).
+    pub fn exactly(parts: usize) -> Threads {
+        Threads {
+            parts: parts.max(1),
+            min_grains: 1,
+        }
+    }
+}
+
+impl Executor for Threads {
+    fn execute<P: Phase>(&self, phase: P) -> P::Output {
+        let parts = self
+            .parts
+            .min(phase.grains() / self.min_grains.max(1))
+            .max(1);
+        cut(phase, parts)
+    }
+}
+
+/// Runs `phase` in `parts` ranges, the first half of them beside the rest.
+fn cut<P: Phase>(phase: P, parts: usize) -> P::Output {
+    if parts <= 1 || phase.grains() < 2 {
+        return phase.run();
+    }
+    let half = parts / 2;
+    let mid = phase.grains() * half / parts;
+    let (first, second) = phase.split_at(mid);
+    let (a, b) = rayon::join(|| cut(first, half), || cut(second, parts - half));
+    P::merge(a, b)
+}
+
+/// A heap [`Phases`] for a simulation of `N` grains, never built on the
+/// stack.
+pub fn boxed_phases<R: Real, const N: usize, const K: usize>() -> Box<Phases<R, N, K>> {
+    let zeroed = Box::<Phases<R, N, K>>::new_zeroed();
+    // SAFETY: `Phases` documents (kernel/src/step/phased.rs) that all-zero
+    // bits are a valid, empty value: every field is a number or an array
+    // of numbers, and `Real` is sealed to f32 and f64.
+    unsafe { zeroed.assume_init() }
+}
+
+/// How a host simulation's steps run: [`Sim::run`] on the calling core, or
+/// the phased step on threads where the bed is large enough to cut in two
+/// ranges of [`MIN_GRAINS_PER_RANGE`] (the same bits either way).
+pub struct Stepping<R: Real, const N: usize, const K: usize> {
+    phased: Option<(Box<Phases<R, N, K>>, Threads)>,
+}
+
+impl<R: Real, const N: usize, const K: usize> Stepping<R, N, K> {
+    /// Steps on `threads` threads ([`Threads::new`]); 0 or 1: on the
+    /// calling core.
+    pub fn new(threads: usize) -> Self {
+        Stepping {
+            phased: (threads > 1).then(|| (boxed_phases(), Threads::new(threads))),
+        }
+    }
+
+    /// Advances `sim` by `steps` steps.
+    pub fn run<const C: usize>(
+        &mut self,
+        sim: &mut Sim<R, N, K, C>,
+        steps: u64,
+    ) -> Result<(), mbs_kernel::Error> {
+        match &mut self.phased {
+            // A bed too small to cut runs the step of one core.
+            Some((phases, threads)) if sim.len() >= 2 * threads.min_grains => {
+                (0..steps).try_for_each(|_| sim.step_phased(phases, threads))
+            }
+            _ => sim.run(steps),
+        }
+    }
+}

@@ -1,0 +1,137 @@
+//! One bed on several cores (issue 44): the phased step gives the bits of
+//! the step on one core for any thread count, any cut, with clear water and
+//! the coupled flow, across a checkpoint and restore.
+
+use mbs::sim::sims::{boxed_sim, HostSim, NEIGHBOURS};
+use mbs::sim::threads::{boxed_phases, Threads};
+use mbs_kernel::{BedSpec, Executor, Phase, Phases, Scenario};
+
+/// Grains of the test bed: 60 columns × 12 rows of the paper's bed, so
+/// that 7 ranges of a phase hold about 100 grains each.
+const N: usize = 1024;
+type TestSim = HostSim<f64, N>;
+
+fn scenario(coupled: bool) -> Scenario {
+    let base = if coupled {
+        Scenario::paper_coupled()
+    } else {
+        Scenario::paper()
+    };
+    Scenario {
+        bed: BedSpec {
+            columns: 60,
+            rows: 12,
+            ..base.bed.clone()
+        },
+        ..base
+    }
+}
+
+fn boxed() -> Box<TestSim> {
+    boxed_sim::<f64, N, NEIGHBOURS>()
+}
+
+/// Digests after settling and after a flow at τ* = 0.3, stepping with
+/// `step` (the event counts too).
+fn run(
+    coupled: bool,
+    step: &mut dyn FnMut(&mut TestSim) -> Result<(), mbs_kernel::Error>,
+) -> (u64, u64, mbs_kernel::Events) {
+    let sc = scenario(coupled);
+    let mut sim = boxed();
+    sc.build(&mut *sim).unwrap();
+    sim.count_events(true);
+    for _ in 0..1500 {
+        step(&mut sim).unwrap();
+    }
+    let settled = sim.digest();
+    sim.set_flow(Some(&sc.flow(0.3))).unwrap();
+    for _ in 0..1500 {
+        step(&mut sim).unwrap();
+    }
+    (settled, sim.digest(), sim.events())
+}
+
+#[test]
+fn any_thread_count_gives_the_bits_of_one_core() {
+    for coupled in [false, true] {
+        let (a, b, events) = run(coupled, &mut |s| s.step());
+        let mut phases = boxed_phases::<f64, N, NEIGHBOURS>();
+        for threads in [1, 2, 3, 7] {
+            let exec = Threads::exactly(threads);
+            let got = run(coupled, &mut |s| s.step_phased(&mut phases, &exec));
+            assert_eq!(
+                (got.0, got.1),
+                (a, b),
+                "coupled {coupled}, {threads} threads"
+            );
+            let strip = |e: mbs_kernel::Events| mbs_kernel::Events {
+                batched_steps: 0,
+                ..e
+            };
+            assert_eq!(strip(got.2), strip(events), "{threads} threads");
+        }
+    }
+}
+
+/// Cuts each phase at seeded random grains, down to single grains.
+struct RandomCuts(std::cell::Cell<u64>);
+
+impl Executor for RandomCuts {
+    fn execute<P: Phase>(&self, phase: P) -> P::Output {
+        if phase.grains() < 2 {
+            return phase.run();
+        }
+        let s = self
+            .0
+            .get()
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        self.0.set(s);
+        if (s >> 60) == 0 {
+            return phase.run();
+        }
+        let mid = 1 + (s >> 33) as usize % (phase.grains() - 1);
+        let (a, b) = phase.split_at(mid);
+        let a = self.execute(a);
+        P::merge(a, self.execute(b))
+    }
+}
+
+#[test]
+fn any_cut_gives_the_same_bits() {
+    let (a, b, _) = run(false, &mut |s| s.step());
+    let mut phases = boxed_phases::<f64, N, NEIGHBOURS>();
+    let exec = RandomCuts(std::cell::Cell::new(7));
+    let got = run(false, &mut |s| s.step_phased(&mut phases, &exec));
+    assert_eq!((got.0, got.1), (a, b));
+}
+
+#[test]
+fn a_restart_and_a_shared_buffer_keep_the_bits() {
+    let sc = scenario(false);
+    let mut one = boxed();
+    sc.build(&mut *one).unwrap();
+    one.set_flow(Some(&sc.flow(0.3))).unwrap();
+    one.run(600).unwrap();
+    let mut bytes = Vec::new();
+    one.checkpoint(|b| bytes.extend_from_slice(b));
+    one.run(900).unwrap();
+    // A restored simulation and another one stepped in turn with the same
+    // buffers: each re-indexes them when it finds another's lists.
+    let mut restored = boxed();
+    restored.restore(&bytes).unwrap();
+    let mut other = boxed();
+    sc.build(&mut *other).unwrap();
+    let mut phases: Box<Phases<f64, N, NEIGHBOURS>> = boxed_phases();
+    let exec = Threads::exactly(3);
+    for _ in 0..900 {
+        restored.step_phased(&mut phases, &exec).unwrap();
+        other.step_phased(&mut phases, &exec).unwrap();
+    }
+    assert_eq!(restored.digest(), one.digest());
+    let mut alone = boxed();
+    sc.build(&mut *alone).unwrap();
+    alone.run(900).unwrap();
+    assert_eq!(other.digest(), alone.digest());
+}

@@ -1,0 +1,626 @@
+//! The phased step: the scalar step's operations ([`super::scalar`])
+//! regrouped into two phases over ranges of grains, so that the ranges can
+//! run on different cores and any cut gives the bits of the whole.
+//!
+//! 1. **Pairs** ([`PairPhase`]): every listed pair (i, slot) of the range's
+//!    first grains i: its geometry from the start-of-step state, its law
+//!    (6)–(9), which advances its spring history (held in grain i's slot:
+//!    no two ranges share one), and its force on i and tangential force,
+//!    written to the pair's place in [`Phases`].
+//! 2. **Moves** ([`MovePhase`]): every grain k of the range gathers its
+//!    sums in the scalar step's order — its drag (clear water (4)–(5); the
+//!    coupled flow's is added before the phases), the pairs (i < k, ·) that
+//!    name it, i ascending ([`Phases`] lists them when the neighbour lists
+//!    change), then its own pairs in slot order — and moves (1)–(3).
+//!
+//! The scalar step adds to grain k the same terms in the same order (a
+//! pair (i, k) adds to k's force array when grain i is visited, before
+//! grain k's own pairs), so each sum has its bits. A pair out of contact
+//! adds +0 where the scalar step adds nothing: a sum starts at +0 (or a
+//! drag added to +0) and is never −0, so s + 0 = s − 0 = s. Counts add up
+//! in any order; the largest speed is a maximum; the error of a failed
+//! move is the first grain's in grain order, as in the scalar step (the
+//! grains of the other ranges may have moved by then: a failed step leaves
+//! the simulation for [`crate::Sim::restore`] or a reset).
+//!
+//! Who runs the ranges is the caller's [`Executor`]: [`Serial`] runs each
+//! phase whole, [`Ranges`] cuts it into ranges run one after the other (on
+//! one core, as a board does), and a host cuts it among threads (the `mbs`
+//! host: rayon). The kernel holds no thread and allocates nothing.
+
+use super::mover::Mover;
+use super::scalar::{pair_force, Counts, State};
+use crate::contact::{ContactLaw, Spring};
+use crate::error::{Capacity, Error};
+use crate::flow::LogLaw;
+use crate::grains::Grains;
+use crate::neighbours::Neighbours;
+use crate::real::Real;
+
+/// One phase of the [phased step](crate::Sim::step_phased) over a range of
+/// grains: it can be cut in two at any grain, each part run on its own,
+/// and the outputs merged in grain order give what the whole gives.
+pub trait Phase: Send + Sized {
+    /// What a range gives.
+    type Output: Send;
+    /// Grains in the range.
+    fn grains(&self) -> usize;
+    /// The first `mid` grains and the rest (`mid` is clamped to the range).
+    fn split_at(self, mid: usize) -> (Self, Self);
+    /// Runs the range.
+    fn run(self) -> Self::Output;
+    /// The output of two adjacent ranges, `first` before `second`.
+    fn merge(first: Self::Output, second: Self::Output) -> Self::Output;
+}
+
+/// Runs the phases of the [phased step](crate::Sim::step_phased): whole,
+/// cut into ranges, on one core or many. Any cut gives the same bits.
+pub trait Executor {
+    /// Runs `phase` and returns its output.
+    fn execute<P: Phase>(&self, phase: P) -> P::Output;
+}
+
+/// Runs each phase whole, on the calling core.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Serial;
+
+impl Executor for Serial {
+    fn execute<P: Phase>(&self, phase: P) -> P::Output {
+        phase.run()
+    }
+}
+
+/// Cuts each phase into this many ranges of about equal size (at least
+/// one) and runs them one after the other on the calling core: what a
+/// host's threads would run, in order, on a board.
+///
+/// ```
+/// use mbs_kernel::{Phases, Ranges, Scenario, Sim};
+///
+/// let scenario = Scenario::paper();
+/// let mut whole = Sim::<f64, 64, 8>::new();
+/// scenario.build(&mut whole)?;
+/// whole.set_flow(Some(&scenario.flow(0.2)))?;
+/// let mut cut = whole.clone();
+/// let mut phases = Phases::<f64, 64, 8>::new();
+/// for _ in 0..300 {
+///     whole.step()?;
+///     cut.step_phased(&mut phases, &Ranges(3))?;
+/// }
+/// assert_eq!(whole.digest(), cut.digest());
+/// # Ok::<(), mbs_kernel::Error>(())
+/// ```
+#[derive(Debug, Clone, Copy)]
+pub struct Ranges(pub usize);
+
+impl Executor for Ranges {
+    fn execute<P: Phase>(&self, phase: P) -> P::Output {
+        fn cut<P: Phase>(phase: P, parts: usize) -> P::Output {
+            if parts <= 1 || phase.grains() < 2 {
+                return phase.run();
+            }
+            let mid = phase.grains() * (parts / 2) / parts;
+            let (first, second) = phase.split_at(mid);
+            let first = cut(first, parts / 2);
+            P::merge(first, cut(second, parts - parts / 2))
+        }
+        cut(phase, self.0)
+    }
+}
+
+/// The phased step's buffers, beside a [`crate::Sim`] of the same `R`,
+/// `N`, `K`: each listed pair's force and tangential force, and each
+/// grain's list of the pairs that name it. All-zero bits are a valid,
+/// empty value (allocate it zeroed, as a `Sim`).
+#[derive(Debug, Clone)]
+pub struct Phases<R: Real, const N: usize, const K: usize> {
+    /// Per slot (i, k): the pair's force on grain i, x and y.
+    fx: [[R; K]; N],
+    fy: [[R; K]; N],
+    /// Per slot: the pair's tangential force f_s (torques −r f_s).
+    fs: [[R; K]; N],
+    /// Per grain j: its first entry in `incoming`.
+    start: [u32; N],
+    /// Per grain j: one past its last entry in `incoming`.
+    end: [u32; N],
+    /// The pairs (i, k) that name grain j, as i·K + k, i ascending,
+    /// grain after grain.
+    incoming: [[u32; K]; N],
+    /// The neighbour lists `incoming` was built from: their generation
+    /// plus one (0: never built) and the simulation's address.
+    built: (u64, usize),
+}
+
+impl<R: Real, const N: usize, const K: usize> Phases<R, N, K> {
+    /// Empty buffers (all-zero bits).
+    pub const fn new() -> Self {
+        Phases {
+            fx: [[R::ZERO; K]; N],
+            fy: [[R::ZERO; K]; N],
+            fs: [[R::ZERO; K]; N],
+            start: [0; N],
+            end: [0; N],
+            incoming: [[0; K]; N],
+            built: (0, 0),
+        }
+    }
+
+    /// Lists, for each of the first `n` grains, the pairs that name it, if
+    /// the lists `nb` (of the simulation at address `owner`) changed since
+    /// the last call. A counting sort: O(pairs).
+    pub(crate) fn index(
+        &mut self,
+        nb: &Neighbours<R, N, K>,
+        n: usize,
+        owner: usize,
+    ) -> Result<(), Error> {
+        let key = (nb.generation.wrapping_add(1).max(1), owner);
+        if self.built == key {
+            return Ok(());
+        }
+        self.built = (0, 0);
+        if u32::try_from(N.saturating_mul(K)).is_err() {
+            return Err(Error::CapacityExceeded {
+                what: Capacity::Grains,
+                capacity: u32::MAX as usize / K.max(1),
+            });
+        }
+        let n = n.min(N);
+        self.end[..n].fill(0);
+        let listed = |i: usize| nb.other[i][..usize::from(nb.count[i]).min(K)].iter();
+        for i in 0..n {
+            for &j in listed(i) {
+                if let Some(e) = self.end.get_mut(j as usize).filter(|_| (j as usize) < n) {
+                    *e += 1;
+                }
+            }
+        }
+        let mut total = 0u32;
+        for j in 0..n {
+            self.start[j] = total;
+            total += self.end[j];
+            self.end[j] = self.start[j];
+        }
+        let incoming = self.incoming.as_flattened_mut();
+        for i in 0..n {
+            for (k, &j) in listed(i).enumerate() {
+                let j = j as usize;
+                if j < n {
+                    let at = self.end[j] as usize;
+                    if let Some(slot) = incoming.get_mut(at) {
+                        // N·K fits u32 (checked above).
+                        *slot = (i * K + k) as u32;
+                        self.end[j] += 1;
+                    }
+                }
+            }
+        }
+        self.built = key;
+        Ok(())
+    }
+}
+
+impl<R: Real, const N: usize, const K: usize> Default for Phases<R, N, K> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+/// The pair phase over a range of first grains (module docs, phase 1).
+pub(crate) struct PairPhase<'a, R: Real, const K: usize> {
+    /// Index of the range's first grain.
+    first: usize,
+    /// The start-of-step state of every grain.
+    state: State<'a, R>,
+    count: &'a [u8],
+    other: &'a [[u32; K]],
+    spring: &'a mut [[Spring<R>; K]],
+    fx: &'a mut [[R; K]],
+    fy: &'a mut [[R; K]],
+    fs: &'a mut [[R; K]],
+    law: ContactLaw<R>,
+}
+
+impl<'a, R: Real, const K: usize> PairPhase<'a, R, K> {
+    /// The pair phase of the first `n` grains of `g` over the lists `nb`,
+    /// writing to `out`; periodic `width`.
+    pub(crate) fn new<const N: usize>(
+        g: &'a Grains<R, N>,
+        nb: &'a mut Neighbours<R, N, K>,
+        out: &'a mut Phases<R, N, K>,
+        n: usize,
+        law: ContactLaw<R>,
+        width: R,
+    ) -> Self {
+        let n = n.min(N);
+        PairPhase {
+            first: 0,
+            state: State::new(
+                [
+                    &g.x[..n],
+                    &g.y[..n],
+                    &g.u[..n],
+                    &g.v[..n],
+                    &g.w[..n],
+                    &g.r[..n],
+                ],
+                width,
+            ),
+            count: &nb.count[..n],
+            other: &nb.other[..n],
+            spring: &mut nb.spring[..n],
+            fx: &mut out.fx[..n],
+            fy: &mut out.fy[..n],
+            fs: &mut out.fs[..n],
+            law,
+        }
+    }
+}
+
+impl<R: Real, const K: usize> Phase for PairPhase<'_, R, K> {
+    type Output = Counts;
+
+    fn grains(&self) -> usize {
+        self.count.len()
+    }
+
+    fn split_at(self, mid: usize) -> (Self, Self) {
+        let PairPhase {
+            first,
+            state,
+            count,
+            other,
+            spring,
+            fx,
+            fy,
+            fs,
+            law,
+        } = self;
+        let mid = mid.min(count.len());
+        let (count, count_b) = count.split_at(mid);
+        let (other, other_b) = other.split_at(mid.min(other.len()));
+        let (spring, spring_b) = spring.split_at_mut(mid.min(spring.len()));
+        let (fx, fx_b) = fx.split_at_mut(mid.min(fx.len()));
+        let (fy, fy_b) = fy.split_at_mut(mid.min(fy.len()));
+        let (fs, fs_b) = fs.split_at_mut(mid.min(fs.len()));
+        let second = PairPhase {
+            first: first + mid,
+            state,
+            count: count_b,
+            other: other_b,
+            spring: spring_b,
+            fx: fx_b,
+            fy: fy_b,
+            fs: fs_b,
+            law,
+        };
+        let first = PairPhase {
+            first,
+            state,
+            count,
+            other,
+            spring,
+            fx,
+            fy,
+            fs,
+            law,
+        };
+        (first, second)
+    }
+
+    fn run(self) -> Counts {
+        let mut counts = Counts::default();
+        let rows = self
+            .count
+            .iter()
+            .zip(self.other)
+            .zip(self.spring.iter_mut());
+        let out = self
+            .fx
+            .iter_mut()
+            .zip(self.fy.iter_mut())
+            .zip(self.fs.iter_mut());
+        for (offset, (((&count, other), springs), ((fx, fy), fs))) in rows.zip(out).enumerate() {
+            let count = usize::from(count).min(K);
+            fx[..count].fill(R::ZERO);
+            fy[..count].fill(R::ZERO);
+            fs[..count].fill(R::ZERO);
+            let Some(own) = self.state.own(self.first + offset) else {
+                continue;
+            };
+            for (k, (&j, spring)) in other[..count].iter().zip(springs).enumerate() {
+                let broken = &mut counts.broken;
+                if let Some(c) = self.state.contact(&own, j, spring, broken)
+                    && let Some((x, y, s)) = pair_force(&self.law, spring, &c, &mut counts)
+                {
+                    (fx[k], fy[k], fs[k]) = (x, y, s);
+                }
+            }
+        }
+        counts
+    }
+
+    fn merge(first: Counts, second: Counts) -> Counts {
+        Counts {
+            made: first.made.wrapping_add(second.made),
+            broken: first.broken.wrapping_add(second.broken),
+            sliding: first.sliding.wrapping_add(second.sliding),
+        }
+    }
+}
+
+/// What the move phase gives: the largest squared speed and the seam
+/// crossings, or the first failing grain's error.
+pub(crate) type Moved<R> = Result<(R, u64), Error>;
+
+/// The clear-water drag (4)–(5) a move phase adds first: the log law, the
+/// mean bed level and the free surface (docs/model.md §2, §6).
+#[derive(Clone, Copy)]
+pub(crate) struct ClearDrag<R: Real> {
+    pub(crate) log_law: LogLaw<R>,
+    pub(crate) bed_level: R,
+    pub(crate) surface: R,
+}
+
+/// The move phase over a range of grains (module docs, phase 2).
+pub(crate) struct MovePhase<'a, R: Real, const K: usize> {
+    /// Index of the range's first grain.
+    first: usize,
+    x: &'a mut [R],
+    y: &'a mut [R],
+    u: &'a mut [R],
+    v: &'a mut [R],
+    w: &'a mut [R],
+    fx: &'a mut [R],
+    fy: &'a mut [R],
+    torque: &'a mut [R],
+    r: &'a [R],
+    inv_mass: &'a [R],
+    inv_inertia: &'a [R],
+    fixed: &'a [bool],
+    drag_coef: &'a [R],
+    z_u: &'a [R],
+    z_v: &'a [R],
+    count: &'a [u8],
+    start: &'a [u32],
+    end: &'a [u32],
+    /// Every grain's pairs (shared).
+    pair_fx: &'a [R],
+    pair_fy: &'a [R],
+    pair_fs: &'a [R],
+    incoming: &'a [u32],
+    drag: Option<ClearDrag<R>>,
+    mover: Mover<R>,
+}
+
+impl<'a, R: Real, const K: usize> MovePhase<'a, R, K> {
+    /// The move phase of the first `n` grains of `g` with the pairs in
+    /// `pairs` (indexed for these lists), the clear-water `drag` if the flow
+    /// is clear water, and the integrator `mover`.
+    pub(crate) fn new<const N: usize>(
+        g: &'a mut Grains<R, N>,
+        nb: &'a Neighbours<R, N, K>,
+        pairs: &'a Phases<R, N, K>,
+        n: usize,
+        drag: Option<ClearDrag<R>>,
+        mover: Mover<R>,
+    ) -> Self {
+        let n = n.min(N);
+        MovePhase {
+            first: 0,
+            x: &mut g.x[..n],
+            y: &mut g.y[..n],
+            u: &mut g.u[..n],
+            v: &mut g.v[..n],
+            w: &mut g.w[..n],
+            fx: &mut g.fx[..n],
+            fy: &mut g.fy[..n],
+            torque: &mut g.torque[..n],
+            r: &g.r[..n],
+            inv_mass: &g.inv_mass[..n],
+            inv_inertia: &g.inv_inertia[..n],
+            fixed: &g.fixed[..n],
+            drag_coef: &g.drag_coef[..n],
+            z_u: &g.z_u[..n],
+            z_v: &g.z_v[..n],
+            count: &nb.count[..n],
+            start: &pairs.start[..n],
+            end: &pairs.end[..n],
+            pair_fx: pairs.fx.as_flattened(),
+            pair_fy: pairs.fy.as_flattened(),
+            pair_fs: pairs.fs.as_flattened(),
+            incoming: pairs.incoming.as_flattened(),
+            drag,
+            mover,
+        }
+    }
+}
+
+impl<R: Real, const K: usize> Phase for MovePhase<'_, R, K> {
+    type Output = Moved<R>;
+
+    fn grains(&self) -> usize {
+        self.x.len()
+    }
+
+    fn split_at(self, mid: usize) -> (Self, Self) {
+        let MovePhase {
+            first,
+            x,
+            y,
+            u,
+            v,
+            w,
+            fx,
+            fy,
+            torque,
+            r,
+            inv_mass,
+            inv_inertia,
+            fixed,
+            drag_coef,
+            z_u,
+            z_v,
+            count,
+            start,
+            end,
+            pair_fx,
+            pair_fy,
+            pair_fs,
+            incoming,
+            drag,
+            mover,
+        } = self;
+        let mid = mid.min(x.len());
+        let (x, x_b) = x.split_at_mut(mid.min(x.len()));
+        let (y, y_b) = y.split_at_mut(mid.min(y.len()));
+        let (u, u_b) = u.split_at_mut(mid.min(u.len()));
+        let (v, v_b) = v.split_at_mut(mid.min(v.len()));
+        let (w, w_b) = w.split_at_mut(mid.min(w.len()));
+        let (fx, fx_b) = fx.split_at_mut(mid.min(fx.len()));
+        let (fy, fy_b) = fy.split_at_mut(mid.min(fy.len()));
+        let (torque, torque_b) = torque.split_at_mut(mid.min(torque.len()));
+        let (r, r_b) = r.split_at(mid.min(r.len()));
+        let (inv_mass, inv_mass_b) = inv_mass.split_at(mid.min(inv_mass.len()));
+        let (inv_inertia, inv_inertia_b) = inv_inertia.split_at(mid.min(inv_inertia.len()));
+        let (fixed, fixed_b) = fixed.split_at(mid.min(fixed.len()));
+        let (drag_coef, drag_coef_b) = drag_coef.split_at(mid.min(drag_coef.len()));
+        let (z_u, z_u_b) = z_u.split_at(mid.min(z_u.len()));
+        let (z_v, z_v_b) = z_v.split_at(mid.min(z_v.len()));
+        let (count, count_b) = count.split_at(mid.min(count.len()));
+        let (start, start_b) = start.split_at(mid.min(start.len()));
+        let (end, end_b) = end.split_at(mid.min(end.len()));
+        let second = MovePhase {
+            first: first + mid,
+            x: x_b,
+            y: y_b,
+            u: u_b,
+            v: v_b,
+            w: w_b,
+            fx: fx_b,
+            fy: fy_b,
+            torque: torque_b,
+            r: r_b,
+            inv_mass: inv_mass_b,
+            inv_inertia: inv_inertia_b,
+            fixed: fixed_b,
+            drag_coef: drag_coef_b,
+            z_u: z_u_b,
+            z_v: z_v_b,
+            count: count_b,
+            start: start_b,
+            end: end_b,
+            pair_fx,
+            pair_fy,
+            pair_fs,
+            incoming,
+            drag,
+            mover,
+        };
+        let first = MovePhase {
+            first,
+            x,
+            y,
+            u,
+            v,
+            w,
+            fx,
+            fy,
+            torque,
+            r,
+            inv_mass,
+            inv_inertia,
+            fixed,
+            drag_coef,
+            z_u,
+            z_v,
+            count,
+            start,
+            end,
+            pair_fx,
+            pair_fy,
+            pair_fs,
+            incoming,
+            drag,
+            mover,
+        };
+        (first, second)
+    }
+    fn run(self) -> Moved<R> {
+        let (mut max_v2, mut crossings) = (R::ZERO, 0u64);
+        for k in 0..self.x.len() {
+            let (Some(&r), Some(&fixed)) = (self.r.get(k), self.fixed.get(k)) else {
+                break;
+            };
+            let (mut sx, mut sy, mut st) = (self.fx[k], self.fy[k], self.torque[k]);
+            if let Some(d) = &self.drag {
+                // As `scalar::add_drag`, on the start-of-step state.
+                if !fixed && self.y[k] <= d.surface {
+                    let (fx, fy) = d.log_law.drag(
+                        self.drag_coef.get(k).copied().unwrap_or(R::ZERO),
+                        self.y[k] - d.bed_level,
+                        self.u[k],
+                        self.v[k],
+                        self.z_u.get(k).copied().unwrap_or(R::ZERO),
+                        self.z_v.get(k).copied().unwrap_or(R::ZERO),
+                    );
+                    sx += fx;
+                    sy += fy;
+                }
+            }
+            // The pairs (i < k, ·) that name k, i ascending: −f, −r_k f_s.
+            let (from, to) = (self.start.get(k), self.end.get(k));
+            let incoming = match (from, to) {
+                (Some(&a), Some(&b)) => self.incoming.get(a as usize..b as usize).unwrap_or(&[]),
+                _ => &[],
+            };
+            for &p in incoming {
+                let p = p as usize;
+                if let (Some(&x), Some(&y), Some(&s)) = (
+                    self.pair_fx.get(p),
+                    self.pair_fy.get(p),
+                    self.pair_fs.get(p),
+                ) {
+                    sx -= x;
+                    sy -= y;
+                    st -= r * s;
+                }
+            }
+            // Its own pairs, slot order: +f, −r_k f_s.
+            let own = (self.first + k) * K;
+            let count = usize::from(self.count.get(k).copied().unwrap_or(0)).min(K);
+            for p in own..own + count {
+                if let (Some(&x), Some(&y), Some(&s)) = (
+                    self.pair_fx.get(p),
+                    self.pair_fy.get(p),
+                    self.pair_fs.get(p),
+                ) {
+                    sx += x;
+                    sy += y;
+                    st -= r * s;
+                }
+            }
+            (self.fx[k], self.fy[k], self.torque[k]) = (R::ZERO, R::ZERO, R::ZERO);
+            if fixed {
+                continue;
+            }
+            let accel = [
+                sx * self.inv_mass[k],
+                sy * self.inv_mass[k],
+                st * self.inv_inertia[k],
+            ];
+            let state = [self.x[k], self.y[k], self.u[k], self.v[k], self.w[k]];
+            let (moved, wrapped) = self.mover.advance(self.first + k, state, accel)?;
+            [self.x[k], self.y[k], self.u[k], self.v[k], self.w[k]] = moved;
+            crossings = crossings.wrapping_add(u64::from(wrapped));
+            max_v2 = R::max(max_v2, moved[2] * moved[2] + moved[3] * moved[3]);
+        }
+        Ok((max_v2, crossings))
+    }
+
+    fn merge(first: Moved<R>, second: Moved<R>) -> Moved<R> {
+        let (v_a, c_a) = first?;
+        let (v_b, c_b) = second?;
+        Ok((R::max(v_a, v_b), c_a.wrapping_add(c_b)))
+    }
+}
