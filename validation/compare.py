@@ -35,7 +35,7 @@ class Refused(Exception):
     """Bad input: the message names the file and what is wrong."""
 
 
-def read(path, columns):
+def read(path, columns, least=2):
     try:
         with open(path, newline="") as f:
             text = f.read(BOUND + 1)
@@ -46,8 +46,8 @@ def read(path, columns):
         raise Refused(f"{path}: {e.strerror}")
     except (csv.Error, UnicodeDecodeError) as e:
         raise Refused(f"{path}: not a CSV file ({e})")
-    if len(rows) < 2:
-        raise Refused(f"{path}: {len(rows)} rows; a profile needs at least 2")
+    if len(rows) < least:
+        raise Refused(f"{path}: {len(rows)} rows; at least {least} needed")
     missing = [c for c in columns if c not in rows[0]]
     if missing:
         raise Refused(f"{path}: no column {', '.join(missing)}")
@@ -207,7 +207,7 @@ def report(measured, run, tau, d, scale, mz, mphi, mup, muf, pz, pphi, pup, puf)
     q_meas = trapz([z * d for z in mz], flux) / scale
     q_prof = trapz([z * d for z in pz], [a * b for a, b in zip(pphi, pup)]) / scale
     tpath = run + "/transport.csv"
-    t = read(tpath, ["q_star", "q_star_stderr"])[0]
+    t = read(tpath, ["q_star", "q_star_stderr"], least=1)[0]
     q, q_err = number(tpath, t, "q_star"), number(tpath, t, "q_star_stderr")
     ratio = f"{q / q_meas:.2f}" if q_meas > 0 else "undefined (no measured transport)"
     print(f"q*: measured {q_meas:.3f}, run profile {q_prof:.3f}, run transport.csv {q:.3f}"

@@ -240,6 +240,26 @@ fn tool_edge_cases_are_named_errors() {
             "{name}: {err}"
         );
     }
+    // A good profile against a run of one τ* (one row in transport.csv, as
+    // every shipped validation configuration writes) is compared.
+    let good = write(
+        dir.path(),
+        "good.csv",
+        &format!("{measured}0.5,0.6,0\n1.5,0.3,0.1\n2.5,0.01,0.2\n"),
+    );
+    let out = std::process::Command::new("python3")
+        .arg(&compare)
+        .arg(&good)
+        .arg(&run)
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(text.contains("run transport.csv 0.100 +- 0.010"), "{text}");
 }
 
 /// Class 7: a `--set` of a section's alternative key replaces the
