@@ -16,7 +16,8 @@
 //!
 //! Run from the repository's root: `cargo bench --manifest-path
 //! benches/Cargo.toml` (all), or e.g. `cargo bench --manifest-path
-//! benches/Cargo.toml -- 'f64/still/beta15.8/16368'`.
+//! benches/Cargo.toml -- 'f64/still/beta15.8/16368'`; one bed on several
+//! cores (`mbs bench --threads`): `-- threads`.
 
 use criterion::measurement::WallTime;
 use criterion::{
@@ -46,11 +47,13 @@ fn beds() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../target/tmp/bench-beds")
 }
 
-/// One benchmark: prepare `bed`, then time `case` on it.
+/// One benchmark: prepare `bed`, then time `case` on it, stepping on
+/// `threads` threads (1: the step of one core; more: the phased step).
 struct Measure<'g, 'c> {
     group: &'g mut BenchmarkGroup<'c, WallTime>,
     bed: BenchBed,
     case: Case,
+    threads: usize,
 }
 
 impl SimJob for Measure<'_, '_> {
@@ -58,9 +61,13 @@ impl SimJob for Measure<'_, '_> {
 
     fn run<R: Real, const N: usize>(self, sim: &mut HostSim<R, N>) {
         let mut bed = Prepared::new(sim, &self.bed, self.case, Some(&beds())).expect("bench bed");
+        bed.threads(self.threads);
         let grains = bed.sim().len();
         self.group.throughput(Throughput::Elements(grains as u64));
-        let id = BenchmarkId::new(format!("beta{}", self.bed.beta), grains);
+        let id = match self.threads {
+            1 => BenchmarkId::new(format!("beta{}", self.bed.beta), grains),
+            t => BenchmarkId::new(format!("beta{}/threads{t}", self.bed.beta), grains),
+        };
         self.group
             .bench_function(id, |b| b.iter_custom(|n| bed.time(n).expect("repetitions")));
     }
@@ -77,7 +84,13 @@ fn bench(c: &mut Criterion, precision: Precision) {
                 }
                 let bed = BenchBed { grains, beta };
                 let group = &mut group;
-                with_sim(precision, bed.grain_count(), Measure { group, bed, case });
+                let job = Measure {
+                    group,
+                    bed,
+                    case,
+                    threads: 1,
+                };
+                with_sim(precision, bed.grain_count(), job);
             }
         }
         group.finish();
@@ -92,6 +105,32 @@ fn f32_beds(c: &mut Criterion) {
     bench(c, Precision::F32);
 }
 
+/// One bed on several cores: f64, β = 15.8, still and flow, 16 k and 65 k
+/// grains, on 2 threads and on every core (the phased step; its bits are
+/// those of one thread, whose timings are `f64_beds`').
+fn threads(c: &mut Criterion) {
+    let all = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let mut counts = vec![2, all];
+    counts.dedup();
+    for case in [Case::Still, Case::Flow] {
+        let mut group = c.benchmark_group(format!("f64/{}", case.name()));
+        for grains in [16_384, 65_536] {
+            for &threads in counts.iter().filter(|&&t| t > 1) {
+                let bed = BenchBed { grains, beta: 15.8 };
+                let group = &mut group;
+                let job = Measure {
+                    group,
+                    bed,
+                    case,
+                    threads,
+                };
+                with_sim(Precision::F64, bed.grain_count(), job);
+            }
+        }
+        group.finish();
+    }
+}
+
 fn config() -> Criterion {
     Criterion::default()
         .sample_size(10)
@@ -102,6 +141,6 @@ fn config() -> Criterion {
 criterion_group! {
     name = benches;
     config = config();
-    targets = f64_beds, f32_beds
+    targets = f64_beds, f32_beds, threads
 }
 criterion_main!(benches);

@@ -37,6 +37,30 @@ use crate::grains::Grains;
 use crate::neighbours::Neighbours;
 use crate::real::Real;
 
+/// Cuts the phase `$this` at grain `$mid`: each listed field, a slice over
+/// the range's grains (`mut`: mutable), at `$mid`; the other fields (shared,
+/// copied) as they are; the second part's first grain `first + $mid`.
+macro_rules! cut_at {
+    ($this:ident, $mid:expr; mut $($m:ident),*; ref $($r:ident),*) => {{
+        let mid = $mid;
+        $(let $m = core::mem::take(&mut $this.$m);
+          let $m = $m.split_at_mut(mid.min($m.len()));)*
+        $(let $r = $this.$r.split_at(mid.min($this.$r.len()));)*
+        let second = Self {
+            first: $this.first + mid,
+            $($m: $m.1,)*
+            $($r: $r.1,)*
+            ..$this
+        };
+        let first = Self {
+            $($m: $m.0,)*
+            $($r: $r.0,)*
+            ..$this
+        };
+        (first, second)
+    }};
+}
+
 /// One phase of the [phased step](crate::Sim::step_phased) over a range of
 /// grains: it can be cut in two at any grain, each part run on its own,
 /// and the outputs merged in grain order give what the whole gives.
@@ -264,48 +288,9 @@ impl<R: Real, const K: usize> Phase for PairPhase<'_, R, K> {
         self.count.len()
     }
 
-    fn split_at(self, mid: usize) -> (Self, Self) {
-        let PairPhase {
-            first,
-            state,
-            count,
-            other,
-            spring,
-            fx,
-            fy,
-            fs,
-            law,
-        } = self;
-        let mid = mid.min(count.len());
-        let (count, count_b) = count.split_at(mid);
-        let (other, other_b) = other.split_at(mid.min(other.len()));
-        let (spring, spring_b) = spring.split_at_mut(mid.min(spring.len()));
-        let (fx, fx_b) = fx.split_at_mut(mid.min(fx.len()));
-        let (fy, fy_b) = fy.split_at_mut(mid.min(fy.len()));
-        let (fs, fs_b) = fs.split_at_mut(mid.min(fs.len()));
-        let second = PairPhase {
-            first: first + mid,
-            state,
-            count: count_b,
-            other: other_b,
-            spring: spring_b,
-            fx: fx_b,
-            fy: fy_b,
-            fs: fs_b,
-            law,
-        };
-        let first = PairPhase {
-            first,
-            state,
-            count,
-            other,
-            spring,
-            fx,
-            fy,
-            fs,
-            law,
-        };
-        (first, second)
+    fn split_at(mut self, mid: usize) -> (Self, Self) {
+        let mid = mid.min(self.count.len());
+        cut_at!(self, mid; mut spring, fx, fy, fs; ref count, other)
     }
 
     fn run(self) -> Counts {
@@ -443,109 +428,13 @@ impl<R: Real, const K: usize> Phase for MovePhase<'_, R, K> {
         self.x.len()
     }
 
-    fn split_at(self, mid: usize) -> (Self, Self) {
-        let MovePhase {
-            first,
-            x,
-            y,
-            u,
-            v,
-            w,
-            fx,
-            fy,
-            torque,
-            r,
-            inv_mass,
-            inv_inertia,
-            fixed,
-            drag_coef,
-            z_u,
-            z_v,
-            count,
-            start,
-            end,
-            pair_fx,
-            pair_fy,
-            pair_fs,
-            incoming,
-            drag,
-            mover,
-        } = self;
-        let mid = mid.min(x.len());
-        let (x, x_b) = x.split_at_mut(mid.min(x.len()));
-        let (y, y_b) = y.split_at_mut(mid.min(y.len()));
-        let (u, u_b) = u.split_at_mut(mid.min(u.len()));
-        let (v, v_b) = v.split_at_mut(mid.min(v.len()));
-        let (w, w_b) = w.split_at_mut(mid.min(w.len()));
-        let (fx, fx_b) = fx.split_at_mut(mid.min(fx.len()));
-        let (fy, fy_b) = fy.split_at_mut(mid.min(fy.len()));
-        let (torque, torque_b) = torque.split_at_mut(mid.min(torque.len()));
-        let (r, r_b) = r.split_at(mid.min(r.len()));
-        let (inv_mass, inv_mass_b) = inv_mass.split_at(mid.min(inv_mass.len()));
-        let (inv_inertia, inv_inertia_b) = inv_inertia.split_at(mid.min(inv_inertia.len()));
-        let (fixed, fixed_b) = fixed.split_at(mid.min(fixed.len()));
-        let (drag_coef, drag_coef_b) = drag_coef.split_at(mid.min(drag_coef.len()));
-        let (z_u, z_u_b) = z_u.split_at(mid.min(z_u.len()));
-        let (z_v, z_v_b) = z_v.split_at(mid.min(z_v.len()));
-        let (count, count_b) = count.split_at(mid.min(count.len()));
-        let (start, start_b) = start.split_at(mid.min(start.len()));
-        let (end, end_b) = end.split_at(mid.min(end.len()));
-        let second = MovePhase {
-            first: first + mid,
-            x: x_b,
-            y: y_b,
-            u: u_b,
-            v: v_b,
-            w: w_b,
-            fx: fx_b,
-            fy: fy_b,
-            torque: torque_b,
-            r: r_b,
-            inv_mass: inv_mass_b,
-            inv_inertia: inv_inertia_b,
-            fixed: fixed_b,
-            drag_coef: drag_coef_b,
-            z_u: z_u_b,
-            z_v: z_v_b,
-            count: count_b,
-            start: start_b,
-            end: end_b,
-            pair_fx,
-            pair_fy,
-            pair_fs,
-            incoming,
-            drag,
-            mover,
-        };
-        let first = MovePhase {
-            first,
-            x,
-            y,
-            u,
-            v,
-            w,
-            fx,
-            fy,
-            torque,
-            r,
-            inv_mass,
-            inv_inertia,
-            fixed,
-            drag_coef,
-            z_u,
-            z_v,
-            count,
-            start,
-            end,
-            pair_fx,
-            pair_fy,
-            pair_fs,
-            incoming,
-            drag,
-            mover,
-        };
-        (first, second)
+    fn split_at(mut self, mid: usize) -> (Self, Self) {
+        let mid = mid.min(self.x.len());
+        cut_at!(self, mid;
+            mut x, y, u, v, w, fx, fy, torque;
+            ref r, inv_mass, inv_inertia, fixed, drag_coef, z_u, z_v, count, start, end)
     }
+
     fn run(self) -> Moved<R> {
         let (mut max_v2, mut crossings) = (R::ZERO, 0u64);
         for k in 0..self.x.len() {
