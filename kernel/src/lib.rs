@@ -103,8 +103,9 @@
 //! 5. **Sim** (`sim`): [`Sim`], its state and configuration ([`SimConfig`]),
 //!    adding grains, switching the flow, reading the state, and the
 //!    `impl Sim` blocks of its topics, one file each: `sim::step`
-//!    ([`Sim::step`], [`Sim::run`], [`Sim::step_phased`]: the neighbour
-//!    refresh, the flow's bookkeeping, the dispatch to the paths), `sim::coupled` (the
+//!    ([`Sim::step`], [`Sim::run`]: the neighbour refresh, the flow's
+//!    bookkeeping, the dispatch to the paths), `sim::phased`
+//!    ([`Sim::step_phased`]: the same step in phases over ranges of grains), `sim::coupled` (the
 //!    coupled flow's start and its update every M steps), `sim::bed` (the
 //!    initial bed, settling, [`RestWatch`], the mean bed level),
 //!    `sim::observe` ([`Sim::observe`]), `sim::checkpoint`

@@ -36,6 +36,7 @@ mod digest;
 mod fields;
 mod forces;
 mod observe;
+mod phased;
 mod step;
 
 pub use bed::RestWatch;

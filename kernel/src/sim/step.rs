@@ -14,7 +14,6 @@ use crate::sim::{Redraw, Sim};
 #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
 use crate::step::batch;
 use crate::step::mover::Mover;
-use crate::step::phased::{ClearDrag, Executor, MovePhase, PairPhase, Phases};
 use crate::step::scalar;
 use crate::step::GEOMETRY_AHEAD;
 
@@ -94,73 +93,10 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
         self.finish(moved, events)
     }
 
-    /// Advances one integration step as [`Sim::step`] does, with the same
-    /// bits, in the phases of the phased step (`step::phased`): the pairs'
-    /// forces into `phases`, then each grain's sums gathered in the scalar
-    /// step's order and its move, each phase run by `executor` over ranges
-    /// of grains (whole, cut, on threads: any cut gives the same bits). The
-    /// neighbour refresh, the flow's bookkeeping and the coupled flow's drag
-    /// run before, on the calling core. One `phases` serves one simulation
-    /// (it is re-indexed when given another's, or when the lists change).
-    ///
-    /// ```
-    /// use mbs_kernel::{Phases, Ranges, Scenario, Sim};
-    ///
-    /// let mut sim = Sim::<f32, 64, 8>::new();
-    /// Scenario::paper().build(&mut sim)?;
-    /// let mut phases = Phases::<f32, 64, 8>::new();
-    /// sim.step_phased(&mut phases, &Ranges(2))?;
-    /// assert_eq!(sim.step_count(), 1);
-    /// # Ok::<(), mbs_kernel::Error>(())
-    /// ```
-    pub fn step_phased<E: Executor>(
-        &mut self,
-        phases: &mut Phases<R, N, K>,
-        executor: &E,
-    ) -> Result<(), Error> {
-        let mut events = self.prepare()?;
-        let owner = core::ptr::from_ref(self) as usize;
-        let drag = if self.flow_on && self.fluid.on {
-            scalar::add_coupled_drag(&mut self.grains, &mut self.fluid, &self.log_law);
-            None
-        } else if self.flow_on {
-            Some(ClearDrag {
-                log_law: self.log_law,
-                bed_level: self.bed_level,
-                surface: self.surface,
-            })
-        } else {
-            None
-        };
-        let mover = self.mover();
-        self.index.history_to_slots(&mut self.nbrs.spring);
-        let n = self.grains.len.min(N);
-        let moved = match phases.index(&self.nbrs, n, owner) {
-            Ok(()) => {
-                let pairs = PairPhase::new(
-                    &self.grains,
-                    &mut self.nbrs,
-                    phases,
-                    n,
-                    self.law,
-                    self.width,
-                );
-                executor.execute(pairs).add_to(&mut events);
-                let moves = MovePhase::new(&mut self.grains, &self.nbrs, phases, n, drag, mover);
-                executor.execute(moves).map(|(max_v2, crossings)| {
-                    events.seam_crossings = events.seam_crossings.wrapping_add(crossings);
-                    max_v2
-                })
-            }
-            Err(e) => Err(e),
-        };
-        self.finish(moved, events)
-    }
-
-    /// The step's start, shared by both entries: the neighbour refresh and
+    /// The step's start, shared with [`Sim::step_phased`]: the neighbour refresh and
     /// the flow's bookkeeping (the coupled flow's update every M steps, the
     /// mean bed level, the fluctuation draws); the events so far.
-    fn prepare(&mut self) -> Result<Events, Error> {
+    pub(super) fn prepare(&mut self) -> Result<Events, Error> {
         check(self.configured, "sim", 0.0, "configured by reset() first")?;
         if self.nbrs.stale {
             self.rebuild()?;
@@ -202,10 +138,14 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
         Ok(events)
     }
 
-    /// The step's end, shared by both entries: on success the travel since
+    /// The step's end, shared with [`Sim::step_phased`]: on success the travel since
     /// the last rebuild, the step count and the events; on failure the
     /// forces cleared.
-    fn finish(&mut self, moved: Result<R, Error>, mut events: Events) -> Result<(), Error> {
+    pub(super) fn finish(
+        &mut self,
+        moved: Result<R, Error>,
+        mut events: Events,
+    ) -> Result<(), Error> {
         match moved {
             Ok(max_v2) => {
                 // The grains moved at most max_v2^½ step_dt.
@@ -273,7 +213,7 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
     }
 
     /// The integrator ([`Mover::advance`]) for this step.
-    fn mover(&self) -> Mover<R> {
+    pub(super) fn mover(&self) -> Mover<R> {
         Mover {
             step_dt: self.step_dt,
             gravity: self.g_red,

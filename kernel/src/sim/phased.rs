@@ -1,0 +1,75 @@
+//! `impl Sim`: the phased step ([`Sim::step_phased`]), the step's
+//! operations in the phases of `step::phased` over ranges of grains, for
+//! several cores, with the bits of [`Sim::step`] (docs/model.md §2: (1)–(3);
+//! docs/determinism.md, "One bed on several cores").
+
+use crate::error::Error;
+use crate::real::Real;
+use crate::sim::Sim;
+use crate::step::phased::{ClearDrag, Executor, MovePhase, PairPhase, Phases};
+use crate::step::scalar;
+
+impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
+    /// Advances one integration step as [`Sim::step`] does, with the same
+    /// bits, in the phases of the phased step (`step::phased`): the pairs'
+    /// forces into `phases`, then each grain's sums gathered in the scalar
+    /// step's order and its move, each phase run by `executor` over ranges
+    /// of grains (whole, cut, on threads: any cut gives the same bits). The
+    /// neighbour refresh, the flow's bookkeeping and the coupled flow's drag
+    /// run before, on the calling core. One `phases` serves one simulation
+    /// (it is re-indexed when given another's, or when the lists change).
+    ///
+    /// ```
+    /// use mbs_kernel::{Phases, Ranges, Scenario, Sim};
+    ///
+    /// let mut sim = Sim::<f32, 64, 8>::new();
+    /// Scenario::paper().build(&mut sim)?;
+    /// let mut phases = Phases::<f32, 64, 8>::new();
+    /// sim.step_phased(&mut phases, &Ranges(2))?;
+    /// assert_eq!(sim.step_count(), 1);
+    /// # Ok::<(), mbs_kernel::Error>(())
+    /// ```
+    pub fn step_phased<E: Executor>(
+        &mut self,
+        phases: &mut Phases<R, N, K>,
+        executor: &E,
+    ) -> Result<(), Error> {
+        let mut events = self.prepare()?;
+        let owner = core::ptr::from_ref(self) as usize;
+        let drag = if self.flow_on && self.fluid.on {
+            scalar::add_coupled_drag(&mut self.grains, &mut self.fluid, &self.log_law);
+            None
+        } else if self.flow_on {
+            Some(ClearDrag {
+                log_law: self.log_law,
+                bed_level: self.bed_level,
+                surface: self.surface,
+            })
+        } else {
+            None
+        };
+        let mover = self.mover();
+        self.index.history_to_slots(&mut self.nbrs.spring);
+        let n = self.grains.len.min(N);
+        let moved = match phases.index(&self.nbrs, n, owner) {
+            Ok(()) => {
+                let pairs = PairPhase::new(
+                    &self.grains,
+                    &mut self.nbrs,
+                    phases,
+                    n,
+                    self.law,
+                    self.width,
+                );
+                executor.execute(pairs).add_to(&mut events);
+                let moves = MovePhase::new(&mut self.grains, &self.nbrs, phases, n, drag, mover);
+                executor.execute(moves).map(|(max_v2, crossings)| {
+                    events.seam_crossings = events.seam_crossings.wrapping_add(crossings);
+                    max_v2
+                })
+            }
+            Err(e) => Err(e),
+        };
+        self.finish(moved, events)
+    }
+}
