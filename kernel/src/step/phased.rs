@@ -151,8 +151,10 @@ pub struct Phases<R: Real, const N: usize, const K: usize> {
     /// grain after grain.
     incoming: [[u32; K]; N],
     /// The neighbour lists `incoming` was built from: their generation
-    /// plus one (0: never built) and the simulation's address.
-    built: (u64, usize),
+    /// plus one (0: never built), the simulation's address, the lists'
+    /// cut-off (its bits: it depends on the grains' speeds at the rebuild)
+    /// and the grains; all must match for the lists to be reused.
+    built: (u64, usize, u64, usize),
 }
 
 impl<R: Real, const N: usize, const K: usize> Phases<R, N, K> {
@@ -165,7 +167,7 @@ impl<R: Real, const N: usize, const K: usize> Phases<R, N, K> {
             start: [0; N],
             end: [0; N],
             incoming: [[0; K]; N],
-            built: (0, 0),
+            built: (0, 0, 0, 0),
         }
     }
 
@@ -178,11 +180,16 @@ impl<R: Real, const N: usize, const K: usize> Phases<R, N, K> {
         n: usize,
         owner: usize,
     ) -> Result<(), Error> {
-        let key = (nb.generation.wrapping_add(1).max(1), owner);
+        let key = (
+            nb.generation.wrapping_add(1).max(1),
+            owner,
+            nb.cutoff.to_f64().to_bits(),
+            n,
+        );
         if self.built == key {
             return Ok(());
         }
-        self.built = (0, 0);
+        self.built = (0, 0, 0, 0);
         if u32::try_from(N.saturating_mul(K)).is_err() {
             return Err(Error::CapacityExceeded {
                 what: Capacity::Grains,
