@@ -135,3 +135,40 @@ fn a_restart_and_a_shared_buffer_keep_the_bits() {
     alone.run(900).unwrap();
     assert_eq!(other.digest(), alone.digest());
 }
+
+/// The host's `Stepping` (what `run.threads_per_cell`, `mbs bench
+/// --threads` and the Python `Sim` use) steps a bed large enough to cut by
+/// the phased step, with the bits of one core.
+#[test]
+fn stepping_on_threads_cuts_a_large_bed_with_the_same_bits() {
+    use mbs::sim::threads::{Stepping, MIN_GRAINS_PER_RANGE};
+    const BIG: usize = 8192;
+    let sc = Scenario {
+        bed: BedSpec {
+            columns: 420,
+            rows: 10,
+            ..Scenario::paper().bed.clone()
+        },
+        ..Scenario::paper()
+    };
+    let run = |threads: usize| {
+        let mut sim = boxed_sim::<f64, BIG, NEIGHBOURS>();
+        sc.build(&mut *sim).unwrap();
+        assert!(
+            sim.len() >= 2 * MIN_GRAINS_PER_RANGE,
+            "{} grains",
+            sim.len()
+        );
+        sim.set_flow(Some(&sc.flow(0.3))).unwrap();
+        let mut stepping = Stepping::new(threads);
+        stepping.run(&mut *sim, 300).unwrap();
+        (sim.digest(), sim.events().batched_steps)
+    };
+    let (one, batched) = run(1);
+    let (three, phased_batched) = run(3);
+    assert_eq!(three, one);
+    assert_eq!(phased_batched, 0, "three threads ran the phased step");
+    if cfg!(all(target_arch = "x86_64", target_feature = "avx2")) {
+        assert!(batched > 0, "one thread ran the batched step");
+    }
+}
