@@ -29,7 +29,7 @@
 //! host: rayon). The kernel holds no thread and allocates nothing.
 
 use super::mover::Mover;
-use super::scalar::{pair_force, Counts, State};
+use super::scalar::{pair_force, split_grains, Counts, Motion, State, Sums};
 use crate::contact::{ContactLaw, Spring};
 use crate::error::{Capacity, Error};
 use crate::flow::LogLaw;
@@ -38,23 +38,27 @@ use crate::neighbours::Neighbours;
 use crate::real::Real;
 
 /// Cuts the phase `$this` at grain `$mid`: each listed field, a slice over
-/// the range's grains (`mut`: mutable), at `$mid`; the other fields (shared,
-/// copied) as they are; the second part's first grain `first + $mid`.
+/// the range's grains (`mut`: mutable), at `$mid`, and each `own` field by
+/// its own `split_at`; the other fields (shared, copied) as they are; the
+/// second part's first grain `first + $mid`.
 macro_rules! cut_at {
-    ($this:ident, $mid:expr; mut $($m:ident),*; ref $($r:ident),*) => {{
+    ($this:ident, $mid:expr; mut $($m:ident),*; ref $($r:ident),* $(; own $($o:ident),*)?) => {{
         let mid = $mid;
         $(let $m = core::mem::take(&mut $this.$m);
           let $m = $m.split_at_mut(mid.min($m.len()));)*
         $(let $r = $this.$r.split_at(mid.min($this.$r.len()));)*
+        $($(let $o = $this.$o.split_at(mid);)*)?
         let second = Self {
             first: $this.first + mid,
             $($m: $m.1,)*
             $($r: $r.1,)*
+            $($($o: $o.1,)*)?
             ..$this
         };
         let first = Self {
             $($m: $m.0,)*
             $($r: $r.0,)*
+            $($($o: $o.0,)*)?
             ..$this
         };
         (first, second)
@@ -341,6 +345,17 @@ impl<R: Real, const K: usize> Phase for PairPhase<'_, R, K> {
     }
 }
 
+impl<R: Real> Motion<'_, R> {
+    /// The first `mid` grains of the range and the rest (`mid` clamped),
+    /// each counting its own speeds and crossings from none.
+    fn split_at(mut self, mid: usize) -> (Self, Self) {
+        self.max_v2 = R::ZERO;
+        self.crossings = 0;
+        let mid = mid.min(self.x.len());
+        cut_at!(self, mid; mut x, y, u, v, w; ref inv_mass, inv_inertia)
+    }
+}
+
 /// What the move phase gives: the largest squared speed and the seam
 /// crossings, or the first failing grain's error.
 pub(crate) type Moved<R> = Result<(R, u64), Error>;
@@ -358,17 +373,12 @@ pub(crate) struct ClearDrag<R: Real> {
 pub(crate) struct MovePhase<'a, R: Real, const K: usize> {
     /// Index of the range's first grain.
     first: usize,
-    x: &'a mut [R],
-    y: &'a mut [R],
-    u: &'a mut [R],
-    v: &'a mut [R],
-    w: &'a mut [R],
+    /// The range's state and its integration, as the scalar step's.
+    motion: Motion<'a, R>,
     fx: &'a mut [R],
     fy: &'a mut [R],
     torque: &'a mut [R],
     r: &'a [R],
-    inv_mass: &'a [R],
-    inv_inertia: &'a [R],
     fixed: &'a [bool],
     drag_coef: &'a [R],
     z_u: &'a [R],
@@ -382,7 +392,6 @@ pub(crate) struct MovePhase<'a, R: Real, const K: usize> {
     pair_fs: &'a [R],
     incoming: &'a [u32],
     drag: Option<ClearDrag<R>>,
-    mover: Mover<R>,
 }
 
 impl<'a, R: Real, const K: usize> MovePhase<'a, R, K> {
@@ -398,23 +407,18 @@ impl<'a, R: Real, const K: usize> MovePhase<'a, R, K> {
         mover: Mover<R>,
     ) -> Self {
         let n = n.min(N);
+        let (motion, rest) = split_grains(g, n, mover);
         MovePhase {
             first: 0,
-            x: &mut g.x[..n],
-            y: &mut g.y[..n],
-            u: &mut g.u[..n],
-            v: &mut g.v[..n],
-            w: &mut g.w[..n],
-            fx: &mut g.fx[..n],
-            fy: &mut g.fy[..n],
-            torque: &mut g.torque[..n],
-            r: &g.r[..n],
-            inv_mass: &g.inv_mass[..n],
-            inv_inertia: &g.inv_inertia[..n],
-            fixed: &g.fixed[..n],
-            drag_coef: &g.drag_coef[..n],
-            z_u: &g.z_u[..n],
-            z_v: &g.z_v[..n],
+            motion,
+            fx: rest.fx,
+            fy: rest.fy,
+            torque: rest.torque,
+            r: rest.r,
+            fixed: rest.fixed,
+            drag_coef: rest.drag_coef,
+            z_u: rest.z_u,
+            z_v: rest.z_v,
             count: &nb.count[..n],
             start: &pairs.start[..n],
             end: &pairs.end[..n],
@@ -423,7 +427,6 @@ impl<'a, R: Real, const K: usize> MovePhase<'a, R, K> {
             pair_fs: pairs.fs.as_flattened(),
             incoming: pairs.incoming.as_flattened(),
             drag,
-            mover,
         }
     }
 }
@@ -432,31 +435,31 @@ impl<R: Real, const K: usize> Phase for MovePhase<'_, R, K> {
     type Output = Moved<R>;
 
     fn grains(&self) -> usize {
-        self.x.len()
+        self.fx.len()
     }
 
     fn split_at(mut self, mid: usize) -> (Self, Self) {
-        let mid = mid.min(self.x.len());
+        let mid = mid.min(self.fx.len());
         cut_at!(self, mid;
-            mut x, y, u, v, w, fx, fy, torque;
-            ref r, inv_mass, inv_inertia, fixed, drag_coef, z_u, z_v, count, start, end)
+            mut fx, fy, torque;
+            ref r, fixed, drag_coef, z_u, z_v, count, start, end;
+            own motion)
     }
 
-    fn run(self) -> Moved<R> {
-        let (mut max_v2, mut crossings) = (R::ZERO, 0u64);
-        for k in 0..self.x.len() {
+    fn run(mut self) -> Moved<R> {
+        for k in 0..self.fx.len() {
             let (Some(&r), Some(&fixed)) = (self.r.get(k), self.fixed.get(k)) else {
                 break;
             };
             let (mut sx, mut sy, mut st) = (self.fx[k], self.fy[k], self.torque[k]);
             if let Some(d) = &self.drag {
                 // As `scalar::add_drag`, on the start-of-step state.
-                if !fixed && self.y[k] <= d.surface {
+                if !fixed && self.motion.y[k] <= d.surface {
                     let (fx, fy) = d.log_law.drag(
                         self.drag_coef.get(k).copied().unwrap_or(R::ZERO),
-                        self.y[k] - d.bed_level,
-                        self.u[k],
-                        self.v[k],
+                        self.motion.y[k] - d.bed_level,
+                        self.motion.u[k],
+                        self.motion.v[k],
                         self.z_u.get(k).copied().unwrap_or(R::ZERO),
                         self.z_v.get(k).copied().unwrap_or(R::ZERO),
                     );
@@ -500,18 +503,14 @@ impl<R: Real, const K: usize> Phase for MovePhase<'_, R, K> {
             if fixed {
                 continue;
             }
-            let accel = [
-                sx * self.inv_mass[k],
-                sy * self.inv_mass[k],
-                st * self.inv_inertia[k],
-            ];
-            let state = [self.x[k], self.y[k], self.u[k], self.v[k], self.w[k]];
-            let (moved, wrapped) = self.mover.advance(self.first + k, state, accel)?;
-            [self.x[k], self.y[k], self.u[k], self.v[k], self.w[k]] = moved;
-            crossings = crossings.wrapping_add(u64::from(wrapped));
-            max_v2 = R::max(max_v2, moved[2] * moved[2] + moved[3] * moved[3]);
+            let sums = Sums {
+                fx: sx,
+                fy: sy,
+                torque: st,
+            };
+            self.motion.advance(k, &sums)?;
         }
-        Ok((max_v2, crossings))
+        Ok((self.motion.max_v2, self.motion.crossings))
     }
 
     fn merge(first: Moved<R>, second: Moved<R>) -> Moved<R> {

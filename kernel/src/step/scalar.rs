@@ -194,7 +194,39 @@ fn split<R: Real, const N: usize>(
     n: usize,
     mover: Mover<R>,
 ) -> (Motion<'_, R>, Forces<'_, R>, &[bool]) {
+    let (motion, rest) = split_grains(g, n, mover);
+    let forces = Forces {
+        fx: rest.fx,
+        fy: rest.fy,
+        torque: rest.torque,
+        r: rest.r,
+        counts: Counts::default(),
+    };
+    (motion, forces, rest.fixed)
+}
+
+/// The first `n` grains' arrays besides their [`Motion`].
+pub(crate) struct Rest<'a, R: Real> {
+    pub(crate) fx: &'a mut [R],
+    pub(crate) fy: &'a mut [R],
+    pub(crate) torque: &'a mut [R],
+    pub(crate) r: &'a [R],
+    pub(crate) fixed: &'a [bool],
+    pub(crate) drag_coef: &'a [R],
+    pub(crate) z_u: &'a [R],
+    pub(crate) z_v: &'a [R],
+}
+
+/// The first `n` grains of `g` as what moves by `mover` ([`Motion`], from
+/// grain 0) and the rest of their arrays: both steps start from this.
+pub(crate) fn split_grains<R: Real, const N: usize>(
+    g: &mut Grains<R, N>,
+    n: usize,
+    mover: Mover<R>,
+) -> (Motion<'_, R>, Rest<'_, R>) {
+    let n = n.min(N);
     let motion = Motion {
+        first: 0,
         x: &mut g.x[..n],
         y: &mut g.y[..n],
         u: &mut g.u[..n],
@@ -206,29 +238,34 @@ fn split<R: Real, const N: usize>(
         max_v2: R::ZERO,
         crossings: 0,
     };
-    let forces = Forces {
+    let rest = Rest {
         fx: &mut g.fx[..n],
         fy: &mut g.fy[..n],
         torque: &mut g.torque[..n],
         r: &g.r[..n],
-        counts: Counts::default(),
+        fixed: &g.fixed[..n],
+        drag_coef: &g.drag_coef[..n],
+        z_u: &g.z_u[..n],
+        z_v: &g.z_v[..n],
     };
-    (motion, forces, &g.fixed[..n])
+    (motion, rest)
 }
 
-/// The grains' state during the scalar step, the largest squared speed
-/// reached and the seam crossings.
-struct Motion<'a, R: Real> {
-    x: &'a mut [R],
-    y: &'a mut [R],
-    u: &'a mut [R],
-    v: &'a mut [R],
-    w: &'a mut [R],
-    inv_mass: &'a [R],
-    inv_inertia: &'a [R],
-    mover: Mover<R>,
-    max_v2: R,
-    crossings: u64,
+/// The state of a range of grains (from grain `first`; the scalar step's:
+/// all, from 0) while they move, the largest squared speed reached and the
+/// seam crossings. The phased step moves its ranges with it too.
+pub(crate) struct Motion<'a, R: Real> {
+    pub(crate) first: usize,
+    pub(crate) x: &'a mut [R],
+    pub(crate) y: &'a mut [R],
+    pub(crate) u: &'a mut [R],
+    pub(crate) v: &'a mut [R],
+    pub(crate) w: &'a mut [R],
+    pub(crate) inv_mass: &'a [R],
+    pub(crate) inv_inertia: &'a [R],
+    pub(crate) mover: Mover<R>,
+    pub(crate) max_v2: R,
+    pub(crate) crossings: u64,
 }
 
 impl<R: Real> Motion<'_, R> {
@@ -238,13 +275,14 @@ impl<R: Real> Motion<'_, R> {
         State::new([&*self.x, &*self.y, &*self.u, &*self.v, &*self.w, r], width)
     }
 
-    /// Moves mobile grain i under its force and torque `sums` ([`Mover::advance`]).
+    /// Moves mobile grain `first + i` under its force and torque `sums`
+    /// ([`Mover::advance`]).
     #[inline(always)]
-    fn advance(&mut self, i: usize, sums: &Sums<R>) -> Result<(), Error> {
+    pub(crate) fn advance(&mut self, i: usize, sums: &Sums<R>) -> Result<(), Error> {
         // Read here, not kept from the top: fewer live registers in the
         // pair loops.
         let (moved, wrapped) = self.mover.advance(
-            i,
+            self.first + i,
             [self.x[i], self.y[i], self.u[i], self.v[i], self.w[i]],
             [
                 sums.fx * self.inv_mass[i],
@@ -393,10 +431,10 @@ impl<R: Real> Contact<R> {
 }
 
 /// The force and torque sums of one grain.
-struct Sums<R: Real> {
-    fx: R,
-    fy: R,
-    torque: R,
+pub(crate) struct Sums<R: Real> {
+    pub(crate) fx: R,
+    pub(crate) fy: R,
+    pub(crate) torque: R,
 }
 
 /// Where a contact's force goes: grain i's sums (in registers) and every
