@@ -166,6 +166,7 @@ fn living<R: Real>() -> (u64, u64, mbs_kernel::Events) {
         turbulence_redraws: after.turbulence_redraws - before.turbulence_redraws,
         bed_level_updates: after.bed_level_updates - before.bed_level_updates,
         batched_steps: after.batched_steps - before.batched_steps,
+        phased_steps: after.phased_steps - before.phased_steps,
     };
     (settled, sim.digest(), flow)
 }

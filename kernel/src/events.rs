@@ -32,6 +32,9 @@ pub struct Events {
     /// Steps taken by the batched step (x86-64 with AVX2 and a ready pair
     /// index); the rest were scalar steps. Always 0 on other targets.
     pub batched_steps: u64,
+    /// Steps taken by the phased step ([`crate::Sim::step_phased`]); those
+    /// it took in vector lanes count in `batched_steps` too.
+    pub phased_steps: u64,
 }
 
 impl Events {
@@ -45,6 +48,7 @@ impl Events {
         turbulence_redraws: 0,
         bed_level_updates: 0,
         batched_steps: 0,
+        phased_steps: 0,
     };
 
     /// Adds `other`'s counts, saturating.
@@ -63,5 +67,6 @@ impl Events {
             .bed_level_updates
             .saturating_add(other.bed_level_updates);
         self.batched_steps = self.batched_steps.saturating_add(other.batched_steps);
+        self.phased_steps = self.phased_steps.saturating_add(other.phased_steps);
     }
 }

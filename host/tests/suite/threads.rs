@@ -1,6 +1,8 @@
 //! One bed on several cores (issue 44): the phased step gives the bits of
 //! the step on one core for any thread count, any cut, with clear water and
-//! the coupled flow, across a checkpoint and restore.
+//! the coupled flow, across a checkpoint and restore; in vector lanes where
+//! the pair index is ready (x86-64 with AVX2, a capacity that is a power of
+//! two), and by the scalar phases elsewhere.
 
 use mbs::sim::sims::{boxed_sim, HostSim, NEIGHBOURS};
 use mbs::sim::threads::{boxed_phases, Threads};
@@ -10,6 +12,13 @@ use mbs_kernel::{BedSpec, Executor, Phase, Phases, Scenario};
 /// that 7 ranges of a phase hold about 100 grains each.
 const N: usize = 1024;
 type TestSim = HostSim<f64, N>;
+
+/// A capacity that is no power of two: the pair index is never ready, and
+/// the phased step runs its scalar phases.
+const NO_LANES: usize = 1000;
+
+/// Whether this build has the batched step's lanes.
+const LANES: bool = cfg!(all(target_arch = "x86_64", target_feature = "avx2"));
 
 fn scenario(coupled: bool) -> Scenario {
     let base = if coupled {
@@ -31,45 +40,56 @@ fn boxed() -> Box<TestSim> {
     boxed_sim::<f64, N, NEIGHBOURS>()
 }
 
+/// Steps in each part (settling, flow) of [`run`].
+const STEPS: u64 = 1500;
+
 /// Digests after settling and after a flow at τ* = 0.3, stepping with
 /// `step` (the event counts too).
-fn run(
+fn run<const M: usize>(
     coupled: bool,
-    step: &mut dyn FnMut(&mut TestSim) -> Result<(), mbs_kernel::Error>,
+    step: &mut dyn FnMut(&mut HostSim<f64, M>) -> Result<(), mbs_kernel::Error>,
 ) -> (u64, u64, mbs_kernel::Events) {
     let sc = scenario(coupled);
-    let mut sim = boxed();
+    let mut sim = boxed_sim::<f64, M, NEIGHBOURS>();
     sc.build(&mut *sim).unwrap();
     sim.count_events(true);
-    for _ in 0..1500 {
+    for _ in 0..STEPS {
         step(&mut sim).unwrap();
     }
     let settled = sim.digest();
     sim.set_flow(Some(&sc.flow(0.3))).unwrap();
-    for _ in 0..1500 {
+    for _ in 0..STEPS {
         step(&mut sim).unwrap();
     }
     (settled, sim.digest(), sim.events())
 }
 
+/// 1, 2, 3 and 7 threads, clear water and the coupled flow: the bits and
+/// the events of one core, the phased step in lanes where they exist (as
+/// many steps in lanes as on one core), and by the scalar phases on a
+/// capacity the lanes do not fit.
 #[test]
 fn any_thread_count_gives_the_bits_of_one_core() {
     for coupled in [false, true] {
-        let (a, b, events) = run(coupled, &mut |s| s.step());
+        let (a, b, events) = run::<N>(coupled, &mut |s| s.step());
+        assert_eq!(events.batched_steps > 0, LANES, "{events:?}");
         let mut phases = boxed_phases::<f64, N, NEIGHBOURS>();
+        let (c, d, scalar) = run::<NO_LANES>(coupled, &mut |s| s.step());
+        assert_eq!(scalar.batched_steps, 0);
+        let mut no_lanes = boxed_phases::<f64, NO_LANES, NEIGHBOURS>();
         for threads in [1, 2, 3, 7] {
             let exec = Threads::exactly(threads);
-            let got = run(coupled, &mut |s| s.step_phased(&mut phases, &exec));
-            assert_eq!(
-                (got.0, got.1),
-                (a, b),
-                "coupled {coupled}, {threads} threads"
-            );
-            let strip = |e: mbs_kernel::Events| mbs_kernel::Events {
-                batched_steps: 0,
+            let got = run::<N>(coupled, &mut |s| s.step_phased(&mut phases, &exec));
+            let with = format!("coupled {coupled}, {threads} threads");
+            assert_eq!((got.0, got.1), (a, b), "{with}");
+            let phased = |e: mbs_kernel::Events| mbs_kernel::Events {
+                phased_steps: 2 * STEPS,
                 ..e
             };
-            assert_eq!(strip(got.2), strip(events), "{threads} threads");
+            assert_eq!(got.2, phased(events), "{with}");
+            let got = run::<NO_LANES>(coupled, &mut |s| s.step_phased(&mut no_lanes, &exec));
+            assert_eq!((got.0, got.1), (c, d), "{with}, no lanes");
+            assert_eq!(got.2, phased(scalar), "{with}, no lanes");
         }
     }
 }
@@ -100,11 +120,13 @@ impl Executor for RandomCuts {
 
 #[test]
 fn any_cut_gives_the_same_bits() {
-    let (a, b, _) = run(false, &mut |s| s.step());
-    let mut phases = boxed_phases::<f64, N, NEIGHBOURS>();
-    let exec = RandomCuts(std::cell::Cell::new(7));
-    let got = run(false, &mut |s| s.step_phased(&mut phases, &exec));
-    assert_eq!((got.0, got.1), (a, b));
+    for coupled in [false, true] {
+        let (a, b, _) = run::<N>(coupled, &mut |s| s.step());
+        let mut phases = boxed_phases::<f64, N, NEIGHBOURS>();
+        let exec = RandomCuts(std::cell::Cell::new(7));
+        let got = run::<N>(coupled, &mut |s| s.step_phased(&mut phases, &exec));
+        assert_eq!((got.0, got.1), (a, b), "coupled {coupled}");
+    }
 }
 
 #[test]
@@ -162,13 +184,16 @@ fn stepping_on_threads_cuts_a_large_bed_with_the_same_bits() {
         sim.set_flow(Some(&sc.flow(0.3))).unwrap();
         let mut stepping = Stepping::new(threads);
         stepping.run(&mut *sim, 300).unwrap();
-        (sim.digest(), sim.events().batched_steps)
+        (sim.digest(), sim.events())
     };
-    let (one, batched) = run(1);
-    let (three, phased_batched) = run(3);
+    let (one, events) = run(1);
+    let (three, phased) = run(3);
     assert_eq!(three, one);
-    assert_eq!(phased_batched, 0, "three threads ran the phased step");
-    if cfg!(all(target_arch = "x86_64", target_feature = "avx2")) {
-        assert!(batched > 0, "one thread ran the batched step");
-    }
+    assert_eq!(events.phased_steps, 0);
+    assert_eq!(
+        phased.phased_steps, 300,
+        "three threads ran the phased step"
+    );
+    assert_eq!(phased.batched_steps, events.batched_steps, "in lanes");
+    assert_eq!(events.batched_steps > 0, LANES);
 }

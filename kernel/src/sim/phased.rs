@@ -6,6 +6,8 @@
 use crate::error::Error;
 use crate::real::Real;
 use crate::sim::Sim;
+#[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+use crate::step::batch;
 use crate::step::phased::{ClearDrag, Executor, MovePhase, PairPhase, Phases};
 use crate::step::scalar;
 
@@ -35,7 +37,22 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
         executor: &E,
     ) -> Result<(), Error> {
         let mut events = self.prepare()?;
+        events.phased_steps = 1;
         let owner = core::ptr::from_ref(self) as usize;
+        let mover = self.mover();
+        #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+        {
+            let params = self.batch_params(mover);
+            let (g, index, nbrs) = (&mut self.grains, &mut self.index, &self.nbrs);
+            let fluid = &mut self.fluid;
+            let e = &mut events;
+            let lanes =
+                batch::phased_step(g, index, nbrs, fluid, phases, owner, &params, executor, e);
+            if let Some(moved) = lanes {
+                events.batched_steps = 1;
+                return self.finish(moved, events);
+            }
+        }
         let drag = if self.flow_on && self.fluid.on {
             scalar::add_coupled_drag(&mut self.grains, &mut self.fluid, &self.log_law);
             None
@@ -48,7 +65,6 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
         } else {
             None
         };
-        let mover = self.mover();
         self.index.history_to_slots(&mut self.nbrs.spring);
         let n = self.grains.len.min(N);
         let moved = match phases.index(&self.nbrs, n, owner) {

@@ -48,20 +48,7 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
         let mover = self.mover();
         #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
         let batched = if BATCHED {
-            let flow = match (self.flow_on, coupled) {
-                (false, _) => batch::Flow::Off,
-                (true, false) => batch::Flow::Clear(self.log_law, self.bed_level),
-                (true, true) => batch::Flow::Coupled {
-                    turbulence: self.log_law.turbulence,
-                },
-            };
-            let params = batch::Params {
-                width: self.width,
-                law: self.law,
-                mover,
-                flow,
-                count_events: self.count_events,
-            };
+            let params = self.batch_params(mover);
             let (g, index, fluid) = (&mut self.grains, &mut self.index, &mut self.fluid);
             batch::batched_step(g, index, fluid, &params, &mut events)
         } else {
@@ -91,6 +78,27 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
             }
         };
         self.finish(moved, events)
+    }
+
+    /// What the batched step and the phased step in lanes read besides
+    /// the grains, the pair index and the coupled flow, with the integrator
+    /// `mover`.
+    #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+    pub(super) fn batch_params(&self, mover: Mover<R>) -> batch::Params<R> {
+        let flow = match (self.flow_on, self.flow_on && self.fluid.on) {
+            (false, _) => batch::Flow::Off,
+            (true, false) => batch::Flow::Clear(self.log_law, self.bed_level),
+            (true, true) => batch::Flow::Coupled {
+                turbulence: self.log_law.turbulence,
+            },
+        };
+        batch::Params {
+            width: self.width,
+            law: self.law,
+            mover,
+            flow,
+            count_events: self.count_events,
+        }
     }
 
     /// The step's start, shared with [`Sim::step_phased`]: the neighbour refresh and
@@ -157,6 +165,7 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
                         bed_level_updates: events.bed_level_updates,
                         turbulence_redraws: events.turbulence_redraws,
                         batched_steps: events.batched_steps,
+                        phased_steps: events.phased_steps,
                         ..Events::ZERO
                     };
                 }

@@ -33,14 +33,14 @@ pub(super) const fn lanes<R: Real>() -> usize {
 
 /// Listed pairs the storage holds per grain on average (a settled bed has
 /// about 2.3; more: the scalar step runs).
-pub(super) const PAIRS: usize = 4;
+pub(crate) const PAIRS: usize = 4;
 
 /// Batches of pairs whose geometry is found before their laws (the pair
 /// pass's chunks).
-pub(super) const CHUNK: usize = 8;
+pub(crate) const CHUNK: usize = 8;
 
 /// `pair_k` of a padding pair (w, w), which has no slot.
-const SELF_PAIR: u8 = u8::MAX;
+pub(crate) const SELF_PAIR: u8 = u8::MAX;
 
 /// [`PairIndex::second_lanes`] of a batch whose second grains are gathered.
 pub(super) const FAR: u8 = u8::MAX;
@@ -297,6 +297,28 @@ impl<R: Real, const N: usize, const K: usize> PairIndex<R, N, K> {
         (marked, chunks)
     }
 
+    /// The index split into what the passes read and write ([`Parts`]).
+    pub(crate) fn parts(&mut self) -> Parts<'_, R, N> {
+        Parts {
+            listed: Listed {
+                pair_i: &self.pair_i,
+                pair_j: &self.pair_j,
+                r_i: &self.r_i,
+                r_j: &self.r_j,
+                window_lanes: &self.window_lanes,
+                second_lanes: &self.second_lanes,
+                seam: &self.seam,
+                pairs: self.pairs,
+            },
+            e_n: self.e_n.as_flattened_mut(),
+            e_s: self.e_s.as_flattened_mut(),
+            sums: &mut self.sums,
+            mobile: &self.mobile,
+            start: &self.start,
+            pair_k: &self.pair_k,
+        }
+    }
+
     /// The history of grain i's used slot k while the storage is ready,
     /// else `None` (the slots hold it).
     pub(crate) fn spring_at(&self, i: usize, k: usize) -> Option<Spring<R>> {
@@ -334,6 +356,35 @@ impl<R: Real, const N: usize, const K: usize> PairIndex<R, N, K> {
             }
         }
     }
+}
+
+/// The pair list of the pair index as every range of the pair pass reads
+/// it (shared): each pair's grains and radii, each batch's window
+/// controls, each chunk's seam mark, and the pairs in whole batches.
+#[derive(Clone, Copy)]
+pub(crate) struct Listed<'a, R: Real, const N: usize> {
+    pub(crate) pair_i: &'a [[u32; PAIRS]; N],
+    pub(crate) pair_j: &'a [[u32; PAIRS]; N],
+    pub(crate) r_i: &'a [[R; PAIRS]; N],
+    pub(crate) r_j: &'a [[R; PAIRS]; N],
+    pub(crate) window_lanes: &'a [[u8; 8]; N],
+    pub(crate) second_lanes: &'a [[u8; 8]; N],
+    pub(crate) seam: &'a [bool; N],
+    pub(crate) pairs: usize,
+}
+
+/// The pair index split for the passes ([`PairIndex::parts`]): the pair
+/// list (shared), the spring history, the grains' sums and lane masks, and
+/// each grain's first pair.
+pub(crate) struct Parts<'a, R: Real, const N: usize> {
+    pub(crate) listed: Listed<'a, R, N>,
+    pub(crate) e_n: &'a mut [R],
+    pub(crate) e_s: &'a mut [R],
+    pub(crate) sums: &'a mut [[R; 4]; N],
+    pub(crate) mobile: &'a [R; N],
+    pub(crate) start: &'a [u32; N],
+    /// Whether each pair is a padding pair (w, w), which has no slot.
+    pub(crate) pair_k: &'a [[u8; PAIRS]; N],
 }
 
 /// The pair list being built by [`PairIndex::index`]: first and second grain,

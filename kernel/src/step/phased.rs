@@ -36,6 +36,8 @@ use crate::flow::LogLaw;
 use crate::grains::Grains;
 use crate::neighbours::Neighbours;
 use crate::real::Real;
+#[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+use crate::step::index::{PAIRS, SELF_PAIR};
 
 /// Cuts the phase `$this` at grain `$mid`: each listed field, a slice over
 /// the range's grains (`mut`: mutable), at `$mid`, and each `own` field by
@@ -64,6 +66,9 @@ macro_rules! cut_at {
         (first, second)
     }};
 }
+
+#[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+pub(crate) use cut_at;
 
 /// One phase of the [phased step](crate::Sim::step_phased) over a range of
 /// grains: it can be cut in two at any grain, each part run on its own,
@@ -156,10 +161,22 @@ pub struct Phases<R: Real, const N: usize, const K: usize> {
     incoming: [[u32; K]; N],
     /// The neighbour lists `incoming` was built from: their generation
     /// plus one (0: never built), the simulation's address, the lists'
-    /// cut-off (its bits: it depends on the grains' speeds at the rebuild)
-    /// and the grains; all must match for the lists to be reused.
-    built: (u64, usize, u64, usize),
+    /// cut-off (its bits: it depends on the grains' speeds at the rebuild),
+    /// the grains, and whether it lists pair places of the pair index
+    /// (the phased step in lanes) or slots; all must match for the lists to
+    /// be reused.
+    built: Built,
+    /// Per place of the pair index, its pair's row (f_x, f_y, −r_i f_s,
+    /// −r_j f_s): the phased step in lanes (`step::batch::phases`).
+    #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+    rows: [[[R; 4]; PAIRS]; N],
 }
+
+/// What [`Phases::incoming`] was built from ([`Phases::built`]).
+type Built = (u64, usize, u64, usize, bool);
+
+/// Never built.
+const NEVER: Built = (0, 0, 0, 0, false);
 
 impl<R: Real, const N: usize, const K: usize> Phases<R, N, K> {
     /// Empty buffers (all-zero bits).
@@ -171,43 +188,81 @@ impl<R: Real, const N: usize, const K: usize> Phases<R, N, K> {
             start: [0; N],
             end: [0; N],
             incoming: [[0; K]; N],
-            built: (0, 0, 0, 0),
+            built: NEVER,
+            #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+            rows: [[[R::ZERO; 4]; PAIRS]; N],
         }
     }
 
     /// Lists, for each of the first `n` grains, the pairs that name it, if
     /// the lists `nb` (of the simulation at address `owner`) changed since
-    /// the last call. A counting sort: O(pairs).
+    /// the last call: as slots i·K + k. A counting sort: O(pairs).
     pub(crate) fn index(
         &mut self,
         nb: &Neighbours<R, N, K>,
         n: usize,
         owner: usize,
     ) -> Result<(), Error> {
-        let key = (
-            nb.generation.wrapping_add(1).max(1),
-            owner,
-            nb.cutoff.to_f64().to_bits(),
-            n,
+        let n = n.min(N);
+        let listed = |i: usize| nb.other[i][..usize::from(nb.count[i]).min(K)].iter();
+        let pairs = (0..n).flat_map(|i| {
+            listed(i)
+                .enumerate()
+                .map(move |(k, &j)| ((i * K + k) as u32, j))
+        });
+        self.build(key(nb, n, owner, false), n, pairs)
+    }
+
+    /// As [`Phases::index`], the pairs that name each grain as pair
+    /// places of the pair index `parts` (built from the lists `nb`),
+    /// padding pairs left out; and the rows, the lists, and each grain's
+    /// first and one-past-last entry in them.
+    #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+    pub(crate) fn index_pairs(
+        &mut self,
+        nb: &Neighbours<R, N, K>,
+        parts: &crate::step::index::Parts<'_, R, N>,
+        n: usize,
+        owner: usize,
+    ) -> Result<LaneLists<'_, R, N>, Error> {
+        let n = n.min(N);
+        let (pair_j, pair_k) = (
+            parts.listed.pair_j.as_flattened(),
+            parts.pair_k.as_flattened(),
         );
+        let places = parts.listed.pairs.min(pair_j.len()).min(pair_k.len());
+        let pairs = (0..places)
+            .filter(|&q| pair_k[q] != SELF_PAIR)
+            .map(|q| (q as u32, pair_j[q]));
+        self.build(key(nb, n, owner, true), n, pairs)?;
+        Ok(LaneLists {
+            rows: self.rows.as_flattened_mut(),
+            incoming: self.incoming.as_flattened(),
+            from: &self.start,
+            to: &self.end,
+        })
+    }
+
+    /// Lists the pairs `(place, second grain)` by second grain (each
+    /// grain's in their order), unless already built for `key`.
+    fn build<I>(&mut self, key: Built, n: usize, pairs: I) -> Result<(), Error>
+    where
+        I: Iterator<Item = (u32, u32)> + Clone,
+    {
         if self.built == key {
             return Ok(());
         }
-        self.built = (0, 0, 0, 0);
+        self.built = NEVER;
         if u32::try_from(N.saturating_mul(K)).is_err() {
             return Err(Error::CapacityExceeded {
                 what: Capacity::Grains,
                 capacity: u32::MAX as usize / K.max(1),
             });
         }
-        let n = n.min(N);
         self.end[..n].fill(0);
-        let listed = |i: usize| nb.other[i][..usize::from(nb.count[i]).min(K)].iter();
-        for i in 0..n {
-            for &j in listed(i) {
-                if let Some(e) = self.end.get_mut(j as usize).filter(|_| (j as usize) < n) {
-                    *e += 1;
-                }
+        for (_, j) in pairs.clone() {
+            if let Some(e) = self.end.get_mut(j as usize).filter(|_| (j as usize) < n) {
+                *e += 1;
             }
         }
         let mut total = 0u32;
@@ -217,22 +272,48 @@ impl<R: Real, const N: usize, const K: usize> Phases<R, N, K> {
             self.end[j] = self.start[j];
         }
         let incoming = self.incoming.as_flattened_mut();
-        for i in 0..n {
-            for (k, &j) in listed(i).enumerate() {
-                let j = j as usize;
-                if j < n {
-                    let at = self.end[j] as usize;
-                    if let Some(slot) = incoming.get_mut(at) {
-                        // N·K fits u32 (checked above).
-                        *slot = (i * K + k) as u32;
-                        self.end[j] += 1;
-                    }
+        for (place, j) in pairs {
+            let j = j as usize;
+            if j < n {
+                let at = self.end[j] as usize;
+                if let Some(slot) = incoming.get_mut(at) {
+                    *slot = place;
+                    self.end[j] += 1;
                 }
             }
         }
         self.built = key;
         Ok(())
     }
+}
+
+/// The lists `nb` of the simulation at `owner` for `n` grains, as pair
+/// places (`lanes`) or slots: the key of [`Phases::built`]. N·K fits u32
+/// wherever the key is used ([`Phases::build`] checks it first).
+fn key<R: Real, const N: usize, const K: usize>(
+    nb: &Neighbours<R, N, K>,
+    n: usize,
+    owner: usize,
+    lanes: bool,
+) -> Built {
+    (
+        nb.generation.wrapping_add(1).max(1),
+        owner,
+        nb.cutoff.to_f64().to_bits(),
+        n,
+        lanes,
+    )
+}
+
+/// What the phased step in lanes reads and writes of a [`Phases`]
+/// ([`Phases::index_pairs`]): the rows, and the incoming lists with each
+/// grain's first and one-past-last entry.
+#[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+pub(crate) struct LaneLists<'a, R: Real, const N: usize> {
+    pub(crate) rows: &'a mut [[R; 4]],
+    pub(crate) incoming: &'a [u32],
+    pub(crate) from: &'a [u32; N],
+    pub(crate) to: &'a [u32; N],
 }
 
 impl<R: Real, const N: usize, const K: usize> Default for Phases<R, N, K> {
@@ -337,11 +418,7 @@ impl<R: Real, const K: usize> Phase for PairPhase<'_, R, K> {
     }
 
     fn merge(first: Counts, second: Counts) -> Counts {
-        Counts {
-            made: first.made.wrapping_add(second.made),
-            broken: first.broken.wrapping_add(second.broken),
-            sliding: first.sliding.wrapping_add(second.sliding),
-        }
+        first.merge(second)
     }
 }
 

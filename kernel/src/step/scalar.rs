@@ -492,6 +492,15 @@ pub(crate) struct Counts {
 }
 
 impl Counts {
+    /// The counts of two ranges together.
+    pub(crate) fn merge(self, other: Counts) -> Counts {
+        Counts {
+            made: self.made.wrapping_add(other.made),
+            broken: self.broken.wrapping_add(other.broken),
+            sliding: self.sliding.wrapping_add(other.sliding),
+        }
+    }
+
     /// Adds the counts to `events`.
     pub(crate) fn add_to(&self, events: &mut Events) {
         events.contacts_made = events.contacts_made.wrapping_add(self.made);

@@ -26,21 +26,30 @@ macro_rules! drag {
             use crate::grains::Grains;
             use crate::real::Real;
             use crate::step::batch::lanes::$lanes::*;
-            use crate::step::batch::params::{BatchStep, Drag};
+            use crate::step::batch::params::Moving;
             use crate::step::index::PairIndex;
+            use crate::step::phased::ClearDrag;
 
             /// Groups of L grains whose fluid cells the coupled flow's drag finds
             /// ahead ([`coupled_pass`]).
             const BLOCK: usize = 64 / L;
 
-            /// Adds the drag (4)–(5) to every mobile grain's force, L grains at a
-            /// time, lane by lane as [`LogLaw::drag`](crate::flow::LogLaw::drag)
-            /// (its scalar `ln` and `exp` only in the lanes that need them).
+            /// Adds the drag (4)–(5) to every mobile grain's force in the
+            /// range `s` ([`drag_group`] on each group).
             #[target_feature(enable = "avx2")]
-            pub(super) fn drag_pass<const N: usize, const K: usize>(
-                s: &mut BatchStep<'_, R, N, K>,
-                d: &Drag<'_, R, N>,
-            ) {
+            pub(crate) fn drag_pass(s: &mut Moving<'_, R>, d: &ClearDrag<R>) {
+                for grp in 0..s.len() / L {
+                    drag_group(s, d, grp);
+                }
+            }
+
+            /// Adds the drag (4)–(5) to the force of each mobile grain of
+            /// group `grp` of the range `s`, lane by lane as
+            /// [`LogLaw::drag`](crate::flow::LogLaw::drag) (its scalar `ln`
+            /// and `exp` only in the lanes that need them).
+            #[inline]
+            #[target_feature(enable = "avx2")]
+            pub(crate) fn drag_group(s: &mut Moving<'_, R>, d: &ClearDrag<R>, grp: usize) {
                 let zero = zero();
                 let p = &d.log_law;
                 let one = splat(1.0);
@@ -52,53 +61,49 @@ macro_rules! drag {
                 let log_law = splat(<R as Real>::from_f64(30.1));
                 let (eps0, open) = (splat(p.eps0), splat(1.0 - p.eps0));
                 let turbulence = splat(if p.turbulence { TRUE } else { 0.0 });
-                let surface = splat(s.mover.surface);
-                let b = &mut *s.batch;
-                let groups = s.n.min(N).div_ceil(L).min(N / L);
-                for grp in 0..groups {
-                    let at = |a: &[R; N]| load(group(a, grp));
-                    // Mobile grains in the water.
-                    let mobile = and(load(group(&b.mobile, grp)), le(at(s.y), surface));
-                    if movemask(mobile) == 0 {
-                        continue;
-                    }
-                    let y = sub(at(s.y), bed);
-                    // (14) mean velocity.
-                    let above = add(y, shift);
-                    let arg = mul(mul(log_law, above), inv_ks);
-                    let flows = and(gt(arg, one), mobile);
-                    let mean = and(
-                        mul(
-                            splat(p.u_star_over_kappa),
-                            map_where(arg, flows, <R as Real>::ln),
-                        ),
-                        flows,
-                    );
-                    // (15) fluctuations where U > 0.
-                    let fluctuates = and(gt(mean, zero), turbulence);
-                    let decay = map_where(
-                        mul(y, splat(p.minus_inv_depth)),
-                        fluctuates,
-                        <R as Real>::exp,
-                    );
-                    let fluct_u = and(mul(at(d.z_u), mul(splat(p.rms_u0), decay)), fluctuates);
-                    let fluct_v = and(mul(at(d.z_v), mul(splat(p.rms_v0), decay)), fluctuates);
-                    let wx = sub(add(mean, fluct_u), at(s.u));
-                    let wy = sub(fluct_v, at(s.v));
-                    // (16) sheltering.
-                    let z = mul(above, inv_ks);
-                    let exposed = and(gt(z, zero), mobile);
-                    let hidden = map_where(xor(mul(z, z), splat(-0.0)), exposed, <R as Real>::exp);
-                    let eps = select(eps0, add(eps0, mul(open, sub(one, hidden))), exposed);
-                    // (4)–(5).
-                    let xi = mul(mul(at(d.coef), eps), sqrt(add(mul(wx, wx), mul(wy, wy))));
-                    // The sums (+0) add the drag (+0 for fixed grains).
-                    let [fx, fy] = [mul(xi, wx), mul(xi, wy)].map(|f| and(f, mobile));
-                    let rows = to_rows([fx, fy, zero, zero]);
-                    if let Some(sums) = b.sums.as_chunks_mut::<L>().0.get_mut(grp) {
-                        for (sum, row) in sums.iter_mut().zip(rows) {
-                            add_row(sum, row);
-                        }
+                let surface = splat(d.surface);
+                let at = |a: &[R]| load(group(a, grp));
+                // Mobile grains in the water.
+                let mobile = and(at(s.mobile), le(at(s.y), surface));
+                if movemask(mobile) == 0 {
+                    return;
+                }
+                let y = sub(at(s.y), bed);
+                // (14) mean velocity.
+                let above = add(y, shift);
+                let arg = mul(mul(log_law, above), inv_ks);
+                let flows = and(gt(arg, one), mobile);
+                let mean = and(
+                    mul(
+                        splat(p.u_star_over_kappa),
+                        map_where(arg, flows, <R as Real>::ln),
+                    ),
+                    flows,
+                );
+                // (15) fluctuations where U > 0.
+                let fluctuates = and(gt(mean, zero), turbulence);
+                let decay = map_where(
+                    mul(y, splat(p.minus_inv_depth)),
+                    fluctuates,
+                    <R as Real>::exp,
+                );
+                let fluct_u = and(mul(at(s.z_u), mul(splat(p.rms_u0), decay)), fluctuates);
+                let fluct_v = and(mul(at(s.z_v), mul(splat(p.rms_v0), decay)), fluctuates);
+                let wx = sub(add(mean, fluct_u), at(s.u));
+                let wy = sub(fluct_v, at(s.v));
+                // (16) sheltering.
+                let z = mul(above, inv_ks);
+                let exposed = and(gt(z, zero), mobile);
+                let hidden = map_where(xor(mul(z, z), splat(-0.0)), exposed, <R as Real>::exp);
+                let eps = select(eps0, add(eps0, mul(open, sub(one, hidden))), exposed);
+                // (4)–(5).
+                let xi = mul(mul(at(s.coef), eps), sqrt(add(mul(wx, wx), mul(wy, wy))));
+                // The sums (+0) add the drag (+0 for fixed grains).
+                let [fx, fy] = [mul(xi, wx), mul(xi, wy)].map(|f| and(f, mobile));
+                let rows = to_rows([fx, fy, zero, zero]);
+                if let Some(sums) = s.sums.as_chunks_mut::<L>().0.get_mut(grp) {
+                    for (sum, row) in sums.iter_mut().zip(rows) {
+                        add_row(sum, row);
                     }
                 }
             }

@@ -21,38 +21,47 @@ macro_rules! grains {
             use crate::error::Error;
             use crate::real::Real;
             use crate::step::batch::lanes::$lanes::*;
-            use crate::step::batch::params::BatchStep;
+            use crate::step::batch::params::Moving;
+            use crate::step::mover::Mover;
 
-            /// Every grain's motion (`Mover::advance`) from its sums, which it
-            /// zeroes, L grains at a time: the largest squared speed, or the
-            /// first failing grain's error (the sums then all zeroed).
+            /// Every grain's motion (`Mover::advance`) of the range `s` by
+            /// `m` from its sums, which it zeroes, L grains at a time, each
+            /// group of mobile grains after `before` (given the range and the
+            /// group) has added to its sums: the largest squared speed and
+            /// the seam crossings, or the first failing grain's error (the
+            /// range's sums then all zeroed).
             #[target_feature(enable = "avx2")]
-            pub(super) fn grain_pass<const N: usize, const K: usize>(
-                s: &mut BatchStep<'_, R, N, K>,
-            ) -> Result<R, Error> {
+            pub(crate) fn grain_pass<F: FnMut(&mut Moving<'_, R>, usize)>(
+                s: &mut Moving<'_, R>,
+                m: &Mover<R>,
+                mut before: F,
+            ) -> Result<(R, u64), Error> {
                 let zero = zero();
-                let m = &s.mover;
                 let (dt, width) = (splat(m.step_dt), splat(m.width));
                 let (gx, gy) = (splat(m.gravity[0]), splat(m.gravity[1]));
                 let (y_min, y_max) = (splat(m.y_min), splat(m.y_max));
                 let surface = splat(m.surface);
                 let largest = splat(R::MAX);
                 let abs = splat(ABS);
-                let b = &mut *s.batch;
+                let mut crossings = 0u64;
                 let mut max_v2 = zero;
-                let groups = s.n.min(N).div_ceil(L).min(N / L);
+                let groups = s.len() / L;
                 for grp in 0..groups {
-                    let g = grp * L;
-                    let mobile = load(group(&b.mobile, grp));
-                    let at = |a: &[R; N]| load(group(a, grp));
-                    let Some(sums) = b.sums.as_chunks_mut::<L>().0.get_mut(grp) else {
+                    let g = s.first + grp * L;
+                    let mobile = load(group(s.mobile, grp));
+                    if movemask(mobile) == 0 {
+                        if let Some(sums) = s.sums.as_chunks_mut::<L>().0.get_mut(grp) {
+                            *sums = [[0.0; 4]; L];
+                        }
+                        continue;
+                    }
+                    before(s, grp);
+                    let at = |a: &[R]| load(group(a, grp));
+                    let Some(sums) = s.sums.as_chunks_mut::<L>().0.get_mut(grp) else {
                         break;
                     };
                     let [fx, fy, torque, _] = from_rows(sums.each_ref().map(|row| load_row(row)));
                     *sums = [[0.0; 4]; L];
-                    if movemask(mobile) == 0 {
-                        continue;
-                    }
                     // Mover::advance.
                     let im = at(s.inv_mass);
                     let (x0, y0, u0, v0, w0) = (at(s.x), at(s.y), at(s.u), at(s.v), at(s.w));
@@ -75,8 +84,7 @@ macro_rules! grains {
                         let x = select(select(x, wrapped, under), sub(x, width), over);
                         in_x = inside(x);
                         let crossed = movemask(and(xor(over, under), mobile)).count_ones();
-                        let e = &mut *s.events;
-                        e.seam_crossings = e.seam_crossings.wrapping_add(u64::from(crossed));
+                        crossings = crossings.wrapping_add(u64::from(crossed));
                         x
                     };
                     let ok = and(
@@ -92,12 +100,12 @@ macro_rules! grains {
                         let sums = [lanes(fx), lanes(fy), lanes(torque)];
                         let mobile = lanes(mobile);
                         for l in 0..L {
-                            let i = (g + l) & (N - 1);
-                            if mobile[l].to_bits() == 0 {
+                            let i = grp * L + l;
+                            if mobile[l].to_bits() == 0 || i >= s.len() {
                                 continue;
                             }
                             let moved = m.advance(
-                                i,
+                                g + l,
                                 [s.x[i], s.y[i], s.u[i], s.v[i], s.w[i]],
                                 [
                                     sums[0][l] * s.inv_mass[i],
@@ -105,7 +113,7 @@ macro_rules! grains {
                                     sums[2][l] * s.inv_inertia[i],
                                 ],
                             );
-                            let (moved, _) = moved.inspect_err(|_| b.sums.fill([0.0; 4]))?;
+                            let (moved, _) = moved.inspect_err(|_| s.sums.fill([0.0; 4]))?;
                             [s.x[i], s.y[i], s.u[i], s.v[i], s.w[i]] = moved;
                             let v2 = moved[2] * moved[2] + moved[3] * moved[3];
                             max_v2 = max(splat(v2), max_v2);
@@ -136,7 +144,8 @@ macro_rules! grains {
                     let v2 = and(add(mul(u, u), mul(v, v)), mobile);
                     max_v2 = max(v2, max_v2);
                 }
-                Ok(lanes(max_v2).into_iter().fold(0.0, <R as Real>::max))
+                let max_v2 = lanes(max_v2).into_iter().fold(0.0, <R as Real>::max);
+                Ok((max_v2, crossings))
             }
         }
     };

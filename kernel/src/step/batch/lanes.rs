@@ -67,19 +67,16 @@ macro_rules! helpers {
             crate::step::batch::lanes::read(values)
         }
 
-        /// Group `group` of L grains of an array (N is a whole number of groups).
+        /// Group `group` of L grains of an array (zeros past its whole groups).
         #[inline]
-        pub(crate) fn group<const N: usize>(a: &[R; N], group: usize) -> &[R; L] {
+        pub(crate) fn group(a: &[R], group: usize) -> &[R; L] {
             let (groups, _) = a.as_chunks::<L>();
             groups.get(group).unwrap_or(&[0.0; L])
         }
 
         /// Group `group` of L grains of an array, to write.
         #[inline]
-        pub(crate) fn group_mut<const N: usize>(
-            a: &mut [R; N],
-            group: usize,
-        ) -> Option<&mut [R; L]> {
+        pub(crate) fn group_mut(a: &mut [R], group: usize) -> Option<&mut [R; L]> {
             let (groups, _) = a.as_chunks_mut::<L>();
             groups.get_mut(group)
         }

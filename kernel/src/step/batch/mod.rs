@@ -43,14 +43,17 @@ mod grains;
 mod lanes;
 mod pairs;
 mod params;
+mod phases;
 
 use crate::error::Error;
 use crate::events::Events;
 use crate::fluid::Coupling;
 use crate::grains::Grains;
+use crate::neighbours::Neighbours;
 use crate::real::Real;
 pub(crate) use crate::step::batch::params::{Flow, Params};
 use crate::step::index::PairIndex;
+use crate::step::phased::{Executor, Phases};
 use core::any::Any;
 
 /// Runs the batched step if the pair index is ready: the largest squared
@@ -103,6 +106,59 @@ pub(crate) fn batched_step<R: Real, const N: usize, const K: usize, const C: usi
     None
 }
 
+/// Runs the phased step in lanes (`phases`) if the pair index is ready:
+/// as [`batched_step`], with the buffers `phases` of the simulation at
+/// `owner` and each phase run by `executor`. `None`: run the scalar phases.
+#[allow(clippy::too_many_arguments)]
+#[inline]
+pub(crate) fn phased_step<R: Real, const N: usize, const K: usize, const C: usize, E: Executor>(
+    grains: &mut Grains<R, N>,
+    index: &mut PairIndex<R, N, K>,
+    nbrs: &Neighbours<R, N, K>,
+    fluid: &mut Coupling<R, C>,
+    phases: &mut Phases<R, N, K>,
+    owner: usize,
+    params: &Params<R>,
+    executor: &E,
+    events: &mut Events,
+) -> Option<Result<R, Error>> {
+    if !index.ready || C >= 1 << 24 {
+        return None;
+    }
+    let (grains, index, fluid): (&mut dyn Any, &mut dyn Any, &mut dyn Any) = (grains, index, fluid);
+    let (nbrs, phases, params): (&dyn Any, &mut dyn Any, &dyn Any) = (nbrs, phases, params);
+    if let (Some(g), Some(b), Some(nb), Some(f), Some(ph), Some(p)) = (
+        grains.downcast_mut::<Grains<f64, N>>(),
+        index.downcast_mut::<PairIndex<f64, N, K>>(),
+        nbrs.downcast_ref::<Neighbours<f64, N, K>>(),
+        fluid.downcast_mut::<Coupling<f64, C>>(),
+        phases.downcast_mut::<Phases<f64, N, K>>(),
+        params.downcast_ref::<Params<f64>>(),
+    ) {
+        if let Flow::Coupled { turbulence } = p.flow {
+            in_f64x4::coupled_drag(g, b, f.cells(), turbulence);
+        }
+        let moved = in_f64x4::phased_step(g, b, nb, ph, owner, p, executor, events);
+        return Some(moved.map(R::from_f64));
+    }
+    if let (Some(g), Some(b), Some(nb), Some(f), Some(ph), Some(p)) = (
+        grains.downcast_mut::<Grains<f32, N>>(),
+        index.downcast_mut::<PairIndex<f32, N, K>>(),
+        nbrs.downcast_ref::<Neighbours<f32, N, K>>(),
+        fluid.downcast_mut::<Coupling<f32, C>>(),
+        phases.downcast_mut::<Phases<f32, N, K>>(),
+        params.downcast_ref::<Params<f32>>(),
+    ) {
+        if let Flow::Coupled { turbulence } = p.flow {
+            in_f32x8::coupled_drag(g, b, f.cells(), turbulence);
+        }
+        let moved = in_f32x8::phased_step(g, b, nb, ph, owner, p, executor, events);
+        // Exact: every f32 is an f64.
+        return Some(moved.map(|v| R::from_f64(f64::from(v))));
+    }
+    None
+}
+
 /// Writes the batched step in the lanes of one precision as the module
 /// `$module`: `$lanes` is the lane module ([`lanes::f64x4`] or
 /// [`lanes::f32x8`]: the lane type, its scalar, the row type, the
@@ -122,13 +178,17 @@ macro_rules! lanes {
             use crate::events::Events;
             use crate::fluid::Cells;
             use crate::grains::Grains;
-            use crate::step::batch::lanes::$lanes::R;
-            use crate::step::batch::params::{BatchStep, Params};
-            use crate::step::index::PairIndex;
+            use crate::neighbours::Neighbours;
+            use crate::step::batch::lanes::$lanes::{L, R};
+            use crate::step::batch::params::{Moving, PairRange, Params};
+            use crate::step::index::{PairIndex, CHUNK};
+            use crate::step::phased::{Executor, Phases};
+            use phases::{MoveLanes, PairLanes};
 
             crate::step::batch::drag::drag!($lanes);
             crate::step::batch::pairs::pairs!($lanes);
             crate::step::batch::grains::grains!($lanes);
+            crate::step::batch::phases::phases!($lanes);
 
             /// The batched step ([`super::batched_step`]) of the grains `g`
             /// over the pair index `b`. Never inlined: its registers are
@@ -143,24 +203,95 @@ macro_rules! lanes {
                 p: &Params<R>,
                 events: &mut Events,
             ) -> Result<R, Error> {
-                let step = &mut BatchStep::new(g, b, p, events);
+                let groups = g.len.min(N).div_ceil(L).min(N / L);
+                let parts = b.parts();
                 // SAFETY: this module is compiled only with AVX2 enabled for the
                 // whole build, so the CPU running it has AVX2.
                 unsafe {
-                    if let Some(d) = step.drag {
-                        drag::drag_pass(step, &d);
+                    if let Some(d) = p.clear_drag() {
+                        let s = &mut Moving::new(g, parts.mobile, parts.sums, groups, L);
+                        drag::drag_pass(s, &d);
                     }
+                    let range = &mut PairRange {
+                        listed: parts.listed,
+                        grains: [&g.x, &g.y, &g.u, &g.v, &g.w],
+                        law: p.law,
+                        width: p.width,
+                        chunks: 0..parts.listed.pairs.div_ceil(CHUNK * L),
+                        e_n: parts.e_n,
+                        e_s: parts.e_s,
+                    };
                     // One copy of the pair pass per (counting, tension
                     // rule): the paper's rule keeps its instructions.
                     let no_tension = p.law.tension == Tension::None;
-                    match (p.count_events, no_tension) {
-                        (true, false) => pairs::pair_pass::<N, K, true, false>(step),
-                        (false, false) => pairs::pair_pass::<N, K, false, false>(step),
-                        (true, true) => pairs::pair_pass::<N, K, true, true>(step),
-                        (false, true) => pairs::pair_pass::<N, K, false, true>(step),
-                    }
-                    grains::grain_pass(step)
+                    let sums = &mut *parts.sums;
+                    let counts = match (p.count_events, no_tension) {
+                        (true, false) => pairs::pair_pass::<N, true, false>(range, sums),
+                        (false, false) => pairs::pair_pass::<N, false, false>(range, sums),
+                        (true, true) => pairs::pair_pass::<N, true, true>(range, sums),
+                        (false, true) => pairs::pair_pass::<N, false, true>(range, sums),
+                    };
+                    counts.add_to(events);
+                    let s = &mut Moving::new(g, parts.mobile, parts.sums, groups, L);
+                    let (max_v2, crossings) = grains::grain_pass(s, &p.mover, |_, _| {})?;
+                    events.seam_crossings = events.seam_crossings.wrapping_add(crossings);
+                    Ok(max_v2)
                 }
+            }
+
+            /// The phased step in these lanes ([`super::phased_step`]): the
+            /// grains `g` over the pair index `b` (built from the lists
+            /// `nb`) with the buffers `phases` of the simulation at `owner`,
+            /// each phase run by `executor`.
+            #[allow(clippy::too_many_arguments)]
+            pub(super) fn phased_step<const N: usize, const K: usize, E: Executor>(
+                g: &mut Grains<R, N>,
+                b: &mut PairIndex<R, N, K>,
+                nb: &Neighbours<R, N, K>,
+                phases: &mut Phases<R, N, K>,
+                owner: usize,
+                p: &Params<R>,
+                executor: &E,
+                events: &mut Events,
+            ) -> Result<R, Error> {
+                let n = g.len.min(N);
+                let groups = n.div_ceil(L).min(N / L);
+                let parts = b.parts();
+                let lists = phases.index_pairs(nb, &parts, n, owner)?;
+                let pairs = PairLanes {
+                    range: PairRange {
+                        listed: parts.listed,
+                        grains: [&g.x, &g.y, &g.u, &g.v, &g.w],
+                        law: p.law,
+                        width: p.width,
+                        chunks: 0..parts.listed.pairs.div_ceil(CHUNK * L),
+                        e_n: parts.e_n,
+                        e_s: parts.e_s,
+                    },
+                    rows: &mut *lists.rows,
+                    start: parts.start,
+                    n,
+                    count: p.count_events,
+                    no_tension: p.law.tension == Tension::None,
+                };
+                executor.execute(pairs).add_to(events);
+                let moved = groups * L;
+                let moves = MoveLanes {
+                    moving: Moving::new(g, parts.mobile, parts.sums, groups, L),
+                    rows: lists.rows,
+                    listed: parts.listed,
+                    pair_k: parts.pair_k,
+                    start: parts.start,
+                    n,
+                    incoming: lists.incoming,
+                    from: &lists.from[..moved],
+                    to: &lists.to[..moved],
+                    mover: p.mover,
+                    drag: p.clear_drag(),
+                };
+                let (max_v2, crossings) = executor.execute(moves)?;
+                events.seam_crossings = events.seam_crossings.wrapping_add(crossings);
+                Ok(max_v2)
             }
 
             /// The coupled flow's drag on the grains `g` from its `cells`

@@ -26,8 +26,9 @@ macro_rules! pairs {
         /// The pair pass in these lanes (`step/batch/pairs.rs`).
         pub(super) mod pairs {
             use crate::step::batch::lanes::$lanes::*;
-            use crate::step::batch::params::BatchStep;
+            use crate::step::batch::params::PairRange;
             use crate::step::index::{second_window, window_start, CHUNK, FAR, PAIRS};
+            use crate::step::scalar::Counts;
             use core::arch::x86_64::{
                 __m256i, _mm256_cvtepu8_epi32, _mm256_setzero_si256, _mm256_slli_epi32,
                 _mm_cvtsi64_si128,
@@ -35,6 +36,56 @@ macro_rules! pairs {
 
             /// Second grains from a window ([`second_window`]).
             const SECOND_WINDOW: bool = second_window(L) == 2 * L;
+
+            /// Every listed pair's force and torques ([`pair_range`] over every
+            /// chunk) added to its two grains' `sums` in pair order: one row
+            /// (f_x, f_y, torque) per grain, one vector add per side, the
+            /// second grain's force negated (s + (−f) is s − f, bit for bit;
+            /// each torque adds its own −r f_s, the product the scalar step
+            /// forms). Pairs are listed by first grain, so grain i receives
+            /// the pairs (m, i), m ascending, then its own pairs (i, j) in
+            /// slot order: exactly the scalar step's order, so the sums have
+            /// its bits.
+            #[target_feature(enable = "avx2")]
+            pub(crate) fn pair_pass<const N: usize, const COUNT: bool, const NO_TENSION: bool>(
+                r: &mut PairRange<'_, R, N>,
+                sums: &mut [[R; 4]; N],
+            ) -> Counts {
+                let cap = N * PAIRS;
+                let (pair_i, pair_j) = (r.listed.pair_i, r.listed.pair_j);
+                let index = |a: &[[u32; PAIRS]; N], q: usize| {
+                    a.as_flattened()[q & (cap - 1)] as usize & (N - 1)
+                };
+                // The last first grain and its sums.
+                let mut last = (usize::MAX, load_row(&[0.0; 4]));
+                // A first grain's pairs are consecutive, and no other pair
+                // adds to its sums between them (its second-grain pairs all
+                // come earlier; a padding pair (w, w) adds zeros, to the
+                // stale copy in memory that the store overwrites), so its
+                // sums stay in a register from one to the next and are
+                // stored once, when the next first grain comes or the pass
+                // ends.
+                let mut sink = |q: usize, rows: [Row; L]| {
+                    for (l, row) in rows.into_iter().enumerate() {
+                        let (i, j) = (index(pair_i, q + l), index(pair_j, q + l));
+                        let base = if i == last.0 {
+                            last.1
+                        } else {
+                            if let Some(sums) = sums.get_mut(last.0) {
+                                put_row(sums, last.1);
+                            }
+                            load_row(&sums[i])
+                        };
+                        last = (i, row_add(base, row));
+                        add_row(&mut sums[j], second_row(row));
+                    }
+                };
+                let counts = pair_range::<N, COUNT, NO_TENSION, _>(r, &mut sink);
+                if let Some(sums) = sums.get_mut(last.0) {
+                    put_row(sums, last.1);
+                }
+                counts
+            }
 
             /// A batch's geometry and relative speeds: what its laws need of it
             /// (`State::contact`).
@@ -55,31 +106,35 @@ macro_rules! pairs {
                 v_s: V,
             }
 
-            /// Every listed pair's geometry and law, L pairs at a time, lane by
-            /// lane as `State::contact` and `ContactLaw::apply`; each pair's force
-            /// and torques added to its grains' sums in pair order. The
-            /// events are counted if `COUNT`; `NO_TENSION`: the law (8')
-            /// ([`Tension::None`](crate::contact::Tension::None)), else the
-            /// paper's (8).
+            /// Every listed pair's geometry and law over the range `r`'s
+            /// chunks, L pairs at a time, lane by lane as `State::contact` and
+            /// `ContactLaw::apply`; each batch's rows (f_x, f_y, −r_i f_s,
+            /// −r_j f_s) handed to `sink` with the batch's first pair, in
+            /// pair order. The events are counted if `COUNT`; `NO_TENSION`:
+            /// the law (8') ([`Tension::None`](crate::contact::Tension::None)),
+            /// else the paper's (8).
             #[target_feature(enable = "avx2")]
-            pub(super) fn pair_pass<
+            pub(crate) fn pair_range<
                 const N: usize,
-                const K: usize,
                 const COUNT: bool,
                 const NO_TENSION: bool,
+                S: FnMut(usize, [Row; L]),
             >(
-                s: &mut BatchStep<'_, R, N, K>,
-            ) {
+                r: &mut PairRange<'_, R, N>,
+                sink: &mut S,
+            ) -> Counts {
                 let zero = zero();
                 let sign = splat(-0.0);
                 let all = splat(TRUE);
                 let neg = |a: V| xor(a, sign);
-                let (width, half_width) = (splat(s.width), splat(s.width * 0.5));
-                let law = &s.law;
+                let (width, half_width) = (splat(r.width), splat(r.width * 0.5));
+                let law = &r.law;
                 let (dt, k_n, k_s) = (splat(law.step_dt), splat(law.k_n), splat(law.k_s));
                 let (eta_n, eta_s, mu) = (splat(law.eta_n), splat(law.eta_s), splat(law.mu));
-                let b = &mut *s.batch;
-                let (x, y, u, v, w) = (&*s.x, &*s.y, &*s.u, &*s.v, &*s.w);
+                let b = r.listed;
+                let [x, y, u, v, w] = r.grains;
+                // The range's first pair: its history's offset.
+                let first_pair = r.chunks.start * CHUNK * L;
                 let cap = N * PAIRS;
                 // Pair q's grain in `a` (< N by construction; masked so that the
                 // compiler sees it in bounds), and those of the batch from pair q.
@@ -110,7 +165,7 @@ macro_rules! pairs {
                             select(low, window(a, start + L, lanes), high)
                         })
                     } else {
-                        let j = at(&b.pair_j, t * L);
+                        let j = at(b.pair_j, t * L);
                         grains.map(|a| gather(a, &j))
                     }
                 };
@@ -120,8 +175,8 @@ macro_rules! pairs {
                 // that the core overlaps many batches' square roots, divisions and
                 // gathers instead of waiting for each.
                 let batches = b.pairs.min(cap) / L;
-                // The last first grain and its sums.
-                let mut last = (usize::MAX, load_row(&[0.0; 4]));
+                let range =
+                    (r.chunks.start * CHUNK).min(batches)..(r.chunks.end * CHUNK).min(batches);
                 // One buffer for every chunk (zeroing it per chunk cost ~8
                 // instructions per grain-step).
                 // Per lane, the contacts made, broken and sliding if COUNT
@@ -144,9 +199,9 @@ macro_rules! pairs {
                     v_n: zero,
                     v_s: zero,
                 }; CHUNK];
-                for chunk in (0..batches).step_by(CHUNK) {
+                for chunk in range.clone().step_by(CHUNK) {
                     let seam = b.seam[(chunk / CHUNK) & (N - 1)];
-                    let chunk = chunk..batches.min(chunk + CHUNK);
+                    let chunk = chunk..range.end.min(chunk + CHUNK);
                     // Geometry (State::contact).
                     for (t, g) in chunk.clone().zip(&mut geometry) {
                         let (start, lanes) = first_window(t);
@@ -206,8 +261,8 @@ macro_rules! pairs {
                             v_s,
                         } = *g;
                         let (tx, ty) = (ny, neg(nx));
-                        let e_n0 = load_at(b.e_n.as_flattened(), q);
-                        let e_s0 = load_at(b.e_s.as_flattened(), q);
+                        let e_n0 = load_at(r.e_n, q - first_pair);
+                        let e_s0 = load_at(r.e_s, q - first_pair);
 
                         // Law (ContactLaw::apply).
                         let first = eq(e_n0, zero);
@@ -248,38 +303,14 @@ macro_rules! pairs {
                         // (`vmaskmovpd`, slow on AMD cores) as it did a select.
                         let e_n_out = xor(and(e_n, acts), and(e_n0, keeps));
                         let e_s_out = xor(and(e_s_new, acts), and(e_s0, keeps));
-                        store(b.e_n.as_flattened_mut(), q, e_n_out);
-                        store(b.e_s.as_flattened_mut(), q, e_s_out);
+                        store(r.e_n, q - first_pair, e_n_out);
+                        store(r.e_s, q - first_pair, e_s_out);
                         let fx = and(add(mul(neg(f_n), nx), mul(f_s, tx)), acts);
                         let fy = and(add(mul(neg(f_n), ny), mul(f_s, ty)), acts);
                         let f_s = and(f_s, acts);
-                        // Rows (f_x, f_y, −r_i f_s, −r_j f_s), added in pair order:
-                        // the first three to the first grain, the force negated and
-                        // the fourth to the second. A first grain's pairs are
-                        // consecutive, and no other pair adds to its sums between
-                        // them (its second-grain pairs all come earlier; a padding
-                        // pair (w, w) adds zeros, to the stale copy in memory that
-                        // the store overwrites), so its sums stay in a register
-                        // from one to the next and are stored once, when the next
-                        // first grain comes or the pass ends.
                         let rows = to_rows([fx, fy, neg(mul(ri, f_s)), neg(mul(rj, f_s))]);
-                        for (l, row) in rows.into_iter().enumerate() {
-                            let (i, j) = (index(&b.pair_i, q + l), index(&b.pair_j, q + l));
-                            let base = if i == last.0 {
-                                last.1
-                            } else {
-                                if let Some(sums) = b.sums.get_mut(last.0) {
-                                    put_row(sums, last.1);
-                                }
-                                load_row(&b.sums[i])
-                            };
-                            last = (i, row_add(base, row));
-                            add_row(&mut b.sums[j], second_row(row));
-                        }
+                        sink(q, rows);
                     }
-                }
-                if let Some(sums) = b.sums.get_mut(last.0) {
-                    put_row(sums, last.1);
                 }
                 let total = |n: __m256i| {
                     lanes(to_mask(n))
@@ -287,10 +318,11 @@ macro_rules! pairs {
                         .map(|c| u64::from(c.to_bits()))
                         .sum::<u64>()
                 };
-                let e = &mut *s.events;
-                e.contacts_made = e.contacts_made.wrapping_add(total(made_n));
-                e.contacts_broken = e.contacts_broken.wrapping_add(total(broken_n));
-                e.contacts_sliding = e.contacts_sliding.wrapping_add(total(sliding_n));
+                Counts {
+                    made: total(made_n),
+                    broken: total(broken_n),
+                    sliding: total(sliding_n),
+                }
             }
         }
     };

@@ -6,12 +6,13 @@
 //! reads ([`Drag`]). Implements no equation itself.
 
 use crate::contact::ContactLaw;
-use crate::events::Events;
 use crate::flow::LogLaw;
 use crate::grains::Grains;
 use crate::real::Real;
-use crate::step::index::PairIndex;
+use crate::step::index::Listed;
 use crate::step::mover::Mover;
+use crate::step::phased::ClearDrag;
+use core::ops::Range;
 
 /// What the batched step reads besides the grains, the pair index and
 /// the coupled flow: the periodic width, the contact law, the integrator,
@@ -26,6 +27,20 @@ pub(crate) struct Params<R: Real> {
     pub(crate) count_events: bool,
 }
 
+impl<R: Real> Params<R> {
+    /// The clear-water drag's parameters, if the flow is clear water.
+    pub(crate) fn clear_drag(&self) -> Option<ClearDrag<R>> {
+        match self.flow {
+            Flow::Clear(log_law, bed_level) => Some(ClearDrag {
+                log_law,
+                bed_level,
+                surface: self.mover.surface,
+            }),
+            _ => None,
+        }
+    }
+}
+
 /// The flow whose drag the batched step adds first.
 #[derive(Clone, Copy)]
 pub(crate) enum Flow<R: Real> {
@@ -38,73 +53,82 @@ pub(crate) enum Flow<R: Real> {
     Coupled { turbulence: bool },
 }
 
-/// What the batched step of one precision reads and writes: the grains
-/// (first `n`) and the pair index.
-pub(super) struct BatchStep<'a, R: Real, const N: usize, const K: usize> {
-    pub(super) n: usize,
-    /// x, y, u, v, ω (moved; the radii are in the pair index).
-    pub(super) x: &'a mut [R; N],
-    pub(super) y: &'a mut [R; N],
-    pub(super) u: &'a mut [R; N],
-    pub(super) v: &'a mut [R; N],
-    pub(super) w: &'a mut [R; N],
-    pub(super) inv_mass: &'a [R; N],
-    pub(super) inv_inertia: &'a [R; N],
-    pub(super) width: R,
+/// What the pair pass reads and writes over a range of chunks of
+/// [`CHUNK`](crate::step::index::CHUNK) batches: the pair list, every
+/// grain's start-of-step x, y, u, v, ω, the law, the periodic width, and
+/// the range's spring history (from its first pair).
+pub(super) struct PairRange<'a, R: Real, const N: usize> {
+    pub(super) listed: Listed<'a, R, N>,
+    pub(super) grains: [&'a [R; N]; 5],
     pub(super) law: ContactLaw<R>,
-    pub(super) mover: Mover<R>,
-    pub(super) batch: &'a mut PairIndex<R, N, K>,
-    /// The clear-water flow's drag, added to the forces first, or None.
-    pub(super) drag: Option<Drag<'a, R, N>>,
-    /// The contacts made, broken and sliding and the seam crossings.
-    pub(super) events: &'a mut Events,
+    pub(super) width: R,
+    /// The range's chunks (indices of chunks).
+    pub(super) chunks: Range<usize>,
+    /// The history (e_n, e_s) of the range's pairs, from its first pair.
+    pub(super) e_n: &'a mut [R],
+    pub(super) e_s: &'a mut [R],
 }
 
-impl<'a, R: Real, const N: usize, const K: usize> BatchStep<'a, R, N, K> {
-    /// The grains `g`, the pair index `batch` and the parameters `p` of a step.
-    /// The step's events are added to `events`.
-    pub(super) fn new(
+/// The grains of a range of whole groups of lanes' worth (from grain
+/// `first`, a multiple of the lanes) as the drag and grain passes read and
+/// move them: state, inverse mass and inertia, lane mask of the mobile,
+/// sums, and what the clear-water drag reads (½ρC_D A2 d², the held
+/// fluctuation draws).
+pub(super) struct Moving<'a, R: Real> {
+    pub(super) first: usize,
+    pub(super) x: &'a mut [R],
+    pub(super) y: &'a mut [R],
+    pub(super) u: &'a mut [R],
+    pub(super) v: &'a mut [R],
+    pub(super) w: &'a mut [R],
+    pub(super) inv_mass: &'a [R],
+    pub(super) inv_inertia: &'a [R],
+    pub(super) mobile: &'a [R],
+    pub(super) sums: &'a mut [[R; 4]],
+    pub(super) coef: &'a [R],
+    pub(super) z_u: &'a [R],
+    pub(super) z_v: &'a [R],
+}
+
+impl<'a, R: Real> Moving<'a, R> {
+    /// The first `groups` groups of `lanes` grains of `g`, with the pair
+    /// index's lane masks `mobile` and `sums`.
+    pub(super) fn new<const N: usize>(
         g: &'a mut Grains<R, N>,
-        batch: &'a mut PairIndex<R, N, K>,
-        p: &Params<R>,
-        events: &'a mut Events,
+        mobile: &'a [R; N],
+        sums: &'a mut [[R; 4]; N],
+        groups: usize,
+        lanes: usize,
     ) -> Self {
-        BatchStep {
-            n: g.len.min(N),
-            x: &mut g.x,
-            y: &mut g.y,
-            u: &mut g.u,
-            v: &mut g.v,
-            w: &mut g.w,
-            inv_mass: &g.inv_mass,
-            inv_inertia: &g.inv_inertia,
-            width: p.width,
-            law: p.law,
-            mover: p.mover,
-            batch,
-            drag: match p.flow {
-                Flow::Clear(log_law, bed_level) => Some(Drag {
-                    log_law,
-                    bed_level,
-                    coef: &g.drag_coef,
-                    z_u: &g.z_u,
-                    z_v: &g.z_v,
-                }),
-                _ => None,
-            },
-            events,
+        let n = (groups * lanes).min(N);
+        Moving {
+            first: 0,
+            x: &mut g.x[..n],
+            y: &mut g.y[..n],
+            u: &mut g.u[..n],
+            v: &mut g.v[..n],
+            w: &mut g.w[..n],
+            inv_mass: &g.inv_mass[..n],
+            inv_inertia: &g.inv_inertia[..n],
+            mobile: &mobile[..n],
+            sums: &mut sums[..n],
+            coef: &g.drag_coef[..n],
+            z_u: &g.z_u[..n],
+            z_v: &g.z_v[..n],
         }
     }
-}
 
-/// What the drag (4)–(5) of [`LogLaw::drag`] reads: the log law, the mean
-/// bed level heights are measured from, and per grain ½ρC_D A2 d² and the
-/// held fluctuation draws.
-#[derive(Clone, Copy)]
-pub(super) struct Drag<'a, R: Real, const N: usize> {
-    pub(super) log_law: LogLaw<R>,
-    pub(super) bed_level: R,
-    pub(super) coef: &'a [R; N],
-    pub(super) z_u: &'a [R; N],
-    pub(super) z_v: &'a [R; N],
+    /// Grains in the range.
+    pub(super) fn len(&self) -> usize {
+        self.x.len()
+    }
+
+    /// The first `mid` grains of the range and the rest (`mid` clamped).
+    #[allow(clippy::needless_update)] // `cut_at!` names every field here
+    pub(super) fn split_at(mut self, mid: usize) -> (Self, Self) {
+        let mid = mid.min(self.x.len());
+        crate::step::phased::cut_at!(self, mid;
+            mut x, y, u, v, w, sums;
+            ref inv_mass, inv_inertia, mobile, coef, z_u, z_v)
+    }
 }
