@@ -170,6 +170,14 @@ pub struct Phases<R: Real, const N: usize, const K: usize> {
     /// −r_j f_s): the phased step in lanes (`step::batch::phases`).
     #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
     rows: [[[R; 4]; PAIRS]; N],
+    /// Per grain, the first and one-past-last pair place that names it
+    /// (u32::MAX and 0 if none): the phased step in lanes.
+    #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+    span: [[u32; 2]; N],
+    /// Per grain, 1 if the pair phase in lanes summed its pairs (all in
+    /// one range), else 0 (the move phase gathers their rows).
+    #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+    done: [u8; N],
 }
 
 /// What [`Phases::incoming`] was built from ([`Phases::built`]).
@@ -191,6 +199,10 @@ impl<R: Real, const N: usize, const K: usize> Phases<R, N, K> {
             built: NEVER,
             #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
             rows: [[[R::ZERO; 4]; PAIRS]; N],
+            #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+            span: [[0; 2]; N],
+            #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+            done: [0; N],
         }
     }
 
@@ -210,7 +222,7 @@ impl<R: Real, const N: usize, const K: usize> Phases<R, N, K> {
                 .enumerate()
                 .map(move |(k, &j)| ((i * K + k) as u32, j))
         });
-        self.build(key(nb, n, owner, false), n, pairs)
+        self.build(key(nb, n, owner, false), n, pairs).map(|_| ())
     }
 
     /// As [`Phases::index`], the pairs that name each grain as pair
@@ -231,26 +243,42 @@ impl<R: Real, const N: usize, const K: usize> Phases<R, N, K> {
             parts.pair_k.as_flattened(),
         );
         let places = parts.listed.pairs.min(pair_j.len()).min(pair_k.len());
-        let pairs = (0..places)
-            .filter(|&q| pair_k[q] != SELF_PAIR)
-            .map(|q| (q as u32, pair_j[q]));
-        self.build(key(nb, n, owner, true), n, pairs)?;
+        let (pair_i, listed) = (parts.listed.pair_i.as_flattened(), |q: &usize| {
+            pair_k[*q] != SELF_PAIR
+        });
+        let places = places.min(pair_i.len());
+        let pairs = (0..places).filter(listed).map(|q| (q as u32, pair_j[q]));
+        if self.build(key(nb, n, owner, true), n, pairs)? {
+            // Whole groups of lanes (grains past n: none).
+            let groups = n.next_multiple_of(8).min(N);
+            self.span[..groups].fill([u32::MAX, 0]);
+            for q in (0..places).filter(listed) {
+                for g in [pair_i[q], pair_j[q]] {
+                    if let Some(span) = self.span.get_mut(g as usize) {
+                        *span = [span[0].min(q as u32), span[1].max(q as u32 + 1)];
+                    }
+                }
+            }
+        }
         Ok(LaneLists {
             rows: self.rows.as_flattened_mut(),
             incoming: self.incoming.as_flattened(),
             from: &self.start,
             to: &self.end,
+            span: &self.span,
+            done: &mut self.done,
         })
     }
 
     /// Lists the pairs `(place, second grain)` by second grain (each
-    /// grain's in their order), unless already built for `key`.
-    fn build<I>(&mut self, key: Built, n: usize, pairs: I) -> Result<(), Error>
+    /// grain's in their order), unless already built for `key`: whether
+    /// it built them.
+    fn build<I>(&mut self, key: Built, n: usize, pairs: I) -> Result<bool, Error>
     where
         I: Iterator<Item = (u32, u32)> + Clone,
     {
         if self.built == key {
-            return Ok(());
+            return Ok(false);
         }
         self.built = NEVER;
         if u32::try_from(N.saturating_mul(K)).is_err() {
@@ -283,7 +311,7 @@ impl<R: Real, const N: usize, const K: usize> Phases<R, N, K> {
             }
         }
         self.built = key;
-        Ok(())
+        Ok(true)
     }
 }
 
@@ -306,14 +334,17 @@ fn key<R: Real, const N: usize, const K: usize>(
 }
 
 /// What the phased step in lanes reads and writes of a [`Phases`]
-/// ([`Phases::index_pairs`]): the rows, and the incoming lists with each
-/// grain's first and one-past-last entry.
+/// ([`Phases::index_pairs`]): the rows, the incoming lists with each
+/// grain's first and one-past-last entry, each grain's span of pair
+/// places, and the flags of the grains the pair phase summed.
 #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
 pub(crate) struct LaneLists<'a, R: Real, const N: usize> {
     pub(crate) rows: &'a mut [[R; 4]],
     pub(crate) incoming: &'a [u32],
     pub(crate) from: &'a [u32; N],
     pub(crate) to: &'a [u32; N],
+    pub(crate) span: &'a [[u32; 2]; N],
+    pub(crate) done: &'a mut [u8; N],
 }
 
 impl<R: Real, const N: usize, const K: usize> Default for Phases<R, N, K> {

@@ -26,12 +26,12 @@ macro_rules! grains {
 
             /// Every grain's motion (`Mover::advance`) of the range `s` by
             /// `m` from its sums, which it zeroes, L grains at a time, each
-            /// group of mobile grains after `before` (given the range and the
-            /// group) has added to its sums: the largest squared speed and
+            /// group of mobile grains after `before` (given the group and its
+            /// sums) has added to its sums: the largest squared speed and
             /// the seam crossings, or the first failing grain's error (the
             /// range's sums then all zeroed).
             #[target_feature(enable = "avx2")]
-            pub(crate) fn grain_pass<F: FnMut(&mut Moving<'_, R>, usize)>(
+            pub(crate) fn grain_pass<F: FnMut(usize, &mut [[R; 4]; L])>(
                 s: &mut Moving<'_, R>,
                 m: &Mover<R>,
                 mut before: F,
@@ -55,11 +55,11 @@ macro_rules! grains {
                         }
                         continue;
                     }
-                    before(s, grp);
                     let at = |a: &[R]| load(group(a, grp));
                     let Some(sums) = s.sums.as_chunks_mut::<L>().0.get_mut(grp) else {
                         break;
                     };
+                    before(grp, sums);
                     let [fx, fy, torque, _] = from_rows(sums.each_ref().map(|row| load_row(row)));
                     *sums = [[0.0; 4]; L];
                     // Mover::advance.

@@ -183,7 +183,8 @@ macro_rules! lanes {
             use crate::step::batch::params::{Moving, PairRange, Params};
             use crate::step::index::{PairIndex, CHUNK};
             use crate::step::phased::{Executor, Phases};
-            use phases::{MoveLanes, PairLanes};
+            use pairs::Out;
+            use phases::{DragLanes, MoveLanes, PairLanes};
 
             crate::step::batch::drag::drag!($lanes);
             crate::step::batch::pairs::pairs!($lanes);
@@ -224,12 +225,17 @@ macro_rules! lanes {
                     // One copy of the pair pass per (counting, tension
                     // rule): the paper's rule keeps its instructions.
                     let no_tension = p.law.tension == Tension::None;
-                    let sums = &mut *parts.sums;
+                    let out = &mut Out {
+                        g0: 0,
+                        sums: &mut *parts.sums,
+                        done: &[],
+                        rows: &mut [],
+                    };
                     let counts = match (p.count_events, no_tension) {
-                        (true, false) => pairs::pair_pass::<N, true, false>(range, sums),
-                        (false, false) => pairs::pair_pass::<N, false, false>(range, sums),
-                        (true, true) => pairs::pair_pass::<N, true, true>(range, sums),
-                        (false, true) => pairs::pair_pass::<N, false, true>(range, sums),
+                        (true, false) => pairs::pair_range::<N, true, false, false>(range, out),
+                        (false, false) => pairs::pair_range::<N, false, false, false>(range, out),
+                        (true, true) => pairs::pair_range::<N, true, true, false>(range, out),
+                        (false, true) => pairs::pair_range::<N, false, true, false>(range, out),
                     };
                     counts.add_to(events);
                     let s = &mut Moving::new(g, parts.mobile, parts.sums, groups, L);
@@ -258,6 +264,12 @@ macro_rules! lanes {
                 let groups = n.div_ceil(L).min(N / L);
                 let parts = b.parts();
                 let lists = phases.index_pairs(nb, &parts, n, owner)?;
+                let moved = groups * L;
+                if let Some(drag) = p.clear_drag() {
+                    let (mobile, sums) = (parts.mobile, &mut *parts.sums);
+                    let moving = Moving::new(g, mobile, sums, groups, L);
+                    executor.execute(DragLanes { moving, drag });
+                }
                 let pairs = PairLanes {
                     range: PairRange {
                         listed: parts.listed,
@@ -270,24 +282,25 @@ macro_rules! lanes {
                     },
                     rows: &mut *lists.rows,
                     start: parts.start,
+                    span: lists.span,
                     n,
+                    g0: 0,
+                    sums: &mut parts.sums[..moved],
+                    done: &mut lists.done[..moved],
                     count: p.count_events,
                     no_tension: p.law.tension == Tension::None,
                 };
                 executor.execute(pairs).add_to(events);
-                let moved = groups * L;
                 let moves = MoveLanes {
                     moving: Moving::new(g, parts.mobile, parts.sums, groups, L),
                     rows: lists.rows,
-                    listed: parts.listed,
-                    pair_k: parts.pair_k,
-                    start: parts.start,
-                    n,
                     incoming: lists.incoming,
                     from: &lists.from[..moved],
                     to: &lists.to[..moved],
+                    own: &parts.start[..moved],
+                    count: &nb.count[..moved],
+                    done: &lists.done[..moved],
                     mover: p.mover,
-                    drag: p.clear_drag(),
                 };
                 let (max_v2, crossings) = executor.execute(moves)?;
                 events.seam_crossings = events.seam_crossings.wrapping_add(crossings);

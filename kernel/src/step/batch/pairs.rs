@@ -37,54 +37,15 @@ macro_rules! pairs {
             /// Second grains from a window ([`second_window`]).
             const SECOND_WINDOW: bool = second_window(L) == 2 * L;
 
-            /// Every listed pair's force and torques ([`pair_range`] over every
-            /// chunk) added to its two grains' `sums` in pair order: one row
-            /// (f_x, f_y, torque) per grain, one vector add per side, the
-            /// second grain's force negated (s + (−f) is s − f, bit for bit;
-            /// each torque adds its own −r f_s, the product the scalar step
-            /// forms). Pairs are listed by first grain, so grain i receives
-            /// the pairs (m, i), m ascending, then its own pairs (i, j) in
-            /// slot order: exactly the scalar step's order, so the sums have
-            /// its bits.
-            #[target_feature(enable = "avx2")]
-            pub(crate) fn pair_pass<const N: usize, const COUNT: bool, const NO_TENSION: bool>(
-                r: &mut PairRange<'_, R, N>,
-                sums: &mut [[R; 4]; N],
-            ) -> Counts {
-                let cap = N * PAIRS;
-                let (pair_i, pair_j) = (r.listed.pair_i, r.listed.pair_j);
-                let index = |a: &[[u32; PAIRS]; N], q: usize| {
-                    a.as_flattened()[q & (cap - 1)] as usize & (N - 1)
-                };
-                // The last first grain and its sums.
-                let mut last = (usize::MAX, load_row(&[0.0; 4]));
-                // A first grain's pairs are consecutive, and no other pair
-                // adds to its sums between them (its second-grain pairs all
-                // come earlier; a padding pair (w, w) adds zeros, to the
-                // stale copy in memory that the store overwrites), so its
-                // sums stay in a register from one to the next and are
-                // stored once, when the next first grain comes or the pass
-                // ends.
-                let mut sink = |q: usize, rows: [Row; L]| {
-                    for (l, row) in rows.into_iter().enumerate() {
-                        let (i, j) = (index(pair_i, q + l), index(pair_j, q + l));
-                        let base = if i == last.0 {
-                            last.1
-                        } else {
-                            if let Some(sums) = sums.get_mut(last.0) {
-                                put_row(sums, last.1);
-                            }
-                            load_row(&sums[i])
-                        };
-                        last = (i, row_add(base, row));
-                        add_row(&mut sums[j], second_row(row));
-                    }
-                };
-                let counts = pair_range::<N, COUNT, NO_TENSION, _>(r, &mut sink);
-                if let Some(sums) = sums.get_mut(last.0) {
-                    put_row(sums, last.1);
-                }
-                counts
+            /// Where [`pair_range`] puts the rows: the sums of the grains from
+            /// `g0` (the batched pass: every grain's, from 0), and, for the pair
+            /// phase, which of them it sums (`done`) and the rows of the range's
+            /// pairs (from its first pair) that it does not.
+            pub(crate) struct Out<'a> {
+                pub(crate) g0: usize,
+                pub(crate) sums: &'a mut [[R; 4]],
+                pub(crate) done: &'a [u8],
+                pub(crate) rows: &'a mut [[R; 4]],
             }
 
             /// A batch's geometry and relative speeds: what its laws need of it
@@ -108,20 +69,38 @@ macro_rules! pairs {
 
             /// Every listed pair's geometry and law over the range `r`'s
             /// chunks, L pairs at a time, lane by lane as `State::contact` and
-            /// `ContactLaw::apply`; each batch's rows (f_x, f_y, −r_i f_s,
-            /// −r_j f_s) handed to `sink` with the batch's first pair, in
-            /// pair order. The events are counted if `COUNT`; `NO_TENSION`:
-            /// the law (8') ([`Tension::None`](crate::contact::Tension::None)),
-            /// else the paper's (8).
+            /// `ContactLaw::apply`; each pair's row (f_x, f_y, −r_i f_s,
+            /// −r_j f_s) to its grains' sums in `out` (as its own to the first
+            /// grain; as the second grain's, the force negated and with its
+            /// own torque), in pair order. The events are counted if `COUNT`;
+            /// `NO_TENSION`: the law (8')
+            /// ([`Tension::None`](crate::contact::Tension::None)), else the
+            /// paper's (8).
+            ///
+            /// A row to the sums is one vector add (s + (−f) is s − f, bit
+            /// for bit; each torque adds its own −r f_s, the product the
+            /// scalar step forms). Pairs are listed by first grain, so grain i
+            /// receives the pairs (m, i), m ascending, then its own pairs
+            /// (i, j) in slot order: exactly the scalar step's order, so the
+            /// sums have its bits. A first grain's pairs are consecutive, and
+            /// no other pair adds to its sums between them (its second-grain
+            /// pairs all come earlier; a padding pair (w, w) adds zeros, to
+            /// the stale copy in memory that the store overwrites), so its
+            /// sums stay in a register from one to the next and are stored
+            /// once, when the next first grain comes or the pass ends.
+            ///
+            /// `PHASED` (the pair phase, `step/batch/phases.rs`): only the
+            /// grains `out.done` marks get rows to their sums; a pair with a
+            /// grain it does not mark stores its row in `out.rows`.
             #[target_feature(enable = "avx2")]
             pub(crate) fn pair_range<
                 const N: usize,
                 const COUNT: bool,
                 const NO_TENSION: bool,
-                S: FnMut(usize, [Row; L]),
+                const PHASED: bool,
             >(
                 r: &mut PairRange<'_, R, N>,
-                sink: &mut S,
+                out: &mut Out<'_>,
             ) -> Counts {
                 let zero = zero();
                 let sign = splat(-0.0);
@@ -177,6 +156,8 @@ macro_rules! pairs {
                 let batches = b.pairs.min(cap) / L;
                 let range =
                     (r.chunks.start * CHUNK).min(batches)..(r.chunks.end * CHUNK).min(batches);
+                // The last first grain to sum, and its sums.
+                let mut last = (usize::MAX, load_row(&[0.0; 4]));
                 // One buffer for every chunk (zeroing it per chunk cost ~8
                 // instructions per grain-step).
                 // Per lane, the contacts made, broken and sliding if COUNT
@@ -309,8 +290,38 @@ macro_rules! pairs {
                         let fy = and(add(mul(neg(f_n), ny), mul(f_s, ty)), acts);
                         let f_s = and(f_s, acts);
                         let rows = to_rows([fx, fy, neg(mul(ri, f_s)), neg(mul(rj, f_s))]);
-                        sink(q, rows);
+                        for (l, row) in rows.into_iter().enumerate() {
+                            let i = index(b.pair_i, q + l).wrapping_sub(out.g0);
+                            let j = index(b.pair_j, q + l).wrapping_sub(out.g0);
+                            let summed =
+                                |g: usize| !PHASED || out.done.get(g).is_some_and(|&d| d != 0);
+                            let (sum_i, sum_j) = (summed(i), summed(j));
+                            if sum_i {
+                                let base = if i == last.0 {
+                                    last.1
+                                } else {
+                                    if let Some(sums) = out.sums.get_mut(last.0) {
+                                        put_row(sums, last.1);
+                                    }
+                                    load_row(out.sums.get(i).unwrap_or(&[0.0; 4]))
+                                };
+                                last = (i, row_add(base, row));
+                            }
+                            if sum_j && let Some(sums) = out.sums.get_mut(j) {
+                                add_row(sums, second_row(row));
+                            }
+                            if PHASED
+                                && !(sum_i && sum_j)
+                                && let Some(place) =
+                                    out.rows.get_mut((q + l).wrapping_sub(first_pair))
+                            {
+                                put_row(place, row);
+                            }
+                        }
                     }
+                }
+                if let Some(sums) = out.sums.get_mut(last.0) {
+                    put_row(sums, last.1);
                 }
                 let total = |n: __m256i| {
                     lanes(to_mask(n))

@@ -1,22 +1,29 @@
 //! The phased step in lanes ([`crate::Sim::step_phased`] where the pair
-//! index is ready): the batched step's passes regrouped into the two
-//! phases of [`crate::step::phased`], each over ranges that the caller's
-//! [`Executor`](crate::step::phased::Executor) may run on different cores.
+//! index is ready): the batched step's passes regrouped into phases over
+//! ranges that the caller's [`Executor`](crate::step::phased::Executor) may
+//! run on different cores.
 //!
+//! 0. **Drag** (`DragLanes`, clear water only): each group's drag to its
+//!    grains' sums (the coupled flow's is added before the phases).
 //! 1. **Pairs** (`PairLanes`): the pair pass over a range of chunks of
-//!    pairs, each batch's rows (f_x, f_y, −r_i f_s, −r_j f_s) stored at its
-//!    pairs' places in [`Phases`](crate::step::phased::Phases) instead of
-//!    added to the sums; each pair's history stays at its own place.
+//!    pairs. A grain whose pairs (as first or second grain) all lie in the
+//!    range, and whose first pair (or place in the list) too, is *summed
+//!    here*: its rows go to its sums in pair order, as in the batched pass
+//!    (i's sums held in a register from one of its pairs to the next), and
+//!    it is marked done. A pair with a grain not summed here stores its row
+//!    (f_x, f_y, −r_i f_s, −r_j f_s) at its place in
+//!    [`Phases`](crate::step::phased::Phases). Each pair's history stays at
+//!    its place. Only the grains near a cut are not summed here.
 //! 2. **Moves** (`MoveLanes`): over a range of whole groups of lanes'
-//!    worth of grains, each group's clear-water drag, then each grain's
-//!    rows gathered in pair order — the pairs that name it as second grain
-//!    (their rows as its own: force negated, its own torque), then its own
-//!    pairs — and the grain pass's motion.
+//!    worth of grains, each grain not done gathers its rows in pair order
+//!    — the pairs that name it as second grain (their rows as its own:
+//!    force negated, its own torque), then its own pairs — and the grain
+//!    pass moves the group.
 //!
 //! The batched step adds to each grain's sums exactly these rows in this
 //! order (pair order), one vector add each, so the sums, and the motion,
 //! have its bits, which are the scalar step's, for any cut. Padding pairs
-//! (w, w) are skipped: they add zeros.
+//! (w, w) add zeros.
 //!
 //! Written once for both precisions: `phases!` writes the module `phases`
 //! into each precision's module of the batched step (`lanes!` in
@@ -29,11 +36,12 @@ macro_rules! phases {
     ($lanes:ident) => {
         /// The phased step in these lanes (`step/batch/phases.rs`).
         pub(super) mod phases {
-            use super::{drag, grains, pairs};
+            use super::pairs::{self, Out};
+            use super::{drag, grains};
             use crate::error::Error;
             use crate::step::batch::lanes::$lanes::*;
             use crate::step::batch::params::{Moving, PairRange};
-            use crate::step::index::{Listed, CHUNK, PAIRS, SELF_PAIR};
+            use crate::step::index::{Listed, CHUNK};
             use crate::step::mover::Mover;
             use crate::step::phased::{ClearDrag, Moved, Phase};
             use crate::step::scalar::Counts;
@@ -41,14 +49,55 @@ macro_rules! phases {
             /// Pairs per chunk.
             const PER_CHUNK: usize = CHUNK * L;
 
+            /// The drag phase over a range of whole groups (module docs,
+            /// phase 0).
+            pub(crate) struct DragLanes<'a> {
+                pub(crate) moving: Moving<'a, R>,
+                pub(crate) drag: ClearDrag<R>,
+            }
+
+            impl Phase for DragLanes<'_> {
+                type Output = ();
+
+                fn grains(&self) -> usize {
+                    self.moving.len()
+                }
+
+                /// Cuts at the group of grain `mid`.
+                fn split_at(self, mid: usize) -> (Self, Self) {
+                    let (moving, moving1) = self.moving.split_at(mid / L * L);
+                    let second = DragLanes {
+                        moving: moving1,
+                        ..self
+                    };
+                    (DragLanes { moving, ..self }, second)
+                }
+
+                #[allow(unsafe_code)]
+                fn run(mut self) {
+                    // SAFETY: this module is compiled only with AVX2 enabled
+                    // for the whole build, so the CPU running it has AVX2.
+                    unsafe { drag::drag_pass(&mut self.moving, &self.drag) }
+                }
+
+                fn merge(_: (), _: ()) {}
+            }
+
             /// The pair phase over a range of chunks (module docs, phase 1).
             pub(crate) struct PairLanes<'a, const N: usize> {
                 pub(crate) range: PairRange<'a, R, N>,
                 /// The rows of the range's pairs, from its first pair.
                 pub(crate) rows: &'a mut [[R; 4]],
-                /// Each grain's first pair, and the grains.
+                /// Each grain's first pair and span of pair places, and the
+                /// grains (shared).
                 pub(crate) start: &'a [u32; N],
+                pub(crate) span: &'a [[u32; 2]; N],
                 pub(crate) n: usize,
+                /// The sums and done flags of the range's grains (those whose
+                /// first pair lies in it), from grain `g0`.
+                pub(crate) g0: usize,
+                pub(crate) sums: &'a mut [[R; 4]],
+                pub(crate) done: &'a mut [u8],
                 /// Count the events; the law (8') (no tension).
                 pub(crate) count: bool,
                 pub(crate) no_tension: bool,
@@ -63,6 +112,17 @@ macro_rules! phases {
                         Some(&i) if q < pairs => (i as usize).min(self.n),
                         _ => self.n,
                     }
+                }
+
+                /// The first grain whose first pair lies at or past chunk `c`
+                /// (all the grains' sums past the last chunk).
+                fn home(&self, c: usize) -> usize {
+                    let q = c.saturating_mul(PER_CHUNK);
+                    if q >= self.range.listed.pairs {
+                        return self.g0 + self.sums.len();
+                    }
+                    let firsts = &self.start[..self.n.min(N)];
+                    firsts.partition_point(|&s| (s as usize) < q)
                 }
             }
 
@@ -84,11 +144,16 @@ macro_rules! phases {
                     }
                     .clamp(c0, c1);
                     let at = (c - c0) * PER_CHUNK;
+                    let home = self.home(c).clamp(self.g0, self.g0 + self.sums.len());
                     let r = self.range;
                     let (e_n, e_n1) = r.e_n.split_at_mut(at.min(r.e_n.len()));
                     let (e_s, e_s1) = r.e_s.split_at_mut(at.min(r.e_s.len()));
                     let (rows, rows1) = self.rows.split_at_mut(at.min(self.rows.len()));
-                    let part = |chunks, e_n, e_s, rows| PairLanes {
+                    let (sums, sums1) = self.sums.split_at_mut(home - self.g0);
+                    let (done, done1) = self
+                        .done
+                        .split_at_mut((home - self.g0).min(self.done.len()));
+                    let part = |chunks, e_n, e_s, rows, g0, sums, done| PairLanes {
                         range: PairRange {
                             chunks,
                             e_n,
@@ -96,9 +161,15 @@ macro_rules! phases {
                             ..r
                         },
                         rows,
+                        g0,
+                        sums,
+                        done,
                         ..self
                     };
-                    (part(c0..c, e_n, e_s, rows), part(c..c1, e_n1, e_s1, rows1))
+                    (
+                        part(c0..c, e_n, e_s, rows, self.g0, sums, done),
+                        part(c..c1, e_n1, e_s1, rows1, home, sums1, done1),
+                    )
                 }
 
                 #[allow(unsafe_code)]
@@ -113,59 +184,53 @@ macro_rules! phases {
                 }
             }
 
-            /// Runs a [`PairLanes`]: its rows stored at their pairs' places.
+            /// Runs a [`PairLanes`] (module docs, phase 1).
             #[target_feature(enable = "avx2")]
             fn pair_rows<const N: usize>(p: &mut PairLanes<'_, N>) -> Counts {
                 let first = p.range.chunks.start * PER_CHUNK;
-                let rows = &mut *p.rows;
-                let mut sink = |q: usize, batch: [Row; L]| {
-                    for (l, row) in batch.into_iter().enumerate() {
-                        if let Some(place) = rows.get_mut((q + l).wrapping_sub(first)) {
-                            put_row(place, row);
-                        }
-                    }
+                let end = (p.range.chunks.end.saturating_mul(PER_CHUNK)).min(p.range.listed.pairs);
+                let (q0, q1) = (first as u32, end as u32);
+                // The range's grains whose pairs all lie in it.
+                let spans = p.span.get(p.g0..).unwrap_or(&[]);
+                for (done, span) in p.done.iter_mut().zip(spans) {
+                    *done = u8::from(span[0] >= q0 && span[1] <= q1);
+                }
+                let out = &mut Out {
+                    g0: p.g0,
+                    sums: &mut *p.sums,
+                    done: &*p.done,
+                    rows: &mut *p.rows,
                 };
                 let r = &mut p.range;
                 match (p.count, p.no_tension) {
-                    (true, false) => pairs::pair_range::<N, true, false, _>(r, &mut sink),
-                    (false, false) => pairs::pair_range::<N, false, false, _>(r, &mut sink),
-                    (true, true) => pairs::pair_range::<N, true, true, _>(r, &mut sink),
-                    (false, true) => pairs::pair_range::<N, false, true, _>(r, &mut sink),
+                    (true, false) => pairs::pair_range::<N, true, false, true>(r, out),
+                    (false, false) => pairs::pair_range::<N, false, false, true>(r, out),
+                    (true, true) => pairs::pair_range::<N, true, true, true>(r, out),
+                    (false, true) => pairs::pair_range::<N, false, true, true>(r, out),
                 }
             }
 
             /// The move phase over a range of whole groups (module docs,
             /// phase 2).
-            pub(crate) struct MoveLanes<'a, const N: usize> {
+            pub(crate) struct MoveLanes<'a> {
                 pub(crate) moving: Moving<'a, R>,
-                /// Every pair's row, grains and slot (shared).
+                /// Every pair's row (shared).
                 pub(crate) rows: &'a [[R; 4]],
-                pub(crate) listed: Listed<'a, R, N>,
-                pub(crate) pair_k: &'a [[u8; PAIRS]; N],
-                /// Each grain's first pair, and the grains.
-                pub(crate) start: &'a [u32; N],
-                pub(crate) n: usize,
                 /// The pairs that name each grain as second grain, as pair
                 /// places, grain after grain (shared), and the range's
                 /// grains' first and one-past-last entries there.
                 pub(crate) incoming: &'a [u32],
                 pub(crate) from: &'a [u32],
                 pub(crate) to: &'a [u32],
+                /// The range's grains' first pair, listed pairs, and done
+                /// flags.
+                pub(crate) own: &'a [u32],
+                pub(crate) count: &'a [u8],
+                pub(crate) done: &'a [u8],
                 pub(crate) mover: Mover<R>,
-                pub(crate) drag: Option<ClearDrag<R>>,
             }
 
-            impl<const N: usize> MoveLanes<'_, N> {
-                /// The first pair of grain `g` (past the last pair: the pairs).
-                fn first_pair(&self, g: usize) -> usize {
-                    match self.start.get(g) {
-                        Some(&q) if g < self.n => q as usize,
-                        _ => self.listed.pairs,
-                    }
-                }
-            }
-
-            impl<const N: usize> Phase for MoveLanes<'_, N> {
+            impl Phase for MoveLanes<'_> {
                 type Output = Moved<R>;
 
                 fn grains(&self) -> usize {
@@ -174,25 +239,33 @@ macro_rules! phases {
 
                 /// Cuts at the group of grain `mid`.
                 fn split_at(self, mid: usize) -> (Self, Self) {
+                    fn cut<T>(a: &[T], mid: usize) -> (&[T], &[T]) {
+                        a.split_at(mid.min(a.len()))
+                    }
                     let mid = (mid / L * L).min(self.moving.len());
                     let (moving, moving1) = self.moving.split_at(mid);
-                    let (from, from1) = self.from.split_at(mid.min(self.from.len()));
-                    let (to, to1) = self.to.split_at(mid.min(self.to.len()));
+                    let ((from, from1), (to, to1)) = (cut(self.from, mid), cut(self.to, mid));
+                    let ((own, own1), (count, count1)) = (cut(self.own, mid), cut(self.count, mid));
+                    let (done, done1) = cut(self.done, mid);
                     let second = MoveLanes {
                         moving: moving1,
                         from: from1,
                         to: to1,
+                        own: own1,
+                        count: count1,
+                        done: done1,
                         ..self
                     };
-                    (
-                        MoveLanes {
-                            moving,
-                            from,
-                            to,
-                            ..self
-                        },
-                        second,
-                    )
+                    let first = MoveLanes {
+                        moving,
+                        from,
+                        to,
+                        own,
+                        count,
+                        done,
+                        ..self
+                    };
+                    (first, second)
                 }
 
                 #[allow(unsafe_code)]
@@ -212,71 +285,42 @@ macro_rules! phases {
                 }
             }
 
-            /// Runs a [`MoveLanes`] over grains g0..g1: the clear-water drag
-            /// to the sums; then the rows of the pairs (i < g0, j) that name
-            /// the range's grains (each grain's in pair order); then, in pair
-            /// order, every pair (i, j) of the range's first grains, its row
-            /// to i and, if j is in the range, its row as j's to j (as the
-            /// batched pair pass adds them: i's sums held in a register from
-            /// one of its pairs to the next); then the grain pass. Each
-            /// grain's sums get its rows in pair order.
+            /// Runs a [`MoveLanes`]: each grain of a group of mobile grains
+            /// that the pair phase did not sum gets its rows in pair order,
+            /// then the group moves.
             #[target_feature(enable = "avx2")]
-            fn gather_and_move<const N: usize>(
-                p: &mut MoveLanes<'_, N>,
-            ) -> Result<(R, u64), Error> {
-                let g0 = p.moving.first;
-                let (q0, q1) = (p.first_pair(g0), p.first_pair(g0 + p.moving.len()));
+            fn gather_and_move(p: &mut MoveLanes<'_>) -> Result<(R, u64), Error> {
                 let (rows, incoming) = (p.rows, p.incoming);
-                let (pair_i, pair_j) = (
-                    p.listed.pair_i.as_flattened(),
-                    p.listed.pair_j.as_flattened(),
-                );
-                let pair_k = p.pair_k.as_flattened();
+                let (from, to, own, count, done) = (p.from, p.to, p.own, p.count, p.done);
                 let no_row = [0.0; 4];
                 let row = |q: usize| load_row(rows.get(q).unwrap_or(&no_row));
-                if let Some(d) = &p.drag {
-                    drag::drag_pass(&mut p.moving, d);
-                }
-                let sums = &mut *p.moving.sums;
-                // The pairs from earlier ranges: each list's entries before q0.
-                for ((sum, &a), &b) in sums.iter_mut().zip(p.from).zip(p.to) {
-                    let list = incoming.get(a as usize..b as usize).unwrap_or(&[]);
-                    let mut earlier = list.iter().take_while(|&&q| (q as usize) < q0).peekable();
-                    if earlier.peek().is_some() {
-                        let mut s = load_row(sum);
-                        for &q in earlier {
-                            s = row_add(s, second_row(row(q as usize)));
+                let before = |grp: usize, sums: &mut [[R; 4]; L]| {
+                    let group = done.get(grp * L..(grp + 1) * L).unwrap_or(&[]);
+                    if group.iter().all(|&d| d != 0) {
+                        return;
+                    }
+                    for (l, sums) in sums.iter_mut().enumerate() {
+                        let k = grp * L + l;
+                        if done.get(k).is_some_and(|&d| d != 0) {
+                            continue;
                         }
-                        put_row(sum, s);
-                    }
-                }
-                // The range's pairs, in pair order.
-                let mut last = (usize::MAX, load_row(&no_row));
-                let q1 = q1.min(pair_i.len()).min(pair_j.len()).min(pair_k.len());
-                for q in q0.min(q1)..q1 {
-                    if pair_k[q] == SELF_PAIR {
-                        continue;
-                    }
-                    let i = (pair_i[q] as usize).wrapping_sub(g0);
-                    let j = (pair_j[q] as usize).wrapping_sub(g0);
-                    let r = row(q);
-                    let base = if i == last.0 {
-                        last.1
-                    } else {
-                        if let Some(s) = sums.get_mut(last.0) {
-                            put_row(s, last.1);
+                        let mut sum = load_row(sums);
+                        let seconds = match (from.get(k), to.get(k)) {
+                            (Some(&a), Some(&b)) => incoming.get(a as usize..b as usize),
+                            _ => None,
+                        };
+                        for &q in seconds.unwrap_or(&[]) {
+                            sum = row_add(sum, second_row(row(q as usize)));
                         }
-                        load_row(sums.get(i).unwrap_or(&no_row))
-                    };
-                    last = (i, row_add(base, r));
-                    if let Some(s) = sums.get_mut(j) {
-                        add_row(s, second_row(r));
+                        let first = own.get(k).map_or(0, |&q| q as usize);
+                        let listed = count.get(k).map_or(0, |&c| usize::from(c));
+                        for q in first..first + listed {
+                            sum = row_add(sum, row(q));
+                        }
+                        put_row(sums, sum);
                     }
-                }
-                if let Some(s) = sums.get_mut(last.0) {
-                    put_row(s, last.1);
-                }
-                grains::grain_pass(&mut p.moving, &p.mover, |_, _| {})
+                };
+                grains::grain_pass(&mut p.moving, &p.mover, before)
             }
         }
     };
