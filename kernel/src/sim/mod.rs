@@ -55,7 +55,10 @@ use crate::grains::{GrainSpec, Grains};
 use crate::neighbours::Neighbours;
 use crate::real::Real;
 #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+use crate::step::batch;
+#[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
 use crate::step::index::PairIndex;
+use crate::step::mover::Mover;
 #[cfg(not(all(target_arch = "x86_64", target_feature = "avx2")))]
 use crate::step::no_lanes::PairIndex;
 use crate::steps::IntegrationSteps;
@@ -201,6 +204,42 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Default for Sim<R,
 }
 
 impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
+    /// The integrator ([`Mover::advance`]) for this step.
+    pub(super) fn mover(&self) -> Mover<R> {
+        Mover {
+            step_dt: self.step_dt,
+            gravity: self.g_red,
+            width: self.width,
+            y_min: self.y_min,
+            y_max: self.y_max,
+            surface: self.surface,
+            air_gravity: self.g_air,
+            air_ratio: self.air_ratio,
+            step: self.step,
+        }
+    }
+
+    /// What the batched step and the phased step in lanes read besides
+    /// the grains, the pair index and the coupled flow, with the integrator
+    /// `mover`.
+    #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+    pub(super) fn batch_params(&self, mover: Mover<R>) -> batch::Params<R> {
+        let flow = match (self.flow_on, self.flow_on && self.fluid.on) {
+            (false, _) => batch::Flow::Off,
+            (true, false) => batch::Flow::Clear(self.log_law, self.bed_level),
+            (true, true) => batch::Flow::Coupled {
+                turbulence: self.log_law.turbulence,
+            },
+        };
+        batch::Params {
+            width: self.width,
+            law: self.law,
+            mover,
+            flow,
+            count_events: self.count_events,
+        }
+    }
+
     /// An empty, unconfigured simulation (all-zero bits). Call [`Sim::reset`].
     pub const fn new() -> Self {
         Sim {

@@ -13,7 +13,6 @@ use crate::real::Real;
 use crate::sim::{Redraw, Sim};
 #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
 use crate::step::batch;
-use crate::step::mover::Mover;
 use crate::step::scalar;
 use crate::step::GEOMETRY_AHEAD;
 
@@ -78,27 +77,6 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
             }
         };
         self.finish(moved, events)
-    }
-
-    /// What the batched step and the phased step in lanes read besides
-    /// the grains, the pair index and the coupled flow, with the integrator
-    /// `mover`.
-    #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
-    pub(super) fn batch_params(&self, mover: Mover<R>) -> batch::Params<R> {
-        let flow = match (self.flow_on, self.flow_on && self.fluid.on) {
-            (false, _) => batch::Flow::Off,
-            (true, false) => batch::Flow::Clear(self.log_law, self.bed_level),
-            (true, true) => batch::Flow::Coupled {
-                turbulence: self.log_law.turbulence,
-            },
-        };
-        batch::Params {
-            width: self.width,
-            law: self.law,
-            mover,
-            flow,
-            count_events: self.count_events,
-        }
     }
 
     /// The step's start, shared with [`Sim::step_phased`]: the neighbour refresh and
@@ -218,21 +196,6 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
             let (a, b) = fluctuation_draw(seed, period, i as u32);
             g.z_u[i] = R::from_f64(a);
             g.z_v[i] = R::from_f64(b);
-        }
-    }
-
-    /// The integrator ([`Mover::advance`]) for this step.
-    pub(super) fn mover(&self) -> Mover<R> {
-        Mover {
-            step_dt: self.step_dt,
-            gravity: self.g_red,
-            width: self.width,
-            y_min: self.y_min,
-            y_max: self.y_max,
-            surface: self.surface,
-            air_gravity: self.g_air,
-            air_ratio: self.air_ratio,
-            step: self.step,
         }
     }
 }

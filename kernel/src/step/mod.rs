@@ -14,7 +14,8 @@
 //! Both move grains with the same integrator ([`mover`]). Without vector
 //! lanes, `no_lanes` stands in for the pair index. The **phased step**
 //! ([`phased`]) runs the scalar step's operations in two phases over ranges
-//! of grains, for several cores, with its bits.
+//! of grains, for several cores, with its bits; where the batched step has
+//! lanes, it runs the batched step's passes in such phases.
 //!
 //! With the coupled flow (docs/model.md §13) each path finds the drag of
 //! every mobile grain from the column as it finds the clear-water drag,

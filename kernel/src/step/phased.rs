@@ -23,6 +23,9 @@
 //! grains of the other ranges may have moved by then: a failed step leaves
 //! the simulation for [`crate::Sim::restore`] or a reset).
 //!
+//! Where the batched step has lanes and its pair index is ready, the same
+//! phases run in lanes (`step::batch::phases`, with the same bits).
+//!
 //! Who runs the ranges is the caller's [`Executor`]: [`Serial`] runs each
 //! phase whole, [`Ranges`] cuts it into ranges run one after the other (on
 //! one core, as a board does), and a host cuts it among threads (the `mbs`
@@ -78,7 +81,9 @@ pub trait Phase: Send + Sized {
     type Output: Send;
     /// Grains in the range.
     fn grains(&self) -> usize;
-    /// The first `mid` grains and the rest (`mid` is clamped to the range).
+    /// The first `mid` grains and the rest (`mid` is clamped to the range;
+    /// a phase in lanes cuts at the boundary of its group of grains or
+    /// chunk of pairs at or before it, so either part may be empty).
     fn split_at(self, mid: usize) -> (Self, Self);
     /// Runs the range.
     fn run(self) -> Self::Output;

@@ -19,10 +19,14 @@
 //!   every other s);
 //! - `grains`: every grain's motion (1)–(3) from its sums.
 //!
+//! `phases` regroups the same passes into the phased step's phases over
+//! ranges of chunks of pairs and of groups of grains, for several cores,
+//! with the same bits ([`phased_step`]; docs/determinism.md).
+//!
 //! The pairs come from the [pair index](super::index::PairIndex), which
 //! lists them in this order and holds their history while it is ready;
-//! `params` holds what the passes read ([`Params`], [`Flow`], and their
-//! borrow of the grains and the index).
+//! `params` holds what the passes read ([`Params`], [`Flow`], and the
+//! ranges of pairs and of grains they work on).
 //!
 //! Lanes exist on x86-64 with AVX2 (`target-cpu=x86-64-v3` or newer, the
 //! host default), for f64 (four per vector) and f32 (eight), with
@@ -32,11 +36,12 @@
 //! (`lanes`: [`lanes::f64x4`], [`lanes::f32x8`]); `lanes!` writes the step
 //! in each precision's lanes.
 //!
-//! `unsafe` in the batched step: four blocks, audited. Two in `lanes`
+//! `unsafe` in the batched step: seven blocks, audited. Two in `lanes`
 //! (`read` and `write`: a vector from and to an array of exactly its
-//! size), and two here, in `lanes!` (the entry points' calls of the
-//! passes, `#[target_feature(enable = "avx2")]` functions, sound because
-//! the module is compiled only where the whole build enables AVX2).
+//! size), two here, in `lanes!` (the entry points' calls of the passes,
+//! `#[target_feature(enable = "avx2")]` functions), and three in `phases`
+//! (each phase's `run`, which calls its pass): all sound because the
+//! module is compiled only where the whole build enables AVX2.
 
 mod drag;
 mod grains;
@@ -127,35 +132,29 @@ pub(crate) fn phased_step<R: Real, const N: usize, const K: usize, const C: usiz
     }
     let (grains, index, fluid): (&mut dyn Any, &mut dyn Any, &mut dyn Any) = (grains, index, fluid);
     let (nbrs, phases, params): (&dyn Any, &mut dyn Any, &dyn Any) = (nbrs, phases, params);
-    if let (Some(g), Some(b), Some(nb), Some(f), Some(ph), Some(p)) = (
-        grains.downcast_mut::<Grains<f64, N>>(),
-        index.downcast_mut::<PairIndex<f64, N, K>>(),
-        nbrs.downcast_ref::<Neighbours<f64, N, K>>(),
-        fluid.downcast_mut::<Coupling<f64, C>>(),
-        phases.downcast_mut::<Phases<f64, N, K>>(),
-        params.downcast_ref::<Params<f64>>(),
-    ) {
-        if let Flow::Coupled { turbulence } = p.flow {
-            in_f64x4::coupled_drag(g, b, f.cells(), turbulence);
-        }
-        let moved = in_f64x4::phased_step(g, b, nb, ph, owner, p, executor, events);
-        return Some(moved.map(R::from_f64));
+    // The step in precision `$t`'s lanes (`$module`), if these are its
+    // types; its largest squared speed as an `R` (exact: every f32 is an
+    // f64).
+    macro_rules! in_lanes {
+        ($t:ty, $module:ident) => {
+            if let (Some(g), Some(b), Some(nb), Some(f), Some(ph), Some(p)) = (
+                grains.downcast_mut::<Grains<$t, N>>(),
+                index.downcast_mut::<PairIndex<$t, N, K>>(),
+                nbrs.downcast_ref::<Neighbours<$t, N, K>>(),
+                fluid.downcast_mut::<Coupling<$t, C>>(),
+                phases.downcast_mut::<Phases<$t, N, K>>(),
+                params.downcast_ref::<Params<$t>>(),
+            ) {
+                if let Flow::Coupled { turbulence } = p.flow {
+                    $module::coupled_drag(g, b, f.cells(), turbulence);
+                }
+                let moved = $module::phased_step(g, b, nb, ph, owner, p, executor, events);
+                return Some(moved.map(|v| R::from_f64(f64::from(v))));
+            }
+        };
     }
-    if let (Some(g), Some(b), Some(nb), Some(f), Some(ph), Some(p)) = (
-        grains.downcast_mut::<Grains<f32, N>>(),
-        index.downcast_mut::<PairIndex<f32, N, K>>(),
-        nbrs.downcast_ref::<Neighbours<f32, N, K>>(),
-        fluid.downcast_mut::<Coupling<f32, C>>(),
-        phases.downcast_mut::<Phases<f32, N, K>>(),
-        params.downcast_ref::<Params<f32>>(),
-    ) {
-        if let Flow::Coupled { turbulence } = p.flow {
-            in_f32x8::coupled_drag(g, b, f.cells(), turbulence);
-        }
-        let moved = in_f32x8::phased_step(g, b, nb, ph, owner, p, executor, events);
-        // Exact: every f32 is an f64.
-        return Some(moved.map(|v| R::from_f64(f64::from(v))));
-    }
+    in_lanes!(f64, in_f64x4);
+    in_lanes!(f32, in_f32x8);
     None
 }
 
@@ -163,8 +162,8 @@ pub(crate) fn phased_step<R: Real, const N: usize, const K: usize, const C: usiz
 /// `$module`: `$lanes` is the lane module ([`lanes::f64x4`] or
 /// [`lanes::f32x8`]: the lane type, its scalar, the row type, the
 /// operations) the passes are written in. The passes come from `drag.rs`,
-/// `pairs.rs` and `grains.rs` (each writes its own module with its own
-/// macro); the two entry points call them. Their two `unsafe` blocks call
+/// `pairs.rs` and `grains.rs`, the phases from `phases.rs` (each writes its
+/// own module with its own macro); the entry points call them. Their two `unsafe` blocks call
 /// `#[target_feature(enable = "avx2")]` functions from functions that are
 /// not: sound because this module is compiled only where the whole build
 /// enables AVX2 (`cfg(target_feature = "avx2")`), so the CPU running it
@@ -181,7 +180,7 @@ macro_rules! lanes {
             use crate::neighbours::Neighbours;
             use crate::step::batch::lanes::$lanes::{L, R};
             use crate::step::batch::params::{Moving, PairRange, Params};
-            use crate::step::index::{PairIndex, CHUNK};
+            use crate::step::index::PairIndex;
             use crate::step::phased::{Executor, Phases};
             use pairs::Out;
             use phases::{DragLanes, MoveLanes, PairLanes};
@@ -213,15 +212,7 @@ macro_rules! lanes {
                         let s = &mut Moving::new(g, parts.mobile, parts.sums, groups, L);
                         drag::drag_pass(s, &d);
                     }
-                    let range = &mut PairRange {
-                        listed: parts.listed,
-                        grains: [&g.x, &g.y, &g.u, &g.v, &g.w],
-                        law: p.law,
-                        width: p.width,
-                        chunks: 0..parts.listed.pairs.div_ceil(CHUNK * L),
-                        e_n: parts.e_n,
-                        e_s: parts.e_s,
-                    };
+                    let range = &mut PairRange::whole(parts.listed, g, p, parts.e_n, parts.e_s, L);
                     // One copy of the pair pass per (counting, tension
                     // rule): the paper's rule keeps its instructions.
                     let no_tension = p.law.tension == Tension::None;
@@ -271,15 +262,7 @@ macro_rules! lanes {
                     executor.execute(DragLanes { moving, drag });
                 }
                 let pairs = PairLanes {
-                    range: PairRange {
-                        listed: parts.listed,
-                        grains: [&g.x, &g.y, &g.u, &g.v, &g.w],
-                        law: p.law,
-                        width: p.width,
-                        chunks: 0..parts.listed.pairs.div_ceil(CHUNK * L),
-                        e_n: parts.e_n,
-                        e_s: parts.e_s,
-                    },
+                    range: PairRange::whole(parts.listed, g, p, parts.e_n, parts.e_s, L),
                     rows: &mut *lists.rows,
                     start: parts.start,
                     span: lists.span,

@@ -9,7 +9,7 @@ use crate::contact::ContactLaw;
 use crate::flow::LogLaw;
 use crate::grains::Grains;
 use crate::real::Real;
-use crate::step::index::Listed;
+use crate::step::index::{Listed, CHUNK};
 use crate::step::mover::Mover;
 use crate::step::phased::ClearDrag;
 use core::ops::Range;
@@ -67,6 +67,30 @@ pub(super) struct PairRange<'a, R: Real, const N: usize> {
     /// The history (e_n, e_s) of the range's pairs, from its first pair.
     pub(super) e_n: &'a mut [R],
     pub(super) e_s: &'a mut [R],
+}
+
+impl<'a, R: Real, const N: usize> PairRange<'a, R, N> {
+    /// Every chunk of the pair list `listed` over the grains `g`, with the
+    /// law and width of `p` and the history `e_n`, `e_s`; `lanes` pairs per
+    /// batch.
+    pub(super) fn whole(
+        listed: Listed<'a, R, N>,
+        g: &'a Grains<R, N>,
+        p: &Params<R>,
+        e_n: &'a mut [R],
+        e_s: &'a mut [R],
+        lanes: usize,
+    ) -> Self {
+        PairRange {
+            listed,
+            grains: [&g.x, &g.y, &g.u, &g.v, &g.w],
+            law: p.law,
+            width: p.width,
+            chunks: 0..listed.pairs.div_ceil(CHUNK * lanes),
+            e_n,
+            e_s,
+        }
+    }
 }
 
 /// The grains of a range of whole groups of lanes' worth (from grain
