@@ -232,8 +232,8 @@ impl<R: Real, const N: usize, const K: usize> Phases<R, N, K> {
 
     /// As [`Phases::index`], the pairs that name each grain as pair
     /// places of the pair index `parts` (built from the lists `nb`),
-    /// padding pairs left out; and the rows, the lists, and each grain's
-    /// first and one-past-last entry in them.
+    /// padding pairs left out, with each grain's span of pair places; then
+    /// what the phased step in lanes reads and writes ([`LaneLists`]).
     #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
     pub(crate) fn index_pairs(
         &mut self,

@@ -29,9 +29,9 @@
 //! into each precision's module of the batched step (`lanes!` in
 //! [`super`]).
 
-/// Writes the module `phases` (the phases `PairLanes`, `MoveLanes` and
-/// the entry `phased_step`) in the lanes of `lanes::$lanes`
-/// ([`super::lanes`]).
+/// Writes the module `phases` (the phases `DragLanes`, `PairLanes` and
+/// `MoveLanes`, which the lanes' `phased_step` runs) in the lanes of
+/// `lanes::$lanes` ([`super::lanes`]).
 macro_rules! phases {
     ($lanes:ident) => {
         /// The phased step in these lanes (`step/batch/phases.rs`).
