@@ -473,6 +473,14 @@ impl<R: Real> Motion<'_, R> {
 /// crossings, or the first failing grain's error.
 pub(crate) type Moved<R> = Result<(R, u64), Error>;
 
+/// What two adjacent ranges of a move phase give together: the larger
+/// squared speed, the crossings added, or the first range's error.
+pub(crate) fn merge_moved<R: Real>(first: Moved<R>, second: Moved<R>) -> Moved<R> {
+    let (v_a, c_a) = first?;
+    let (v_b, c_b) = second?;
+    Ok((R::max(v_a, v_b), c_a.wrapping_add(c_b)))
+}
+
 /// The clear-water drag (4)–(5) a move phase adds first: the log law, the
 /// mean bed level and the free surface (docs/model.md §2, §6).
 #[derive(Clone, Copy)]
@@ -627,8 +635,6 @@ impl<R: Real, const K: usize> Phase for MovePhase<'_, R, K> {
     }
 
     fn merge(first: Moved<R>, second: Moved<R>) -> Moved<R> {
-        let (v_a, c_a) = first?;
-        let (v_b, c_b) = second?;
-        Ok((R::max(v_a, v_b), c_a.wrapping_add(c_b)))
+        merge_moved(first, second)
     }
 }

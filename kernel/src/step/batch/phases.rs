@@ -43,7 +43,7 @@ macro_rules! phases {
             use crate::step::batch::params::{Moving, PairRange};
             use crate::step::index::{Listed, CHUNK};
             use crate::step::mover::Mover;
-            use crate::step::phased::{ClearDrag, Moved, Phase};
+            use crate::step::phased::{merge_moved, ClearDrag, Moved, Phase};
             use crate::step::scalar::Counts;
 
             /// Pairs per chunk.
@@ -276,12 +276,7 @@ macro_rules! phases {
                 }
 
                 fn merge(first: Moved<R>, second: Moved<R>) -> Moved<R> {
-                    let (v_a, c_a) = first?;
-                    let (v_b, c_b) = second?;
-                    Ok((
-                        <R as crate::real::Real>::max(v_a, v_b),
-                        c_a.wrapping_add(c_b),
-                    ))
+                    merge_moved(first, second)
                 }
             }
 
