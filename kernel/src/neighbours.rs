@@ -13,7 +13,12 @@
 //! the configured skin ([`adapted_skin`]): a still bed lists fewer pairs that
 //! are not in contact, a moving one rebuilds seldom. Bins are
 //! hashed into one bucket per grain, so any bed height fits; a bucket shared by two
-//! bins only costs extra distance checks. History moves from the old slots to
+//! bins only costs extra distance checks. The grains are counting-sorted by
+//! bucket and searched in ascending order, each bucket dropping a grain
+//! once it is searched, so a search meets only grains j > i, and tests
+//! them without a branch on the outcome. A grain within the cut-off lies
+//! in one of the nine bins around (a bin is at least a cut-off wide), so
+//! the distance test alone decides. History moves from the old slots to
 //! the new ones by merging the two sorted lists, so no contact is lost.
 //!
 //! The batched step's pair index, built from these slots, is not kept here:
@@ -62,13 +67,13 @@ pub struct Neighbours<R: Real, const N: usize, const K: usize> {
     pub(crate) other: [[u32; K]; N],
     /// Spring history per slot.
     pub(crate) spring: [[Spring<R>; K]; N],
-    /// Bucket heads: grain index + 1, 0 = empty.
-    head: [u32; N],
-    /// Next grain in the same bucket: index + 1, 0 = end.
-    next: [u32; N],
-    /// Bin coordinates of each grain at the last build.
-    bin_x: [u32; N],
-    bin_y: [u32; N],
+    /// Per bucket, where its grains not yet searched start in `order`
+    /// (during a build), and where they end.
+    first: [u32; N],
+    end: [u32; N],
+    /// The grains sorted by bucket (a counting sort), ascending within
+    /// each.
+    order: [u32; N],
     /// Largest distance any grain may have travelled since the last build.
     pub(crate) travel: R,
     /// Skin (m) of the last build, the configured (largest) skin, and the
@@ -95,10 +100,9 @@ impl<R: Real, const N: usize, const K: usize> Neighbours<R, N, K> {
             count: [0; N],
             other: [[0; K]; N],
             spring: [[Spring::ZERO; K]; N],
-            head: [0; N],
-            next: [0; N],
-            bin_x: [0; N],
-            bin_y: [0; N],
+            first: [0; N],
+            end: [0; N],
+            order: [0; N],
             travel: R::ZERO,
             skin: R::ZERO,
             skin_max: R::ZERO,
@@ -170,82 +174,90 @@ impl<R: Real, const N: usize, const K: usize> Neighbours<R, N, K> {
         // About one bucket per grain (clearing costs O(n), not O(N)), a
         // power of two so that a bin's bucket is a mask, not a division.
         let buckets = bucket_count(n, N);
-        self.head[..buckets].fill(0);
-        for i in 0..n {
+        let bin_of = |i: usize| {
             let bx = ((g.x[i] * inv_bin).to_f64() as u32).min(nx - 1);
             let by = (((g.y[i] - y_min) * inv_bin).to_f64() as u32).min(1 << 30);
-            self.bin_x[i] = bx;
-            self.bin_y[i] = by;
-            let b = bucket(bx, by, nx, buckets);
-            self.next[i] = self.head[b];
-            self.head[b] = i as u32 + 1;
+            (bx, by)
+        };
+        // Counting sort by bucket: each bucket's end, then its grains placed
+        // from the last down, so that each lists its grains in ascending
+        // order, from `first` (each bucket's start once all are placed).
+        self.end[..buckets].fill(0);
+        for i in 0..n {
+            let (bx, by) = bin_of(i);
+            self.end[bucket(bx, by, nx, buckets)] += 1;
+        }
+        let mut placed = 0;
+        for end in &mut self.end[..buckets] {
+            placed += *end;
+            *end = placed;
+        }
+        self.first[..buckets].copy_from_slice(&self.end[..buckets]);
+        for i in (0..n).rev() {
+            let (bx, by) = bin_of(i);
+            let first = &mut self.first[bucket(bx, by, nx, buckets)];
+            *first -= 1;
+            self.order[*first as usize] = i as u32;
         }
 
+        // The nine bins around a grain are nine buckets unless the bed is
+        // so thin that their cells (within 3 nx of each other) wrap around
+        // the buckets; then a bucket met twice is searched once.
+        let may_repeat = (buckets as u64) < 3 * u64::from(nx);
         let half_width = width * R::HALF;
         for i in 0..n {
-            let mut found = heapless::Vec::<u32, K>::new();
-            let (bx, by) = (self.bin_x[i], self.bin_y[i]);
+            let (bx, by) = bin_of(i);
+            // Grains are searched in ascending order, so each bucket's grains
+            // before i are gone from it: i first, then those searched.
+            if let Some(first) = self.first.get_mut(bucket(bx, by, nx, buckets)) {
+                *first += 1;
+            }
             // The bins left and right, periodic in x (nx ≥ 3).
             let left = if bx == 0 { nx - 1 } else { bx - 1 };
             let right = if bx + 1 >= nx { 0 } else { bx + 1 };
-            for dy in 0..3u32 {
+            let (x_i, y_i, r_i, fixed_i) = (g.x[i], g.y[i], g.r[i], g.fixed[i]);
+            let mut found = Found::new();
+            let mut searched = [usize::MAX; 9];
+            for (s, (dy, nbx)) in (0..3u32)
+                .flat_map(|dy| [left, bx, right].map(|nbx| (dy, nbx)))
+                .enumerate()
+            {
                 let Some(nby) = (by + dy).checked_sub(1) else {
                     continue;
                 };
-                for nbx in [left, bx, right] {
-                    let mut link = self.head[bucket(nbx, nby, nx, buckets)];
-                    while link != 0 {
-                        let j = (link - 1) as usize;
-                        link = self.next[j];
-                        if j <= i || self.bin_x[j] != nbx || self.bin_y[j] != nby {
-                            continue;
-                        }
-                        if g.fixed[i] && g.fixed[j] {
-                            continue;
-                        }
-                        let ddx = periodic(g.x[j] - g.x[i], width, half_width);
-                        let ddy = g.y[j] - g.y[i];
-                        let reach = g.r[i] + g.r[j] + self.skin;
-                        if ddx * ddx + ddy * ddy < reach * reach {
-                            let at = found.partition_point(|&o| o < j as u32);
-                            found
-                                .insert(at, j as u32)
-                                .map_err(|_| Error::CapacityExceeded {
-                                    what: Capacity::NeighboursPerGrain,
-                                    capacity: K,
-                                })?;
-                        }
+                let b = bucket(nbx, nby, nx, buckets);
+                if may_repeat {
+                    if searched.contains(&b) {
+                        continue;
                     }
+                    searched[s] = b;
+                }
+                let (from, to) = (self.first[b] as usize, self.end[b] as usize);
+                for &j in self.order.get(from..to).unwrap_or(&[]) {
+                    let j = j as usize;
+                    let ddx = periodic(g.x[j] - x_i, width, half_width);
+                    let ddy = g.y[j] - y_i;
+                    let reach = r_i + g.r[j] + self.skin;
+                    let keep = !(fixed_i & g.fixed[j]) & (ddx * ddx + ddy * ddy < reach * reach);
+                    found.push(j as u32, keep);
                 }
             }
-            self.merge_into_slots(i, &found);
+            let found = found.sorted(K).ok_or(Error::CapacityExceeded {
+                what: Capacity::NeighboursPerGrain,
+                capacity: K,
+            })?;
+            merge_into_slots(
+                &mut self.count[i],
+                &mut self.other[i],
+                &mut self.spring[i],
+                found,
+            );
         }
         self.travel = R::ZERO;
         self.stale = false;
         self.rebuilds = self.rebuilds.saturating_add(1);
         self.generation = self.generation.wrapping_add(1);
         Ok(())
-    }
-
-    /// Replaces grain i's slots by `found` (sorted), keeping the history of
-    /// pairs present before.
-    fn merge_into_slots(&mut self, i: usize, found: &[u32]) {
-        let old_count = usize::from(self.count[i]).min(K);
-        let old_other = self.other[i];
-        let old_spring = self.spring[i];
-        let mut k_old = 0;
-        for (k, &j) in found.iter().enumerate().take(K) {
-            while k_old < old_count && old_other[k_old] < j {
-                k_old += 1;
-            }
-            self.other[i][k] = j;
-            self.spring[i][k] = if k_old < old_count && old_other[k_old] == j {
-                old_spring[k_old]
-            } else {
-                Spring::ZERO
-            };
-        }
-        self.count[i] = found.len().min(K) as u8;
     }
 
     /// The history of grain i's used slot k, wherever it lives: `lent`
@@ -315,6 +327,80 @@ impl<R: Real, const N: usize, const K: usize> Default for Neighbours<R, N, K> {
     }
 }
 
+/// Replaces a grain's `count` slots (`other`, `spring`) by `found`
+/// (sorted), keeping the history of pairs present before.
+fn merge_into_slots<R: Real, const K: usize>(
+    count: &mut u8,
+    other: &mut [u32; K],
+    spring: &mut [Spring<R>; K],
+    found: &[u32],
+) {
+    let old_count = usize::from(*count).min(K);
+    // Most builds list the pairs listed before (a word-by-word test: the
+    // lists are a few words long).
+    if old_count == found.len() && other.iter().zip(found).all(|(a, b)| a == b) {
+        return;
+    }
+    let (old_other, old_spring) = (*other, *spring);
+    let mut k_old = 0;
+    for (k, &j) in found.iter().enumerate().take(K) {
+        while k_old < old_count && old_other[k_old] < j {
+            k_old += 1;
+        }
+        other[k] = j;
+        spring[k] = if k_old < old_count && old_other[k_old] == j {
+            old_spring[k_old]
+        } else {
+            Spring::ZERO
+        };
+    }
+    *count = found.len().min(K) as u8;
+}
+
+/// Most neighbours a build may find for one grain: a grain with more
+/// fails the build ([`Capacity::NeighboursPerGrain`]) whatever `K`.
+const FOUND_MAX: usize = 64;
+
+/// The neighbours found for one grain so far.
+struct Found {
+    js: [u32; FOUND_MAX],
+    len: usize,
+}
+
+impl Found {
+    fn new() -> Self {
+        Found {
+            js: [0; FOUND_MAX],
+            len: 0,
+        }
+    }
+
+    /// Adds j if `keep`, without a branch on it: j is written in the next
+    /// place either way (a later j overwrites it if not kept).
+    #[inline]
+    fn push(&mut self, j: u32, keep: bool) {
+        self.js[self.len.min(FOUND_MAX - 1)] = j;
+        self.len += usize::from(keep);
+    }
+
+    /// The grains found, ascending (insertion sort: a few per grain), or
+    /// `None` if more than `capacity` (or [`FOUND_MAX`] − 1) were found.
+    fn sorted(&mut self, capacity: usize) -> Option<&[u32]> {
+        if self.len > capacity.min(FOUND_MAX - 1) {
+            return None;
+        }
+        let js = self.js.get_mut(..self.len)?;
+        for k in 1..js.len() {
+            let mut m = k;
+            while m > 0 && js[m - 1] > js[m] {
+                js.swap(m - 1, m);
+                m -= 1;
+            }
+        }
+        Some(js)
+    }
+}
+
 /// Buckets for `n` grains with capacity `capacity`: the smallest power of
 /// two ≥ n, or the largest that fits the capacity (none if it is 0).
 fn bucket_count(n: usize, capacity: usize) -> usize {
@@ -333,7 +419,108 @@ fn bucket(bx: u32, by: u32, nx: u32, buckets: usize) -> usize {
 
 #[cfg(test)]
 mod tests {
-    use super::adapted_skin;
+    use super::*;
+    use std::boxed::Box;
+    use std::vec::Vec;
+
+    /// Grain i's listed neighbours.
+    fn listed<const N: usize, const K: usize>(nbrs: &Neighbours<f64, N, K>, i: usize) -> &[u32] {
+        &nbrs.other[i][..usize::from(nbrs.count[i])]
+    }
+
+    /// Every grain j > i within r_i + r_j + skin of grain i (periodic in
+    /// x), unless both are fixed: the search by brute force.
+    fn brute_force<const N: usize>(
+        g: &Grains<f64, N>,
+        width: f64,
+        skin: f64,
+        i: usize,
+    ) -> Vec<u32> {
+        (i + 1..g.len)
+            .filter(|&j| !(g.fixed[i] && g.fixed[j]))
+            .filter(|&j| {
+                let ddx = periodic(g.x[j] - g.x[i], width, width / 2.0);
+                let ddy = g.y[j] - g.y[i];
+                let reach = g.r[i] + g.r[j] + skin;
+                ddx * ddx + ddy * ddy < reach * reach
+            })
+            .map(|j| j as u32)
+            .collect()
+    }
+
+    /// Random grains (a seeded xorshift): dense beds, thin strips whose
+    /// bins share buckets (more bins across than a third of the buckets),
+    /// grains at the periodic seam and far above the bed, fixed grains.
+    /// Each build lists exactly the brute force's pairs, ascending, and
+    /// keeps the history of the pairs listed before; a grain with more
+    /// than K fails the build.
+    #[test]
+    fn the_search_lists_exactly_the_pairs_within_the_cutoff() {
+        const N: usize = 256;
+        const K: usize = 8;
+        let mut state = 0x9e37_79b9_7f4a_7c15u64;
+        let mut uniform = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let (mut builds, mut overflows, mut kept) = (0, 0, 0);
+        for case in 0..400 {
+            let mut g = Box::new(Grains::<f64, N>::new());
+            let n = 1 + (uniform() * N as f64) as usize % N;
+            let width = 3.5 + uniform() * [2.0, 40.0, 200.0][case % 3];
+            let rows = n as f64 / width;
+            let height = rows * [0.7, 2.0, 20.0][case / 3 % 3] * (1.0 + uniform());
+            g.len = n;
+            for i in 0..n {
+                g.r[i] = 0.3 + 0.2 * uniform();
+                g.x[i] = match (case + i) % 7 {
+                    0 => width * (1.0 - 1e-3 * uniform()),
+                    1 => 1e-3 * uniform(),
+                    _ => width * uniform(),
+                };
+                g.y[i] = height * uniform() + if i % 37 == 5 { 1e4 } else { 0.0 };
+                g.fixed[i] = g.y[i] < 0.2 * height && i % 2 == 0;
+            }
+            let mut nbrs = Box::new(Neighbours::<f64, N, K>::new());
+            nbrs.set_skin(0.1, 1e-4);
+            // A first build, its history marked, then a build after a move.
+            for round in 0..2 {
+                let built = nbrs.rebuild(&g, width, -0.5);
+                assert_eq!(nbrs.skin, 0.1 * SKIN_FLOOR);
+                let expected: Vec<Vec<u32>> = (0..n)
+                    .map(|i| brute_force(&g, width, nbrs.skin, i))
+                    .collect();
+                if expected.iter().any(|js| js.len() > K) {
+                    assert!(built.is_err(), "case {case}: more than K found");
+                    overflows += 1;
+                    break;
+                }
+                assert!(built.is_ok(), "case {case}: {built:?}");
+                builds += 1;
+                for (i, js) in expected.iter().enumerate() {
+                    assert_eq!(listed(&nbrs, i), &js[..], "case {case}, grain {i}");
+                    for (k, &j) in js.iter().enumerate() {
+                        let e_n = nbrs.spring[i][k].e_n;
+                        if round == 1 && e_n != 0.0 {
+                            assert_eq!(e_n, (i * N) as f64 + f64::from(j));
+                            kept += 1;
+                        }
+                        nbrs.spring[i][k].e_n = (i * N) as f64 + f64::from(j);
+                    }
+                }
+                for i in 0..n {
+                    g.x[i] = (g.x[i] + 0.05 * uniform()) % width;
+                    g.y[i] += 0.05 * uniform();
+                }
+            }
+        }
+        assert!(
+            builds > 500 && overflows > 10 && kept > 1000,
+            "{builds} {overflows} {kept}"
+        );
+    }
 
     /// A still bed gets the floor, a fast one the largest skin, one in
     /// between room for 100 steps; a NaN travel the floor.

@@ -236,7 +236,7 @@ impl<R: Real, const N: usize, const K: usize> PairIndex<R, N, K> {
     fn find_windows(&mut self, pairs: usize, lanes: usize) -> bool {
         let (pair_i, pair_j) = (self.pair_i.as_flattened(), self.pair_j.as_flattened());
         let pairs = pairs.min(pair_i.len()).min(pair_j.len());
-        let per_lane = 8 / lanes.max(1);
+        let per_lane = (8 / lanes.max(1)).max(1);
         let batches = pair_i[..pairs]
             .chunks_exact(lanes.max(1))
             .zip(pair_j[..pairs].chunks_exact(lanes.max(1)));
@@ -246,9 +246,12 @@ impl<R: Real, const N: usize, const K: usize> PairIndex<R, N, K> {
             if batch.iter().any(|&i| i.wrapping_sub(first) >= lanes as u32) {
                 return false;
             }
-            for (e, entry) in control.iter_mut().enumerate() {
-                let lane = batch.get(e / per_lane).map_or(0, |&i| i - first);
-                *entry = (lane as usize * per_lane + e % per_lane) as u8;
+            // Each pair's lane of the window, as `per_lane` 32-bit lanes.
+            *control = [0; 8];
+            for (entries, &i) in control.chunks_exact_mut(per_lane).zip(batch) {
+                for (e, entry) in entries.iter_mut().enumerate() {
+                    *entry = ((i - first) as usize * per_lane + e) as u8;
+                }
             }
             *second_control = [FAR; 8];
             if seconds
