@@ -40,6 +40,8 @@ use crate::grains::Grains;
 use crate::neighbours::Neighbours;
 use crate::real::Real;
 #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+use crate::step::index::{lanes, CHUNK};
+#[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
 use crate::step::index::{PAIRS, SELF_PAIR};
 
 /// Cuts the phase `$this` at grain `$mid`: each listed field, a slice over
@@ -179,6 +181,10 @@ pub struct Phases<R: Real, const N: usize, const K: usize> {
     /// (u32::MAX and 0 if none): the phased step in lanes.
     #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
     span: [[u32; 2]; N],
+    /// Per chunk of the pair pass, the union of its grains' spans and its
+    /// lowest and highest grain ([`ChunkSpan`]): the phased step in lanes.
+    #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+    chunk_span: [ChunkSpan; N],
     /// Per grain, 1 if the pair phase in lanes summed its pairs (all in
     /// one range), else 0 (the move phase gathers their rows).
     #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
@@ -206,6 +212,8 @@ impl<R: Real, const N: usize, const K: usize> Phases<R, N, K> {
             rows: [[[R::ZERO; 4]; PAIRS]; N],
             #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
             span: [[0; 2]; N],
+            #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+            chunk_span: [[0; 4]; N],
             #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
             done: [0; N],
         }
@@ -264,6 +272,24 @@ impl<R: Real, const N: usize, const K: usize> Phases<R, N, K> {
                     }
                 }
             }
+            // Every place, padding pairs included: their grain appears in
+            // the chunk too.
+            let per_chunk = CHUNK * lanes::<R>();
+            let chunks = pair_i[..places]
+                .chunks(per_chunk)
+                .zip(pair_j[..places].chunks(per_chunk));
+            for ((firsts, seconds), summary) in chunks.zip(&mut self.chunk_span) {
+                *summary = [u32::MAX, 0, u32::MAX, 0];
+                for &g in firsts.iter().chain(seconds) {
+                    let span = self.span.get(g as usize).unwrap_or(&[0, u32::MAX]);
+                    *summary = [
+                        summary[0].min(span[0]),
+                        summary[1].max(span[1]),
+                        summary[2].min(g),
+                        summary[3].max(g),
+                    ];
+                }
+            }
         }
         Ok(LaneLists {
             rows: self.rows.as_flattened_mut(),
@@ -271,6 +297,7 @@ impl<R: Real, const N: usize, const K: usize> Phases<R, N, K> {
             from: &self.start,
             to: &self.end,
             span: &self.span,
+            chunk_span: &self.chunk_span,
             done: &mut self.done,
         })
     }
@@ -349,8 +376,17 @@ pub(crate) struct LaneLists<'a, R: Real, const N: usize> {
     pub(crate) from: &'a [u32; N],
     pub(crate) to: &'a [u32; N],
     pub(crate) span: &'a [[u32; 2]; N],
+    pub(crate) chunk_span: &'a [ChunkSpan; N],
     pub(crate) done: &'a mut [u8; N],
 }
+
+/// Of a chunk of the pair pass's pairs: the first and one-past-last pair
+/// place of the pairs that name its grains, and its lowest and highest
+/// grain. A range of the pair phase sums every grain of the chunk if the
+/// places lie in the range's and the grains among the range's grains: then
+/// the chunk needs no test of which grains the range sums.
+#[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+pub(crate) type ChunkSpan = [u32; 4];
 
 impl<R: Real, const N: usize, const K: usize> Default for Phases<R, N, K> {
     fn default() -> Self {

@@ -221,6 +221,8 @@ macro_rules! lanes {
                         sums: &mut *parts.sums,
                         done: &[],
                         rows: &mut [],
+                        places: [0, 0],
+                        chunk_span: &[],
                     };
                     let counts = match (p.count_events, no_tension) {
                         (true, false) => pairs::pair_range::<N, true, false, false>(range, out),
@@ -266,6 +268,7 @@ macro_rules! lanes {
                     rows: &mut *lists.rows,
                     start: parts.start,
                     span: lists.span,
+                    chunk_span: lists.chunk_span,
                     n,
                     g0: 0,
                     sums: &mut parts.sums[..moved],

@@ -28,6 +28,7 @@ macro_rules! pairs {
             use crate::step::batch::lanes::$lanes::*;
             use crate::step::batch::params::PairRange;
             use crate::step::index::{second_window, window_start, CHUNK, FAR, PAIRS};
+            use crate::step::phased::ChunkSpan;
             use crate::step::scalar::Counts;
             use core::arch::x86_64::{
                 __m256i, _mm256_cvtepu8_epi32, _mm256_setzero_si256, _mm256_slli_epi32,
@@ -39,13 +40,32 @@ macro_rules! pairs {
 
             /// Where [`pair_range`] puts the rows: the sums of the grains from
             /// `g0` (the batched pass: every grain's, from 0), and, for the pair
-            /// phase, which of them it sums (`done`) and the rows of the range's
-            /// pairs (from its first pair) that it does not.
+            /// phase, which of them it sums (`done`: those whose pair places
+            /// all lie in `places`) and the rows of the range's pairs (from
+            /// its first pair) that it does not, and each chunk's
+            /// [`ChunkSpan`] (a chunk whose grains it all sums needs no test).
             pub(crate) struct Out<'a> {
                 pub(crate) g0: usize,
                 pub(crate) sums: &'a mut [[R; 4]],
                 pub(crate) done: &'a [u8],
                 pub(crate) rows: &'a mut [[R; 4]],
+                pub(crate) places: [u32; 2],
+                pub(crate) chunk_span: &'a [ChunkSpan],
+            }
+
+            impl Out<'_> {
+                /// Whether the range sums every grain of chunk `c`.
+                #[inline]
+                fn sums_all(&self, c: usize) -> bool {
+                    let [q0, q1] = self.places;
+                    let grains = self.g0..self.g0 + self.sums.len().min(self.done.len());
+                    self.chunk_span.get(c).is_some_and(|s| {
+                        s[0] >= q0
+                            && s[1] <= q1
+                            && grains.contains(&(s[2] as usize))
+                            && grains.contains(&(s[3] as usize))
+                    })
+                }
             }
 
             /// A batch's geometry and relative speeds: what its laws need of it
@@ -182,6 +202,9 @@ macro_rules! pairs {
                 }; CHUNK];
                 for chunk in range.clone().step_by(CHUNK) {
                     let seam = b.seam[(chunk / CHUNK) & (N - 1)];
+                    // The pair phase tests which grains it sums only in
+                    // chunks near a cut or the seam.
+                    let tested = PHASED && !out.sums_all(chunk / CHUNK);
                     let chunk = chunk..range.end.min(chunk + CHUNK);
                     // Geometry (State::contact).
                     for (t, g) in chunk.clone().zip(&mut geometry) {
@@ -294,7 +317,7 @@ macro_rules! pairs {
                             let i = index(b.pair_i, q + l).wrapping_sub(out.g0);
                             let j = index(b.pair_j, q + l).wrapping_sub(out.g0);
                             let summed =
-                                |g: usize| !PHASED || out.done.get(g).is_some_and(|&d| d != 0);
+                                |g: usize| !tested || out.done.get(g).is_some_and(|&d| d != 0);
                             let (sum_i, sum_j) = (summed(i), summed(j));
                             if sum_i {
                                 let base = if i == last.0 {
@@ -310,7 +333,7 @@ macro_rules! pairs {
                             if sum_j && let Some(sums) = out.sums.get_mut(j) {
                                 add_row(sums, second_row(row));
                             }
-                            if PHASED
+                            if tested
                                 && !(sum_i && sum_j)
                                 && let Some(place) =
                                     out.rows.get_mut((q + l).wrapping_sub(first_pair))

@@ -13,7 +13,9 @@
 //!    it is marked done. A pair with a grain not summed here stores its row
 //!    (f_x, f_y, −r_i f_s, −r_j f_s) at its place in
 //!    [`Phases`](crate::step::phased::Phases). Each pair's history stays at
-//!    its place. Only the grains near a cut are not summed here.
+//!    its place. Only the grains near a cut are not summed here. A chunk
+//!    whose grains this range all sums (its `ChunkSpan`, found with the
+//!    lists) runs as in the batched pass, without those tests.
 //! 2. **Moves** (`MoveLanes`): over a range of whole groups of lanes'
 //!    worth of grains, each grain not done gathers its rows in pair order
 //!    — the pairs that name it as second grain (their rows as its own:
@@ -43,7 +45,7 @@ macro_rules! phases {
             use crate::step::batch::params::{Moving, PairRange};
             use crate::step::index::{Listed, CHUNK};
             use crate::step::mover::Mover;
-            use crate::step::phased::{merge_moved, ClearDrag, Moved, Phase};
+            use crate::step::phased::{merge_moved, ChunkSpan, ClearDrag, Moved, Phase};
             use crate::step::scalar::Counts;
 
             /// Pairs per chunk.
@@ -92,6 +94,7 @@ macro_rules! phases {
                 /// grains (shared).
                 pub(crate) start: &'a [u32; N],
                 pub(crate) span: &'a [[u32; 2]; N],
+                pub(crate) chunk_span: &'a [ChunkSpan; N],
                 pub(crate) n: usize,
                 /// The sums and done flags of the range's grains (those whose
                 /// first pair lies in it), from grain `g0`.
@@ -200,6 +203,8 @@ macro_rules! phases {
                     sums: &mut *p.sums,
                     done: &*p.done,
                     rows: &mut *p.rows,
+                    places: [q0, q1],
+                    chunk_span: p.chunk_span,
                 };
                 let r = &mut p.range;
                 match (p.count, p.no_tension) {
