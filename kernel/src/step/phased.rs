@@ -388,6 +388,15 @@ pub(crate) struct LaneLists<'a, R: Real, const N: usize> {
 #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
 pub(crate) type ChunkSpan = [u32; 4];
 
+/// Whether the pair places `places` (first, one past last) hold every
+/// place of `span`: the pair phase in lanes sums a grain (or a chunk's
+/// grains) whose span they hold.
+#[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+#[inline]
+pub(crate) fn holds(places: [u32; 2], span: [u32; 2]) -> bool {
+    span[0] >= places[0] && span[1] <= places[1]
+}
+
 impl<R: Real, const N: usize, const K: usize> Default for Phases<R, N, K> {
     fn default() -> Self {
         Self::new()

@@ -28,7 +28,7 @@ macro_rules! pairs {
             use crate::step::batch::lanes::$lanes::*;
             use crate::step::batch::params::PairRange;
             use crate::step::index::{second_window, window_start, CHUNK, FAR, PAIRS};
-            use crate::step::phased::ChunkSpan;
+            use crate::step::phased::{holds, ChunkSpan};
             use crate::step::scalar::Counts;
             use core::arch::x86_64::{
                 __m256i, _mm256_cvtepu8_epi32, _mm256_setzero_si256, _mm256_slli_epi32,
@@ -57,11 +57,9 @@ macro_rules! pairs {
                 /// Whether the range sums every grain of chunk `c`.
                 #[inline]
                 fn sums_all(&self, c: usize) -> bool {
-                    let [q0, q1] = self.places;
                     let grains = self.g0..self.g0 + self.sums.len().min(self.done.len());
                     self.chunk_span.get(c).is_some_and(|s| {
-                        s[0] >= q0
-                            && s[1] <= q1
+                        holds(self.places, [s[0], s[1]])
                             && grains.contains(&(s[2] as usize))
                             && grains.contains(&(s[3] as usize))
                     })

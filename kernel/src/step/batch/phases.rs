@@ -45,7 +45,7 @@ macro_rules! phases {
             use crate::step::batch::params::{Moving, PairRange};
             use crate::step::index::{Listed, CHUNK};
             use crate::step::mover::Mover;
-            use crate::step::phased::{merge_moved, ChunkSpan, ClearDrag, Moved, Phase};
+            use crate::step::phased::{holds, merge_moved, ChunkSpan, ClearDrag, Moved, Phase};
             use crate::step::scalar::Counts;
 
             /// Pairs per chunk.
@@ -196,7 +196,7 @@ macro_rules! phases {
                 // The range's grains whose pairs all lie in it.
                 let spans = p.span.get(p.g0..).unwrap_or(&[]);
                 for (done, span) in p.done.iter_mut().zip(spans) {
-                    *done = u8::from(span[0] >= q0 && span[1] <= q1);
+                    *done = u8::from(holds([q0, q1], *span));
                 }
                 let out = &mut Out {
                     g0: p.g0,
