@@ -129,10 +129,10 @@ fn damaged_checkpoints_are_refused_and_change_nothing() {
     let mut bad = good.clone();
     bad[8 + 144] = 2;
     assert_eq!(fault(refused(&mut sim, &bad)), CheckpointFault::Value);
-    // A NaN where the first grain's x is: after the header (8 + 161 + 173
+    // A NaN where the first grain's x is: after the header (8 + 161 + 181
     // (flow) + 32 + 8 (bed level) + 4 (grain count)) bytes.
     let mut bad = good.clone();
-    let x0 = 8 + 161 + 173 + 32 + 8 + 4;
+    let x0 = 8 + 161 + 181 + 32 + 8 + 4;
     bad[x0..x0 + 8].copy_from_slice(&f64::NAN.to_bits().to_le_bytes());
     assert_eq!(fault(refused(&mut sim, &bad)), CheckpointFault::Value);
     // Every single flipped byte is refused or restores to a valid state:
@@ -226,13 +226,17 @@ fn the_tension_rule_is_restored() {
 
     let mut paper = Box::new(Big::<f64>::new());
     run(&mut *paper, 1500, 0);
-    for version in [4, 3, 2] {
+    for version in [5, 4, 3, 2] {
         let old = downgrade(&bytes(&*paper), version);
         let mut restored = Box::new(Other::<f64>::new());
         restored.restore(&old).unwrap();
         // Before version 5 the free surface was the domain's top.
         let expected = SimConfig {
-            surface: paper.config().y_max,
+            surface: if version >= 5 {
+                paper.config().surface
+            } else {
+                paper.config().y_max
+            },
             ..*paper.config()
         };
         assert_eq!(*restored.config(), expected);
@@ -240,16 +244,24 @@ fn the_tension_rule_is_restored() {
     }
 }
 
-/// A clear-water checkpoint of the current version as version 4 (no free
+/// A clear-water checkpoint of the current version as version 5 (no
+/// lateral stress ratio), 4 (no free
 /// surface, no side walls, drag law, fluctuation model or redraw
 /// schedule), 3 (no slope, no flow model, no fluid configuration either)
 /// or 2 (no tension byte either).
 fn downgrade(bytes: &[u8], version: u16) -> Vec<u8> {
     let mut old = bytes.to_vec();
+    // Version 6's addition: the lateral stress ratio after the grains'
+    // wall friction.
+    let flow_end = 8 + 161 + 66;
+    old.drain(flow_end + 105..flow_end + 113);
+    if version == 5 {
+        old[4..6].copy_from_slice(&version.to_le_bytes());
+        return old;
+    }
     // Version 5's additions: the redraw schedule after the flow epoch and
     // the step, the side walls, drag law and fluctuations after the
     // fluid's configuration, the free surface after the slope.
-    let flow_end = 8 + 161 + 66;
     let redraw = flow_end + 107 + 16;
     old.drain(redraw..redraw + 16);
     old.drain(flow_end + 81..flow_end + 107);

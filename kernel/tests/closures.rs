@@ -164,6 +164,64 @@ fn grains_rub_on_the_walls() {
     grain_wall_friction::<f32>(f64::INFINITY);
 }
 
+/// As [`grain_wall_friction`] under gravity, with a row of grains 2 d
+/// above the moving one, once with Janssen's ratio K = 0.5 of the
+/// overburden's load (C12) and once without: the difference of their first
+/// steps is −μ_w 2 K σ π r², σ = (ρ_p − ρ_f) g Σ φ Δy over the cells above
+/// the grain's centre (half its own), from the column's φ; within `tol`.
+/// K = 0 leaves the bits of (C11) alone.
+fn overburden_friction<R: Real>(tol: f64) {
+    let g = 9.81;
+    let step = |ratio: f64, u: f64| {
+        let mut c = config(1e-5, 1e3, 0.0, 0.5);
+        c.gravity = [0.0, -g];
+        let mut sim = Box::new(Sim::<R, 64, 4, 128>::new());
+        sim.reset(&c).unwrap();
+        sim.add_grain(&mobile(10.0 * D, 20.25 * D, u, 0.0)).unwrap();
+        for k in 0..40 {
+            let above = mobile((k as f64 + 0.5) * D, 22.25 * D, 0.0, 0.0);
+            sim.add_grain(&above).unwrap();
+        }
+        let mut f = flow(40.0, 0.0, 50.0 * D, 100);
+        f.spec.turbulence = false;
+        let s = &mut f.fluid.spec;
+        (s.drag, s.fluctuations, s.channel_width) = (DragLaw::Dallavalle, Fluctuations::Hfe, D);
+        (s.grain_wall_friction, s.lateral_ratio) = (0.4, ratio);
+        sim.set_flow(Some(&f)).unwrap();
+        let column = sim.fluid_column().unwrap();
+        let dy = column.grid().dy().to_f64();
+        let phi: Vec<f64> = column
+            .solid_fractions()
+            .iter()
+            .map(|p| p.to_f64())
+            .collect();
+        let above = phi[41..].iter().sum::<f64>() * dy + 0.5 * phi[40] * dy;
+        sim.step().unwrap();
+        let force = (sim.grain(0).unwrap().u - u) * c.material.translational_mass(D) / c.step_dt;
+        let sigma = c.material.rho * (c.material.s - 1.0) * g * above;
+        (force, sigma)
+    };
+    let u = 0.3;
+    let (without, sigma) = step(0.0, u);
+    let (with, _) = step(0.5, u);
+    let expect = -0.4 * 2.0 * 0.5 * sigma * std::f64::consts::PI * D * D / 4.0;
+    assert!(sigma > 0.0);
+    let error = (with - without - expect).abs() / expect.abs();
+    assert!(
+        error < tol,
+        "{} N vs {expect} N ({error:e})",
+        with - without
+    );
+    assert!(with <= without);
+    assert_eq!(step(0.5, 0.0).0, step(0.0, 0.0).0, "none at rest");
+}
+
+#[test]
+fn grains_rub_on_the_walls_under_their_overburden() {
+    overburden_friction::<f64>(1e-6);
+    overburden_friction::<f32>(f64::INFINITY);
+}
+
 #[test]
 fn dallavalle_drag_is_its_formula() {
     drag_laws::<f64>(1e-12);
@@ -290,6 +348,7 @@ fn shallow_run<R: Real, const K: usize, const C: usize>(
     sc.fluid.fluctuations = Fluctuations::Hfe;
     sc.fluid.channel_width = 1.1 * d;
     sc.fluid.grain_wall_friction = 0.4;
+    sc.fluid.lateral_ratio = 0.5;
     let mut sim = Box::new(Sim::<R, 64, K, C>::new());
     sc.build(&mut *sim).unwrap();
     sim.run(settle).unwrap();
@@ -300,8 +359,9 @@ fn shallow_run<R: Real, const K: usize, const C: usize>(
 
 /// With every closure on, a run stopped anywhere (before and after
 /// redraws of the random walk and updates of the column) and restored into
-/// other capacities continues bit for bit; the side walls, the laws and
-/// the redraw schedule come back from the checkpoint.
+/// other capacities continues bit for bit; the side walls (with the
+/// overburden's load, C12), the laws and the redraw schedule come back
+/// from the checkpoint.
 fn resume<R: Real>() {
     for flow in [0, 1, 77, 300, 1234] {
         let mut whole = shallow_run::<R, 8, 64>(1500, flow);

@@ -412,6 +412,11 @@ pub struct ChannelSection {
     /// The grains' friction coefficient on the walls μ_w (0: none).
     #[serde(default)]
     pub grain_friction: f64,
+    /// Janssen's ratio K of the lateral to the vertical granular stress
+    /// that presses a grain on the walls (C12); 0: the spanwise
+    /// fluctuation's drag presses it (C11).
+    #[serde(default)]
+    pub lateral_ratio: f64,
 }
 
 fn one() -> f64 {

@@ -204,7 +204,7 @@ pub(super) fn fluid_spec(
         f.hindrance,
         "in [0, 10] (Richardson-Zaki: 3.1; 0: off)",
     )?;
-    let (channel_width, wall_friction, grain_wall_friction) = match channel {
+    let (channel_width, wall_friction, grain_wall_friction, lateral_ratio) = match channel {
         Some(c) => {
             need(
                 c.width_m.is_finite() && c.width_m > 0.0 && c.width_m <= 100.0,
@@ -224,9 +224,20 @@ pub(super) fn fluid_spec(
                 c.grain_friction,
                 "in [0, 10] (glass on glass: 0.4)",
             )?;
-            (c.width_m, c.wall_friction, c.grain_friction)
+            need(
+                c.lateral_ratio.is_finite() && (0.0..=10.0).contains(&c.lateral_ratio),
+                "channel.lateral_ratio",
+                c.lateral_ratio,
+                "in [0, 10] (0: pressed by the fluctuations)",
+            )?;
+            (
+                c.width_m,
+                c.wall_friction,
+                c.grain_friction,
+                c.lateral_ratio,
+            )
         }
-        None => (0.0, 1.0, 0.0),
+        None => (0.0, 1.0, 0.0, 0.0),
     };
     let spec = FluidSpec {
         viscosity: f.viscosity_m2_s,
@@ -236,6 +247,7 @@ pub(super) fn fluid_spec(
         channel_width,
         wall_friction,
         grain_wall_friction,
+        lateral_ratio,
         drag: f.drag.kernel(),
         fluctuations: f.fluctuations.kernel(),
     };

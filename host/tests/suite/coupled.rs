@@ -12,11 +12,12 @@ fn coupled() -> String {
 }
 
 /// [`coupled`] with every HydroForceEngine closure (docs/model.md
-/// (C8)–(C10)) under 4 mm of water: Dallavalle's drag, the random walk,
-/// side walls 0.55 mm apart.
+/// (C8)–(C12)) under 4 mm of water: Dallavalle's drag, the random walk,
+/// side walls 0.55 mm apart, the grains' friction on them under the
+/// spanwise push and the overburden.
 fn closures() -> String {
     coupled().replace("[flow]", "[flow]\ndepth = 0.004")
-        + "[fluid]\ndrag = \"dallavalle\"\nfluctuations = \"hfe\"\n[channel]\nwidth_m = 0.00055\nwall_friction = 0.6\ngrain_friction = 0.4\n"
+        + "[fluid]\ndrag = \"dallavalle\"\nfluctuations = \"hfe\"\n[channel]\nwidth_m = 0.00055\nwall_friction = 0.6\ngrain_friction = 0.4\nlateral_ratio = 0.5\n"
 }
 
 /// The rows of `profiles.csv` as (τ*, y/d, φ, u_p, u_f), u_p `None` where
@@ -173,6 +174,10 @@ fn bad_coupled_keys_are_named() {
         (
             "channel.width_m=0.0065 channel.grain_friction=11",
             "channel.grain_friction = 11: must be in [0, 10]",
+        ),
+        (
+            "channel.width_m=0.0065 channel.lateral_ratio=-0.5",
+            "channel.lateral_ratio = -0.5: must be in [0, 10]",
         ),
     ] {
         let cfg = write(dir.path(), "c.toml", &coupled());

@@ -114,6 +114,11 @@ pub struct FluidSpec {
     /// default): none. A grain is pressed on a wall by the drag of the
     /// spanwise fluctuation, as in Maurin et al.'s (2015) YADE runs.
     pub grain_wall_friction: f64,
+    /// Janssen's ratio K of the lateral to the vertical granular stress
+    /// (C12): 0 (the default) presses a grain on a wall by the drag of the
+    /// spanwise fluctuation (C11); K > 0 by K times the weight of the
+    /// grains above it.
+    pub lateral_ratio: f64,
     /// The grains' drag law (docs/model.md (C8)).
     pub drag: DragLaw,
     /// The turbulent fluctuations (docs/model.md (C9)).
@@ -134,6 +139,7 @@ impl FluidSpec {
             channel_width: 0.0,
             wall_friction: 1.0,
             grain_wall_friction: 0.0,
+            lateral_ratio: 0.0,
             drag: DragLaw::Paper,
             fluctuations: Fluctuations::Paper,
         }
@@ -276,6 +282,12 @@ impl FluidConfig {
             "channel.grain_friction",
             spec.grain_wall_friction,
             "in [0, 10] (glass on glass: 0.4)",
+        )?;
+        check(
+            spec.lateral_ratio.is_finite() && (0.0..=10.0).contains(&spec.lateral_ratio),
+            "channel.lateral_ratio",
+            spec.lateral_ratio,
+            "in [0, 10] (0: pressed by the fluctuations)",
         )
     }
 }

@@ -20,10 +20,10 @@ pub(crate) struct Coupling<R: Real, const C: usize> {
     /// Scratch of an update: the grains' slab sums.
     pub(crate) slabs: Slabs<R, C>,
     /// What a grain reads at each cell centre j, a row [u_f, scale,
-    /// hindrance, 0]: u_f; u*_loc exp(−(y − y_bed)/h), the scale of the
+    /// hindrance, load]: u_f; u*_loc exp(−(y − y_bed)/h), the scale of the
     /// fluctuations (15) with the local shear velocity (C4); (1 − φ_j)^(−n),
-    /// docs/model.md (C7), 1 without hindrance. Derived
-    /// ([`Coupling::refresh`]).
+    /// docs/model.md (C7), 1 without hindrance; the walls' load per r² of
+    /// the overburden (C12), 0 without it. Derived ([`Coupling::refresh`]).
     pub(crate) centres: [[R; 4]; C],
     /// Each row of [`Coupling::centres`] less the one below: centre j + 1's
     /// values less centre j's (0 at the last centre), the slopes of the
@@ -68,6 +68,12 @@ pub(crate) struct Closures<R: Real> {
     pub(crate) hfe: bool,
     /// μ_w √(2/π) of the grains' friction on the side walls (C11); 0: none.
     pub(crate) grain_wall: R,
+    /// The walls also take the overburden's load (C12): the table's fourth
+    /// column, times r².
+    pub(crate) overburden: bool,
+    /// 2 π K μ_w (ρ_p − ρ_f) g cos θ (N/m³) of (C12): the load per r² of
+    /// the φ above, 0 without it.
+    pub(crate) load_weight: f64,
     /// The free surface: no drag on a grain whose centre is above it.
     pub(crate) surface: R,
 }
@@ -80,6 +86,8 @@ impl<R: Real> Closures<R> {
         viscous_term: R::ZERO,
         hfe: false,
         grain_wall: R::ZERO,
+        overburden: false,
+        load_weight: 0.0,
         surface: R::ZERO,
     };
 
@@ -96,17 +104,30 @@ impl<R: Real> Closures<R> {
         }
     }
 
-    /// The grains' friction on the side walls (C11) of a grain moving at
-    /// (`u`, `v`) with drag factor `xi` where the fluctuations' scale is
-    /// `scale`: −μ_w N (u, v)/max(|v_p|, [`WALL_SLIP`]), N = Ξ √(2/π) scale
-    /// the mean drag of the spanwise fluctuation that presses it on a wall;
-    /// `None` without it.
+    /// The grains' friction on the side walls (C11) of a grain of radius
+    /// `r` moving at (`u`, `v`) with drag factor `xi` where the
+    /// fluctuations' scale is `scale` and the overburden's load per r² is
+    /// `load`: −μ_w N (u, v)/max(|v_p|, [`WALL_SLIP`]), N = Ξ √(2/π) scale
+    /// the mean drag of the spanwise fluctuation that presses it on a wall,
+    /// plus `load` r² with (C12); `None` without it.
     #[inline]
-    pub(crate) fn wall_friction(&self, xi: R, scale: R, u: R, v: R) -> Option<(R, R)> {
+    pub(crate) fn wall_friction(
+        &self,
+        xi: R,
+        scale: R,
+        load: R,
+        r: R,
+        u: R,
+        v: R,
+    ) -> Option<(R, R)> {
         if self.grain_wall <= R::ZERO {
             return None;
         }
-        let pressed = xi * self.grain_wall * scale;
+        let pressed = if self.overburden {
+            xi * self.grain_wall * scale + load * r * r
+        } else {
+            xi * self.grain_wall * scale
+        };
         let speed = R::sqrt(u * u + v * v);
         let k = pressed / R::max(speed, R::from_f64(WALL_SLIP));
         Some((k * u, k * v))
@@ -155,6 +176,8 @@ pub(crate) struct Local<R: Real> {
     pub(crate) scale: R,
     /// (1 − φ)^(−n).
     pub(crate) hindrance: R,
+    /// The walls' load per r² of the overburden (C12), N/m².
+    pub(crate) load: R,
     /// Where it was read.
     pub(crate) place: Place<R>,
 }
@@ -221,10 +244,21 @@ impl<R: Real, const C: usize> Coupling<R, C> {
         }
     }
 
-    /// Sets the closures of `config` (docs/model.md (C8), (C9)) with the
-    /// material's drag coefficient `c_d` and the free surface `surface`.
-    pub(crate) fn configure(&mut self, config: &FluidConfig, c_d: f64, surface: f64) {
+    /// Sets the closures of `config` (docs/model.md (C8)–(C12)) with the
+    /// material's drag coefficient `c_d`, the grains' buoyant unit weight
+    /// (ρ_p − ρ_f) g cos θ `unit_weight` (N/m³) and the free surface
+    /// `surface`.
+    pub(crate) fn configure(
+        &mut self,
+        config: &FluidConfig,
+        c_d: f64,
+        unit_weight: f64,
+        surface: f64,
+    ) {
         let viscous = config.spec.drag == DragLaw::Dallavalle;
+        let walls = config.spec.channel_width > 0.0;
+        let overburden = walls && config.spec.lateral_ratio > 0.0;
+        let mu_w = config.spec.grain_wall_friction;
         self.closures = Closures {
             viscous,
             inertial: R::from_f64(if viscous { 0.44 / c_d } else { 0.0 }),
@@ -234,13 +268,17 @@ impl<R: Real, const C: usize> Coupling<R, C> {
                 0.0
             }),
             hfe: config.spec.fluctuations == Fluctuations::Hfe,
-            grain_wall: R::from_f64(if config.spec.channel_width > 0.0 {
-                config.spec.grain_wall_friction
-                    * core::f64::consts::FRAC_2_SQRT_PI
-                    * core::f64::consts::FRAC_1_SQRT_2
+            grain_wall: R::from_f64(if walls {
+                mu_w * core::f64::consts::FRAC_2_SQRT_PI * core::f64::consts::FRAC_1_SQRT_2
             } else {
                 0.0
             }),
+            overburden,
+            load_weight: if overburden {
+                2.0 * core::f64::consts::PI * config.spec.lateral_ratio * mu_w * unit_weight
+            } else {
+                0.0
+            },
             surface: R::from_f64(surface),
         };
     }
@@ -303,6 +341,7 @@ impl<R: Real, const C: usize> Coupling<R, C> {
                 u: lerp(0),
                 scale: lerp(1),
                 hindrance: lerp(2),
+                load: lerp(3),
                 place,
             }
         } else {
@@ -312,6 +351,7 @@ impl<R: Real, const C: usize> Coupling<R, C> {
                 u: if s > R::ZERO { v[0] } else { v[0] * wall },
                 scale: v[1],
                 hindrance: v[2],
+                load: v[3],
                 place,
             }
         }
@@ -360,9 +400,10 @@ impl<R: Real, const C: usize> Coupling<R, C> {
     /// ([`Coupling::centres`], [`Coupling::slopes`]): u_f, the scale of the
     /// fluctuations u*_loc exp(−(y − `bed_level`)/h) (`minus_inv_depth` =
     /// −1/h; HydroForceEngine's (C9): u*_loc at and above `bed_level`, 0
-    /// below) and the hindrance (1 − φ)^(−n) with exponent
-    /// `config.spec.hindrance` (f64 `libm::pow`). After every update of the
-    /// column or of the bed level, and after a restore.
+    /// below), the hindrance (1 − φ)^(−n) with exponent
+    /// `config.spec.hindrance` (f64 `libm::pow`) and (C12)'s load, the
+    /// weight of the φ above (in f64, summed from the top). After every
+    /// update of the column or of the bed level, and after a restore.
     pub(crate) fn refresh(&mut self, config: &FluidConfig, minus_inv_depth: R, bed_level: R) {
         let n = config.spec.hindrance;
         let grid = self.column.grid();
@@ -384,6 +425,20 @@ impl<R: Real, const C: usize> Coupling<R, C> {
                 R::ZERO
             };
             self.centres[j] = [u, scale, hindrance, R::ZERO];
+        }
+        if self.closures.overburden {
+            // (C12): the weight of the φ above each centre, half its own
+            // cell's, summed from the top.
+            let (dy, w) = (grid.dy.to_f64(), self.closures.load_weight);
+            let mut above = 0.0;
+            let phis = self.column.solid_fractions();
+            for j in (0..grid.cells().min(C)).rev() {
+                let half = phis.get(j).map_or(0.0, |p| p.to_f64()) * dy * 0.5;
+                if let Some(row) = self.centres.get_mut(j) {
+                    row[3] = R::from_f64(w * (above + half));
+                }
+                above += 2.0 * half;
+            }
         }
         let cells = grid.cells().min(C);
         for j in 0..cells {

@@ -2,8 +2,9 @@
 //!
 //! Little-endian whatever the machine, floats as their raw IEEE bits in the
 //! working precision, so a checkpoint written on x86_64 restores on a
-//! Cortex-M and continues bit for bit. Layout (version 5; version 4, read
-//! too, has no free surface below the domain's top, no side walls, the
+//! Cortex-M and continues bit for bit. Layout (version 6; version 5, read
+//! too, has no lateral stress ratio of the grains' wall friction (C12);
+//! version 4 no free surface below the domain's top, no side walls, the
 //! paper's drag and fluctuations and no redraw schedule; version 3 no
 //! slope, no flow model and no fluid: a horizontal bed and clear water;
 //! version 2 not even the tension byte: the paper's rule):
@@ -12,7 +13,7 @@
 //! |---|---|
 //! | magic `MBSK`, version u16, precision bytes u8 (4/8), 0 u8 | 8 |
 //! | `SimConfig`: step_dt, ρ, s, C_M, C_D, μ, ν, k_n, k_s, η_n, η_s, g_x, g_y, L, y_min, y_max, skin (f64), seed (u64), tension (u8: 0 the paper's rule (8), 1 none (8')), slope angle θ, free surface (f64) | 161 |
-//! | flow on (u8); `FlowConfig`: u*, and of its `FlowSpec` κ, h, ε0, k_sr, d (f64), turbulence (u8), hold, bed-level interval (u32, integration steps), bed-level span (f64), model (u8: 0 clear water, 1 coupled); `FluidConfig`: fluid cells (u32), bottom, surface, cross-section, ρ, ν, κ, φ_max, driving (f64), update steps (u32, integration steps), hindrance, channel width, wall friction factor, grains' wall friction (f64), drag law (u8: 0 paper, 1 Dallavalle), fluctuations (u8: 0 paper, 1 HydroForceEngine's) | 173 |
+//! | flow on (u8); `FlowConfig`: u*, and of its `FlowSpec` κ, h, ε0, k_sr, d (f64), turbulence (u8), hold, bed-level interval (u32, integration steps), bed-level span (f64), model (u8: 0 clear water, 1 coupled); `FluidConfig`: fluid cells (u32), bottom, surface, cross-section, ρ, ν, κ, φ_max, driving (f64), update steps (u32, integration steps), hindrance, channel width, wall friction factor, grains' wall friction, lateral stress ratio K (f64), drag law (u8: 0 paper, 1 Dallavalle), fluctuations (u8: 0 paper, 1 HydroForceEngine's) | 181 |
 //! | flow epoch, step, next redraw step, redraw period (u64), bed level (R) | 32 + R |
 //! | grains n (u32); per grain x, y, u, v, ω, d/2, z_u, z_v, 1/m, 1/I, drag factor (R), fixed, class (u8) | 4 + n (11R + 2) |
 //! | contacts m (u32); per contact i, j (u32), e_n, e_s (R), in (i, j) order | 4 + m (8 + 2R) |
@@ -42,7 +43,7 @@ use crate::sim::{check_grain, Redraw, Sim, SimConfig};
 use crate::steps::IntegrationSteps;
 
 /// Format version written by [`Sim::checkpoint`].
-pub const CHECKPOINT_VERSION: u16 = 5;
+pub const CHECKPOINT_VERSION: u16 = 6;
 
 const MAGIC: [u8; 4] = *b"MBSK";
 
@@ -231,11 +232,12 @@ fn read_head<R: Real>(r: &mut Reader<'_>) -> Result<Head, Error> {
         }
         let update_steps = IntegrationSteps(r.u32()?);
         let hindrance = r.f64()?;
-        let (channel_width, wall_friction, grain_wall_friction, drag, fluctuations) =
+        let (channel_width, wall_friction, grain_wall_friction, lateral_ratio, drag, fluctuations) =
             if version >= 5 {
                 let width = r.f64()?;
                 let friction = r.f64()?;
                 let grains = r.f64()?;
+                let ratio = if version >= 6 { r.f64()? } else { 0.0 };
                 let at = r.at;
                 let bad = || Error::BadCheckpoint {
                     fault: CheckpointFault::Value,
@@ -243,9 +245,9 @@ fn read_head<R: Real>(r: &mut Reader<'_>) -> Result<Head, Error> {
                 };
                 let drag = DragLaw::from_code(r.u8()?).ok_or_else(bad)?;
                 let fluctuations = Fluctuations::from_code(r.u8()?).ok_or_else(bad)?;
-                (width, friction, grains, drag, fluctuations)
+                (width, friction, grains, ratio, drag, fluctuations)
             } else {
-                (0.0, 1.0, 0.0, DragLaw::Paper, Fluctuations::Paper)
+                (0.0, 1.0, 0.0, 0.0, DragLaw::Paper, Fluctuations::Paper)
             };
         let fluid = FluidConfig {
             spec: FluidSpec {
@@ -256,6 +258,7 @@ fn read_head<R: Real>(r: &mut Reader<'_>) -> Result<Head, Error> {
                 channel_width,
                 wall_friction,
                 grain_wall_friction,
+                lateral_ratio,
                 drag,
                 fluctuations,
             },
@@ -306,10 +309,10 @@ fn read_head<R: Real>(r: &mut Reader<'_>) -> Result<Head, Error> {
 }
 
 /// Bytes of a checkpoint before its grains: header 8, `SimConfig` 161 (with
-/// the tension rule, the slope and the free surface), flow 173 (with the
+/// the tension rule, the slope and the free surface), flow 181 (with the
 /// fluid's configuration), flow epoch, step and redraw schedule 32 (the
 /// bed level, `R`, follows).
-const HEAD_LEN: usize = 8 + 161 + 173 + 32;
+const HEAD_LEN: usize = 8 + 161 + 181 + 32;
 
 impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
     /// The length of the largest checkpoint this simulation can write or
@@ -404,6 +407,7 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
         w.f64(fl.spec.channel_width);
         w.f64(fl.spec.wall_friction);
         w.f64(fl.spec.grain_wall_friction);
+        w.f64(fl.spec.lateral_ratio);
         w.uint(fl.spec.drag as u64, 1);
         w.uint(fl.spec.fluctuations as u64, 1);
         w.uint(self.flow_epoch, 8);

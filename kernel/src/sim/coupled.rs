@@ -38,8 +38,11 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
         config.driving += self.config.slope_driving();
         let fluid = &mut self.fluid;
         fluid.column.reset(&config)?;
-        let (c_d, surface) = (self.config.material.c_d, self.config.surface);
-        fluid.configure(&config, c_d, surface);
+        let (m, surface) = (&self.config.material, self.config.surface);
+        // (ρ_p − ρ_f) g cos θ of the overburden (C12).
+        let unit_weight =
+            m.rho * (m.s - 1.0) * -self.config.gravity[1] * libm::cos(self.config.slope_angle);
+        fluid.configure(&config, m.c_d, unit_weight, surface);
         fluid.slabs.clear(fluid.column.grid())?;
         let g = &mut self.grains;
         let n = g.len.min(N);

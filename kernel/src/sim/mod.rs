@@ -167,6 +167,7 @@ const ZERO_FLUID: FluidConfig = FluidConfig {
         channel_width: 0.0,
         wall_friction: 0.0,
         grain_wall_friction: 0.0,
+        lateral_ratio: 0.0,
         drag: DragLaw::Paper,
         fluctuations: Fluctuations::Paper,
     },

@@ -287,8 +287,12 @@ mod tests {
     /// [`digests`] does: the digest. With `closures`, HydroForceEngine's
     /// (Dallavalle's drag, its fluctuations, side walls 1.1 d apart) under
     /// a free surface 9 d above the fixed grains, below the bed's top
-    /// grains: some are out of the water (asserted).
-    fn coupled_digest<R: Real, const BUFFER: usize, const BATCHED: bool>(closures: bool) -> u64 {
+    /// grains: some are out of the water (asserted); with `overburden` too,
+    /// the walls' load of the grains above (C12, K = 0.5).
+    fn coupled_digest<R: Real, const BUFFER: usize, const BATCHED: bool>(
+        closures: bool,
+        overburden: bool,
+    ) -> u64 {
         let mut sim = std::boxed::Box::new(Sim::<R, 64, 8, 1024>::new());
         let mut sc = Scenario::paper();
         let d = sc.bed.max_diameter();
@@ -316,6 +320,7 @@ mod tests {
             fluid.spec.fluctuations = crate::Fluctuations::Hfe;
             fluid.spec.channel_width = 1.1 * d;
             fluid.spec.grain_wall_friction = 0.4;
+            fluid.spec.lateral_ratio = if overburden { 0.5 } else { 0.0 };
         }
         (flow.spec.model, flow.fluid) = (crate::FlowModel::Coupled, fluid);
         sim.set_flow(Some(&flow)).unwrap();
@@ -335,16 +340,26 @@ mod tests {
 
     /// The coupled flow: the batched step and the scalar step (geometry
     /// ahead or not) give the same bits, in both precisions, with the
-    /// paper's closures and with HydroForceEngine's under a free surface.
+    /// paper's closures and with HydroForceEngine's under a free surface,
+    /// with and without the overburden's load on the walls (C12).
     #[test]
     fn coupled_flow_is_batched_with_the_scalar_bits() {
-        for closures in [false, true] {
-            let scalar = coupled_digest::<f64, 0, false>(closures);
-            assert_eq!(coupled_digest::<f64, 8, false>(closures), scalar);
-            assert_eq!(coupled_digest::<f64, 8, true>(closures), scalar);
-            let scalar = coupled_digest::<f32, 0, false>(closures);
-            assert_eq!(coupled_digest::<f32, 8, false>(closures), scalar);
-            assert_eq!(coupled_digest::<f32, 8, true>(closures), scalar);
+        let mut seen = std::vec::Vec::new();
+        for (closures, overburden) in [(false, false), (true, false), (true, true)] {
+            let scalar = coupled_digest::<f64, 0, false>(closures, overburden);
+            assert!(!seen.contains(&scalar), "each option changes the run");
+            seen.push(scalar);
+            assert_eq!(
+                coupled_digest::<f64, 8, false>(closures, overburden),
+                scalar
+            );
+            assert_eq!(coupled_digest::<f64, 8, true>(closures, overburden), scalar);
+            let scalar = coupled_digest::<f32, 0, false>(closures, overburden);
+            assert_eq!(
+                coupled_digest::<f32, 8, false>(closures, overburden),
+                scalar
+            );
+            assert_eq!(coupled_digest::<f32, 8, true>(closures, overburden), scalar);
         }
     }
 

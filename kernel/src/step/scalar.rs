@@ -172,7 +172,7 @@ pub(crate) fn add_coupled_drag<R: Real, const N: usize, const C: usize>(
         let speed = R::sqrt(wx * wx + wy * wy);
         let xi = closures.drag_factor(g.drag_coef[i], g.r[i], at.hindrance, speed);
         let (fx, fy) = (xi * wx, xi * wy);
-        match closures.wall_friction(xi, at.scale, g.u[i], g.v[i]) {
+        match closures.wall_friction(xi, at.scale, at.load, g.r[i], g.u[i], g.v[i]) {
             // The walls take it, not the fluid (C11).
             Some((wall_x, wall_y)) => {
                 g.fx[i] += fx - wall_x;

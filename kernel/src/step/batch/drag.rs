@@ -182,9 +182,9 @@ macro_rules! drag {
                         let row = |t: &[[R; 4]], l: usize| {
                             load_row(t.get(cells[l] as usize).unwrap_or(&no_row))
                         };
-                        let [u, scale, hindrance, _] =
+                        let [u, scale, hindrance, load] =
                             from_rows(core::array::from_fn(|l| row(fluid.centres, l)));
-                        let [du, dscale, dhindrance, _] =
+                        let [du, dscale, dhindrance, dload] =
                             from_rows(core::array::from_fn(|l| row(fluid.slopes, l)));
                         let lerp = |v: V, dv: V| select(v, add(v, mul(dv, frac)), inside);
                         let wall = min(one, max(zero, mul(add(position, half), two)));
@@ -216,7 +216,13 @@ macro_rules! drag {
                         let [fx, fy] = [mul(xi, wx), mul(xi, wy)].map(|f| and(f, mobile));
                         let (sum_x, sum_y) = if grain_wall > 0.0 {
                             let (u, v) = (at(&g.u), at(&g.v));
-                            let pressed = mul(mul(xi, splat(grain_wall)), scale);
+                            let spanwise = mul(mul(xi, splat(grain_wall)), scale);
+                            let pressed = if closures.overburden {
+                                let r = at(&g.r);
+                                add(spanwise, mul(mul(lerp(load, dload), r), r))
+                            } else {
+                                spanwise
+                            };
                             let speed = sqrt(add(mul(u, u), mul(v, v)));
                             let k = div(pressed, max(speed, slip));
                             let [wall_x, wall_y] = [mul(k, u), mul(k, v)].map(|f| and(f, mobile));
