@@ -20,6 +20,11 @@
 //! in one of the nine bins around (a bin is at least a cut-off wide), so
 //! the distance test alone decides. History moves from the old slots to
 //! the new ones by merging the two sorted lists, so no contact is lost.
+//! A build is a serial sort ([`Neighbours::sort`]) and a search
+//! ([`Search`]) that can be cut into ranges of grains run on their own
+//! (the phased step runs it on the host's threads): a range after the
+//! first sets its bucket cursors past the grains before it, and the lists
+//! are those of the whole.
 //!
 //! The batched step's pair index, built from these slots, is not kept here:
 //! it is a field of [`crate::Sim`] (`step::index`), which lends the slots
@@ -141,8 +146,21 @@ impl<R: Real, const N: usize, const K: usize> Neighbours<R, N, K> {
     /// Bins the grains and rebuilds every grain's slots, carrying
     /// the history of pairs present in both lists. Fixed–fixed pairs are
     /// never listed (they exert no force). The slots must hold the history
-    /// (the batched step's pair index gives it back first).
+    /// (the batched step's pair index gives it back first). A simulation
+    /// runs the three parts itself (`Sim::rebuild_in`).
+    #[cfg(test)]
     pub(crate) fn rebuild(&mut self, g: &Grains<R, N>, width: R, y_min: R) -> Result<(), Error> {
+        let bins = self.sort(g, width, y_min)?;
+        self.search(g, bins, &mut []).run()?;
+        self.built();
+        Ok(())
+    }
+
+    /// The first part of a build: sizes the skin from the fastest grain
+    /// and the bins from the largest cut-off, and counting-sorts the grains
+    /// by bucket (each bucket's grains ascending, `first` its start, `end`
+    /// its end); the [`Bins`] a search reads.
+    pub(crate) fn sort(&mut self, g: &Grains<R, N>, width: R, y_min: R) -> Result<Bins<R>, Error> {
         let n = g.len.min(N);
         let (mut r_max, mut max_v2) = (R::ZERO, R::ZERO);
         for ((&r, &u), &v) in g.r[..n].iter().zip(&g.u[..n]).zip(&g.v[..n]) {
@@ -169,23 +187,27 @@ impl<R: Real, const N: usize, const K: usize> Neighbours<R, N, K> {
             nx_f as u32
         };
         let bin = width / R::from_f64(nx as f64);
-        let inv_bin = R::ONE / bin;
-
         // About one bucket per grain (clearing costs O(n), not O(N)), a
         // power of two so that a bin's bucket is a mask, not a division.
         let buckets = bucket_count(n, N);
-        let bin_of = |i: usize| {
-            let bx = ((g.x[i] * inv_bin).to_f64() as u32).min(nx - 1);
-            let by = (((g.y[i] - y_min) * inv_bin).to_f64() as u32).min(1 << 30);
-            (bx, by)
+        let bins = Bins {
+            nx,
+            inv_bin: R::ONE / bin,
+            y_min,
+            buckets,
+            // The nine bins around a grain are nine buckets unless the bed
+            // is so thin that their cells (within 3 nx of each other) wrap
+            // around the buckets; then a bucket met twice is searched once.
+            may_repeat: (buckets as u64) < 3 * u64::from(nx),
+            width,
+            skin: self.skin,
         };
         // Counting sort by bucket: each bucket's end, then its grains placed
         // from the last down, so that each lists its grains in ascending
         // order, from `first` (each bucket's start once all are placed).
         self.end[..buckets].fill(0);
         for i in 0..n {
-            let (bx, by) = bin_of(i);
-            self.end[bucket(bx, by, nx, buckets)] += 1;
+            self.end[bins.bucket_of(g, i).2] += 1;
         }
         let mut placed = 0;
         for end in &mut self.end[..buckets] {
@@ -194,70 +216,45 @@ impl<R: Real, const N: usize, const K: usize> Neighbours<R, N, K> {
         }
         self.first[..buckets].copy_from_slice(&self.end[..buckets]);
         for i in (0..n).rev() {
-            let (bx, by) = bin_of(i);
-            let first = &mut self.first[bucket(bx, by, nx, buckets)];
+            let first = &mut self.first[bins.bucket_of(g, i).2];
             *first -= 1;
             self.order[*first as usize] = i as u32;
         }
+        Ok(bins)
+    }
 
-        // The nine bins around a grain are nine buckets unless the bed is
-        // so thin that their cells (within 3 nx of each other) wrap around
-        // the buckets; then a bucket met twice is searched once.
-        let may_repeat = (buckets as u64) < 3 * u64::from(nx);
-        let half_width = width * R::HALF;
-        for i in 0..n {
-            let (bx, by) = bin_of(i);
-            // Grains are searched in ascending order, so each bucket's grains
-            // before i are gone from it: i first, then those searched.
-            if let Some(first) = self.first.get_mut(bucket(bx, by, nx, buckets)) {
-                *first += 1;
-            }
-            // The bins left and right, periodic in x (nx ≥ 3).
-            let left = if bx == 0 { nx - 1 } else { bx - 1 };
-            let right = if bx + 1 >= nx { 0 } else { bx + 1 };
-            let (x_i, y_i, r_i, fixed_i) = (g.x[i], g.y[i], g.r[i], g.fixed[i]);
-            let mut found = Found::new();
-            let mut searched = [usize::MAX; 9];
-            for (s, (dy, nbx)) in (0..3u32)
-                .flat_map(|dy| [left, bx, right].map(|nbx| (dy, nbx)))
-                .enumerate()
-            {
-                let Some(nby) = (by + dy).checked_sub(1) else {
-                    continue;
-                };
-                let b = bucket(nbx, nby, nx, buckets);
-                if may_repeat {
-                    if searched.contains(&b) {
-                        continue;
-                    }
-                    searched[s] = b;
-                }
-                let (from, to) = (self.first[b] as usize, self.end[b] as usize);
-                for &j in self.order.get(from..to).unwrap_or(&[]) {
-                    let j = j as usize;
-                    let ddx = periodic(g.x[j] - x_i, width, half_width);
-                    let ddy = g.y[j] - y_i;
-                    let reach = r_i + g.r[j] + self.skin;
-                    let keep = !(fixed_i & g.fixed[j]) & (ddx * ddx + ddy * ddy < reach * reach);
-                    found.push(j as u32, keep);
-                }
-            }
-            let found = found.sorted(K).ok_or(Error::CapacityExceeded {
-                what: Capacity::NeighboursPerGrain,
-                capacity: K,
-            })?;
-            merge_into_slots(
-                &mut self.count[i],
-                &mut self.other[i],
-                &mut self.spring[i],
-                found,
-            );
+    /// The second part of a build: the search of every grain's list
+    /// ([`Search`]) over the sort's `bins`, the whole bed one range whose
+    /// bucket cursors are `first`; `spare` holds the cursors of further
+    /// ranges if it is cut (`bins.buckets` each; none: it is not cut).
+    pub(crate) fn search<'a>(
+        &'a mut self,
+        g: &'a Grains<R, N>,
+        bins: Bins<R>,
+        spare: &'a mut [u32],
+    ) -> Search<'a, R, N, K> {
+        let n = g.len.min(N);
+        Search {
+            g,
+            bins,
+            order: &self.order,
+            end: &self.end,
+            lo: 0,
+            count: &mut self.count[..n],
+            other: &mut self.other[..n],
+            spring: &mut self.spring[..n],
+            cursors: &mut self.first,
+            ready: true,
+            spare,
         }
+    }
+
+    /// The end of a build: the travel since it 0, the lists fresh.
+    pub(crate) fn built(&mut self) {
         self.travel = R::ZERO;
         self.stale = false;
         self.rebuilds = self.rebuilds.saturating_add(1);
         self.generation = self.generation.wrapping_add(1);
-        Ok(())
     }
 
     /// The history of grain i's used slot k, wherever it lives: `lent`
@@ -324,6 +321,185 @@ impl<R: Real, const N: usize, const K: usize> Neighbours<R, N, K> {
 impl<R: Real, const N: usize, const K: usize> Default for Neighbours<R, N, K> {
     fn default() -> Self {
         Self::new()
+    }
+}
+
+/// The bins of a build ([`Neighbours::sort`]): square, at least the
+/// largest cut-off wide, `nx` across the periodic width and hashed into
+/// `buckets` buckets from `y_min` up; what a search reads besides the
+/// sorted grains.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Bins<R: Real> {
+    nx: u32,
+    inv_bin: R,
+    y_min: R,
+    buckets: usize,
+    may_repeat: bool,
+    width: R,
+    skin: R,
+}
+
+impl<R: Real> Bins<R> {
+    /// Grain i's bin (bx, by) and its bucket.
+    #[inline]
+    fn bucket_of<const N: usize>(&self, g: &Grains<R, N>, i: usize) -> (u32, u32, usize) {
+        let bx = ((g.x[i] * self.inv_bin).to_f64() as u32).min(self.nx - 1);
+        let by = (((g.y[i] - self.y_min) * self.inv_bin).to_f64() as u32).min(1 << 30);
+        (bx, by, bucket(bx, by, self.nx, self.buckets))
+    }
+}
+
+/// The search of a range of grains' lists ([`Neighbours::search`]): each
+/// grain i of the range, in ascending order, tests the grains of the nine
+/// bins around it that follow it in its buckets (the buckets' `cursors`
+/// drop each grain once searched, so only grains j > i are met) and
+/// replaces its slots by those within the cut-off, keeping their history.
+/// Each grain's list depends on nothing else, so the range can be cut at
+/// any grain, each part searching on its own ([`Search::split_at`]; the
+/// phased step runs it as a phase); the lists are the same.
+pub(crate) struct Search<'a, R: Real, const N: usize, const K: usize> {
+    g: &'a Grains<R, N>,
+    bins: Bins<R>,
+    order: &'a [u32],
+    end: &'a [u32],
+    /// The range's first grain.
+    lo: usize,
+    count: &'a mut [u8],
+    other: &'a mut [[u32; K]],
+    spring: &'a mut [[Spring<R>; K]],
+    /// Per bucket, where its grains after the last one searched start in
+    /// `order` (`ready`), or room for them, set when the range runs.
+    cursors: &'a mut [u32],
+    ready: bool,
+    /// Room for the cursors of further ranges, `bins.buckets` each.
+    spare: &'a mut [u32],
+}
+
+impl<R: Real, const N: usize, const K: usize> Search<'_, R, N, K> {
+    /// Grains in the range.
+    pub(crate) fn grains(&self) -> usize {
+        self.count.len()
+    }
+
+    /// The first `mid` grains and the rest, the rest with cursors of its
+    /// own from `spare` and `spare`'s other room shared by grains; not cut
+    /// (the whole and an empty range) without room for them.
+    pub(crate) fn split_at(self, mid: usize) -> (Self, Self) {
+        let (len, buckets) = (self.count.len(), self.bins.buckets);
+        let mid = mid.min(len);
+        if self.spare.len() < buckets || mid == 0 || mid == len {
+            let empty = Search {
+                lo: self.lo + len,
+                count: &mut [],
+                other: &mut [],
+                spring: &mut [],
+                cursors: &mut [],
+                ready: true,
+                spare: &mut [],
+                ..self
+            };
+            return (self, empty);
+        }
+        let (cursors, spare) = self.spare.split_at_mut(buckets);
+        let first_share = spare.len() / buckets * mid / len * buckets;
+        let (spare_first, spare_second) = spare.split_at_mut(first_share);
+        let (count, other, spring) = (
+            self.count.split_at_mut(mid),
+            self.other.split_at_mut(mid),
+            self.spring.split_at_mut(mid),
+        );
+        let second = Search {
+            lo: self.lo + mid,
+            count: count.1,
+            other: other.1,
+            spring: spring.1,
+            cursors,
+            ready: false,
+            spare: spare_second,
+            ..self
+        };
+        let first = Search {
+            count: count.0,
+            other: other.0,
+            spring: spring.0,
+            spare: spare_first,
+            ..self
+        };
+        (first, second)
+    }
+
+    /// Searches the range's grains: their lists, or the capacity error of
+    /// a grain with more than `K` neighbours (or [`FOUND_MAX`] − 1).
+    pub(crate) fn run(self) -> Result<(), Error> {
+        let (g, bins, order, end) = (self.g, self.bins, self.order, self.end);
+        let (nx, buckets) = (bins.nx, bins.buckets);
+        let Some(cursors) = self.cursors.get_mut(..buckets) else {
+            return Ok(()); // an empty range
+        };
+        if !self.ready {
+            // Each bucket's start (the end of the one before), past the
+            // grains before the range.
+            let mut start = 0;
+            for (cursor, &end) in cursors.iter_mut().zip(end) {
+                *cursor = start;
+                start = end;
+            }
+            for i in 0..self.lo {
+                if let Some(cursor) = cursors.get_mut(bins.bucket_of(g, i).2) {
+                    *cursor += 1;
+                }
+            }
+        }
+        let half_width = bins.width * R::HALF;
+        let slots = self
+            .count
+            .iter_mut()
+            .zip(self.other.iter_mut())
+            .zip(self.spring.iter_mut());
+        for (i, ((count, other), spring)) in (self.lo..).zip(slots) {
+            let (bx, by, own) = bins.bucket_of(g, i);
+            // Grains are searched in ascending order, so each bucket's grains
+            // before i are gone from it: i first, then those searched.
+            if let Some(first) = cursors.get_mut(own) {
+                *first += 1;
+            }
+            // The bins left and right, periodic in x (nx ≥ 3).
+            let left = if bx == 0 { nx - 1 } else { bx - 1 };
+            let right = if bx + 1 >= nx { 0 } else { bx + 1 };
+            let (x_i, y_i, r_i, fixed_i) = (g.x[i], g.y[i], g.r[i], g.fixed[i]);
+            let mut found = Found::new();
+            let mut searched = [usize::MAX; 9];
+            for (s, (dy, nbx)) in (0..3u32)
+                .flat_map(|dy| [left, bx, right].map(|nbx| (dy, nbx)))
+                .enumerate()
+            {
+                let Some(nby) = (by + dy).checked_sub(1) else {
+                    continue;
+                };
+                let b = bucket(nbx, nby, nx, buckets);
+                if bins.may_repeat {
+                    if searched.contains(&b) {
+                        continue;
+                    }
+                    searched[s] = b;
+                }
+                let (from, to) = (cursors[b] as usize, end[b] as usize);
+                for &j in order.get(from..to).unwrap_or(&[]) {
+                    let j = j as usize;
+                    let ddx = periodic(g.x[j] - x_i, bins.width, half_width);
+                    let ddy = g.y[j] - y_i;
+                    let reach = r_i + g.r[j] + bins.skin;
+                    let keep = !(fixed_i & g.fixed[j]) & (ddx * ddx + ddy * ddy < reach * reach);
+                    found.push(j as u32, keep);
+                }
+            }
+            let found = found.sorted(K).ok_or(Error::CapacityExceeded {
+                what: Capacity::NeighboursPerGrain,
+                capacity: K,
+            })?;
+            merge_into_slots(count, other, spring, found);
+        }
+        Ok(())
     }
 }
 
@@ -520,6 +696,68 @@ mod tests {
             builds > 500 && overflows > 10 && kept > 1000,
             "{builds} {overflows} {kept}"
         );
+    }
+
+    /// The search cut into ranges (2, 3, 5 and 8, each after the first
+    /// with cursors of its own; 9 with room for 8, so one range is left
+    /// uncut) lists what the whole lists, with the same history, on the
+    /// random beds of the test above, before and after a move; a build that
+    /// fails, fails cut.
+    #[test]
+    fn a_search_cut_into_ranges_lists_what_the_whole_lists() {
+        use crate::step::phased::{Executor, Ranges};
+        const N: usize = 256;
+        const K: usize = 8;
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut uniform = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let mut spare = std::vec![0u32; 8 * N];
+        let (mut compared, mut failed) = (0, 0);
+        for case in 0..120 {
+            let mut g = Box::new(Grains::<f64, N>::new());
+            let n = 1 + (uniform() * N as f64) as usize % N;
+            let width = 3.5 + uniform() * [2.0, 40.0, 200.0][case % 3];
+            let height = n as f64 / width * [0.7, 2.0, 20.0][case / 3 % 3];
+            g.len = n;
+            for i in 0..n {
+                g.r[i] = 0.3 + 0.2 * uniform();
+                g.x[i] = width * uniform();
+                g.y[i] = height * uniform();
+                g.fixed[i] = g.y[i] < 0.2 * height && i % 2 == 0;
+            }
+            let parts = [2, 3, 5, 8, 9][case % 5];
+            let mut whole = Box::new(Neighbours::<f64, N, K>::new());
+            whole.set_skin(0.1, 1e-4);
+            let mut cut = whole.clone();
+            for _ in 0..2 {
+                let expected = whole.rebuild(&g, width, -0.5);
+                let bins = cut.sort(&g, width, -0.5).unwrap();
+                let found = Ranges(parts).execute(cut.search(&g, bins, &mut spare));
+                assert_eq!(found.is_ok(), expected.is_ok(), "case {case}");
+                if expected.is_err() {
+                    failed += 1;
+                    break;
+                }
+                cut.built();
+                assert_eq!(cut.count, whole.count, "case {case}");
+                assert_eq!(cut.other, whole.other, "case {case}");
+                assert!(cut.spring == whole.spring, "case {case}");
+                compared += 1;
+                for i in 0..n {
+                    for k in 0..usize::from(whole.count[i]) {
+                        let mark = (i * K + k) as f64 + uniform();
+                        (whole.spring[i][k].e_n, cut.spring[i][k].e_n) = (mark, mark);
+                    }
+                    g.x[i] = (g.x[i] + 0.3 * uniform()) % width;
+                    g.y[i] += 0.3 * uniform();
+                }
+            }
+        }
+        assert!(compared > 150 && failed > 0, "{compared} {failed}");
     }
 
     /// A still bed gets the floor, a fast one the largest skin, one in

@@ -36,7 +36,9 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
         phases: &mut Phases<R, N, K>,
         executor: &E,
     ) -> Result<(), Error> {
-        let mut events = self.prepare()?;
+        // A stale list's search runs in ranges too, its cursors in the
+        // room of `phases`.
+        let mut events = self.prepare_with(|sim| sim.rebuild_in(phases.scratch(), executor))?;
         events.phased_steps = 1;
         let owner = core::ptr::from_ref(self) as usize;
         let mover = self.mover();

@@ -13,6 +13,7 @@ use crate::real::Real;
 use crate::sim::{Redraw, Sim};
 #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
 use crate::step::batch;
+use crate::step::phased::{Executor, Serial};
 use crate::step::scalar;
 use crate::step::GEOMETRY_AHEAD;
 
@@ -83,9 +84,18 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
     /// the flow's bookkeeping (the coupled flow's update every M steps, the
     /// mean bed level, the fluctuation draws); the events so far.
     pub(super) fn prepare(&mut self) -> Result<Events, Error> {
+        self.prepare_with(Self::rebuild)
+    }
+
+    /// [`Sim::prepare`] with the neighbour lists rebuilt by `rebuild` where
+    /// they are stale (the phased step's search in ranges).
+    pub(super) fn prepare_with(
+        &mut self,
+        rebuild: impl FnOnce(&mut Self) -> Result<(), Error>,
+    ) -> Result<Events, Error> {
         check(self.configured, "sim", 0.0, "configured by reset() first")?;
         if self.nbrs.stale {
-            self.rebuild()?;
+            rebuild(self)?;
         }
         let mut events = Events::ZERO;
         if self.flow_on {
@@ -160,8 +170,21 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
     /// Rebuilds the neighbour slots, then the batched step's pair index
     /// from them (the slots first get the history back from the index).
     fn rebuild(&mut self) -> Result<(), Error> {
+        self.rebuild_in(&mut [], &Serial)
+    }
+
+    /// [`Sim::rebuild`] with the search of the lists run by `executor`
+    /// over ranges of grains, `spare` the room for the bucket cursors of
+    /// ranges after the first ([`Neighbours::search`]): the same lists.
+    pub(super) fn rebuild_in<E: Executor>(
+        &mut self,
+        spare: &mut [u32],
+        executor: &E,
+    ) -> Result<(), Error> {
         self.index.history_to_slots(&mut self.nbrs.spring);
-        self.nbrs.rebuild(&self.grains, self.width, self.y_min)?;
+        let bins = self.nbrs.sort(&self.grains, self.width, self.y_min)?;
+        executor.execute(self.nbrs.search(&self.grains, bins, spare))?;
+        self.nbrs.built();
         // A pair across the seam has both grains within the cut-off of it,
         // and a grain moves less than half a skin before the next rebuild.
         let margin = self.nbrs.cutoff + self.nbrs.skin;

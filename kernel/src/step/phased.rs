@@ -37,7 +37,7 @@ use crate::contact::{ContactLaw, Spring};
 use crate::error::{Capacity, Error};
 use crate::flow::LogLaw;
 use crate::grains::Grains;
-use crate::neighbours::Neighbours;
+use crate::neighbours::{Neighbours, Search};
 use crate::real::Real;
 #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
 use crate::step::index::{lanes, CHUNK};
@@ -107,6 +107,29 @@ pub struct Serial;
 impl Executor for Serial {
     fn execute<P: Phase>(&self, phase: P) -> P::Output {
         phase.run()
+    }
+}
+
+/// The neighbour search of a rebuild ([`Search`]) as a phase: each
+/// grain's list depends on nothing else, so any cut gives the same lists;
+/// the first range's error in grain order.
+impl<R: Real, const N: usize, const K: usize> Phase for Search<'_, R, N, K> {
+    type Output = Result<(), Error>;
+
+    fn grains(&self) -> usize {
+        Search::grains(self)
+    }
+
+    fn split_at(self, mid: usize) -> (Self, Self) {
+        Search::split_at(self, mid)
+    }
+
+    fn run(self) -> Self::Output {
+        Search::run(self)
+    }
+
+    fn merge(first: Self::Output, second: Self::Output) -> Self::Output {
+        first.and(second)
     }
 }
 
@@ -217,6 +240,14 @@ impl<R: Real, const N: usize, const K: usize> Phases<R, N, K> {
             #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
             done: [0; N],
         }
+    }
+
+    /// Room for the bucket cursors of a rebuild's search in ranges
+    /// ([`crate::neighbours::Search`]): the list of incoming pairs, which
+    /// the new lists make stale anyway (marked never built).
+    pub(crate) fn scratch(&mut self) -> &mut [u32] {
+        self.built = NEVER;
+        self.incoming.as_flattened_mut()
     }
 
     /// Lists, for each of the first `n` grains, the pairs that name it, if
