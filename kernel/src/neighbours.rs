@@ -604,6 +604,16 @@ mod tests {
         &nbrs.other[i][..usize::from(nbrs.count[i])]
     }
 
+    /// Uniform numbers in [0, 1) from a xorshift seeded with `state`.
+    fn uniform(mut state: u64) -> impl FnMut() -> f64 {
+        move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        }
+    }
+
     /// Every grain j > i within r_i + r_j + skin of grain i (periodic in
     /// x), unless both are fixed: the search by brute force.
     fn brute_force<const N: usize>(
@@ -634,13 +644,7 @@ mod tests {
     fn the_search_lists_exactly_the_pairs_within_the_cutoff() {
         const N: usize = 256;
         const K: usize = 8;
-        let mut state = 0x9e37_79b9_7f4a_7c15u64;
-        let mut uniform = move || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut uniform = uniform(0x9e37_79b9_7f4a_7c15);
         let (mut builds, mut overflows, mut kept) = (0, 0, 0);
         for case in 0..400 {
             let mut g = Box::new(Grains::<f64, N>::new());
@@ -708,13 +712,7 @@ mod tests {
         use crate::step::phased::{Executor, Ranges};
         const N: usize = 256;
         const K: usize = 8;
-        let mut state = 0x2545_f491_4f6c_dd1du64;
-        let mut uniform = move || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut uniform = uniform(0x2545_f491_4f6c_dd1d);
         let mut spare = std::vec![0u32; 8 * N];
         let (mut compared, mut failed) = (0, 0);
         for case in 0..120 {
