@@ -48,7 +48,8 @@ def imports(name, path, mods):
 LAYERS = {
     "kernel/src": {
         # 0 numbers: leaves
-        "real": 0, "error": 0, "events": 0, "random": 0, "periodic": 0, "digest": 0,
+        "real": 0, "error": 0, "events": 0, "executor": 0, "random": 0, "periodic": 0,
+        "digest": 0,
         "steps": 0,
         # 1 model laws
         "constants": 1, "contact": 1, "flow": 1, "fluid": 1,

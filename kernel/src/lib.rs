@@ -132,6 +132,7 @@ pub mod contact;
 mod digest;
 mod error;
 mod events;
+mod executor;
 mod fields;
 pub mod flow;
 pub mod fluid;
@@ -154,6 +155,7 @@ pub use contact::Tension;
 pub use digest::{FieldGroup, Fnv1a};
 pub use error::{Capacity, CheckpointFault, Error, Quantity};
 pub use events::Events;
+pub use executor::{Executor, Phase, Ranges, Serial};
 pub use fields::GrainField;
 pub use flow::{
     shear_velocity, shields_number, uniform_flow_shields_number, FlowConfig, FlowModel, FlowSpec,
@@ -164,5 +166,5 @@ pub use observe::{q_star, transport_scale, Observation};
 pub use real::Real;
 pub use scenario::{Scenario, G};
 pub use sim::{ContactForce, RestWatch, Sim, SimConfig, CHECKPOINT_VERSION};
-pub use step::phased::{Executor, Phase, Phases, Ranges, Serial};
+pub use step::phased::Phases;
 pub use steps::IntegrationSteps;

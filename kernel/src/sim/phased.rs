@@ -4,11 +4,12 @@
 //! docs/determinism.md, "One bed on several cores").
 
 use crate::error::Error;
+use crate::executor::Executor;
 use crate::real::Real;
 use crate::sim::Sim;
 #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
 use crate::step::batch;
-use crate::step::phased::{ClearDrag, Executor, MovePhase, PairPhase, Phases};
+use crate::step::phased::{ClearDrag, MovePhase, PairPhase, Phases};
 use crate::step::scalar;
 
 impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
@@ -38,7 +39,7 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
     ) -> Result<(), Error> {
         // A stale list's search runs in ranges too, its cursors in the
         // room of `phases`.
-        let mut events = self.prepare_with(|sim| sim.rebuild_in(phases.scratch(), executor))?;
+        let mut events = self.prepare(|sim| sim.rebuild(phases.scratch(), executor))?;
         events.phased_steps = 1;
         let owner = core::ptr::from_ref(self) as usize;
         let mover = self.mover();

@@ -8,12 +8,12 @@
 
 use crate::error::{check, Error};
 use crate::events::Events;
+use crate::executor::{Executor, Serial};
 use crate::flow::fluctuation_draw;
 use crate::real::Real;
 use crate::sim::{Redraw, Sim};
 #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
 use crate::step::batch;
-use crate::step::phased::{Executor, Serial};
 use crate::step::scalar;
 use crate::step::GEOMETRY_AHEAD;
 
@@ -43,7 +43,7 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
     /// with buffers of `BUFFER` contacts to find the pair geometry one grain
     /// ahead, or none ([`scalar::step`]). All give the same bits.
     fn step_with<const BUFFER: usize, const BATCHED: bool>(&mut self) -> Result<(), Error> {
-        let mut events = self.prepare()?;
+        let mut events = self.prepare(|sim| sim.rebuild(&mut [], &Serial))?;
         let coupled = self.flow_on && self.fluid.on;
         let mover = self.mover();
         #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
@@ -80,16 +80,11 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
         self.finish(moved, events)
     }
 
-    /// The step's start, shared with [`Sim::step_phased`]: the neighbour refresh and
-    /// the flow's bookkeeping (the coupled flow's update every M steps, the
-    /// mean bed level, the fluctuation draws); the events so far.
-    pub(super) fn prepare(&mut self) -> Result<Events, Error> {
-        self.prepare_with(Self::rebuild)
-    }
-
-    /// [`Sim::prepare`] with the neighbour lists rebuilt by `rebuild` where
-    /// they are stale (the phased step's search in ranges).
-    pub(super) fn prepare_with(
+    /// The step's start, shared with [`Sim::step_phased`]: the neighbour
+    /// refresh (`rebuild` where the lists are stale) and the flow's
+    /// bookkeeping (the coupled flow's update every M steps, the mean bed
+    /// level, the fluctuation draws); the events so far.
+    pub(super) fn prepare(
         &mut self,
         rebuild: impl FnOnce(&mut Self) -> Result<(), Error>,
     ) -> Result<Events, Error> {
@@ -167,16 +162,12 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
         }
     }
 
-    /// Rebuilds the neighbour slots, then the batched step's pair index
-    /// from them (the slots first get the history back from the index).
-    fn rebuild(&mut self) -> Result<(), Error> {
-        self.rebuild_in(&mut [], &Serial)
-    }
-
-    /// [`Sim::rebuild`] with the search of the lists run by `executor`
-    /// over ranges of grains, `spare` the room for the bucket cursors of
-    /// ranges after the first ([`Neighbours::search`]): the same lists.
-    pub(super) fn rebuild_in<E: Executor>(
+    /// Rebuilds the neighbour slots, their search run by `executor` over
+    /// ranges of grains (`spare`: room for the bucket cursors of ranges
+    /// after the first, [`Neighbours::search`]; the same lists), then the
+    /// batched step's pair index from them (the slots first get the
+    /// history back from the index).
+    pub(super) fn rebuild<E: Executor>(
         &mut self,
         spare: &mut [u32],
         executor: &E,
@@ -197,7 +188,7 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
     /// lists are rebuilt; this is for benchmarks of the rebuild alone.
     pub fn rebuild_neighbours(&mut self) -> Result<(), Error> {
         check(self.configured, "sim", 0.0, "configured by reset() first")?;
-        self.rebuild()
+        self.rebuild(&mut [], &Serial)
     }
 
     /// Zeroes every force and torque. They are zero between steps: both

@@ -52,13 +52,14 @@ mod phases;
 
 use crate::error::Error;
 use crate::events::Events;
+use crate::executor::Executor;
 use crate::fluid::Coupling;
 use crate::grains::Grains;
 use crate::neighbours::Neighbours;
 use crate::real::Real;
 pub(crate) use crate::step::batch::params::{Flow, Params};
 use crate::step::index::PairIndex;
-use crate::step::phased::{Executor, Phases};
+use crate::step::phased::Phases;
 use core::any::Any;
 
 /// Runs the batched step if the pair index is ready: the largest squared
@@ -175,13 +176,14 @@ macro_rules! lanes {
             use crate::contact::Tension;
             use crate::error::Error;
             use crate::events::Events;
+            use crate::executor::Executor;
             use crate::fluid::Cells;
             use crate::grains::Grains;
             use crate::neighbours::Neighbours;
             use crate::step::batch::lanes::$lanes::{L, R};
             use crate::step::batch::params::{Moving, PairRange, Params};
             use crate::step::index::PairIndex;
-            use crate::step::phased::{Executor, Phases};
+            use crate::step::phased::Phases;
             use pairs::Out;
             use phases::{DragLanes, MoveLanes, PairLanes};
 

@@ -1,6 +1,6 @@
 //! The phased step in lanes ([`crate::Sim::step_phased`] where the pair
 //! index is ready): the batched step's passes regrouped into phases over
-//! ranges that the caller's [`Executor`](crate::step::phased::Executor) may
+//! ranges that the caller's [`Executor`](crate::executor::Executor) may
 //! run on different cores.
 //!
 //! 0. **Drag** (`DragLanes`, clear water only): each group's drag to its
@@ -41,11 +41,12 @@ macro_rules! phases {
             use super::pairs::{self, Out};
             use super::{drag, grains};
             use crate::error::Error;
+            use crate::executor::Phase;
             use crate::step::batch::lanes::$lanes::*;
             use crate::step::batch::params::{Moving, PairRange};
             use crate::step::index::{Listed, CHUNK};
             use crate::step::mover::Mover;
-            use crate::step::phased::{holds, merge_moved, ChunkSpan, ClearDrag, Moved, Phase};
+            use crate::step::phased::{holds, merge_moved, ChunkSpan, ClearDrag, Moved};
             use crate::step::scalar::Counts;
 
             /// Pairs per chunk.

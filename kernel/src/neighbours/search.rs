@@ -1,0 +1,276 @@
+//! The search of a build (module docs): the bins, and each grain's list
+//! over a range of grains ([`Search`]), a phase of the phased step.
+
+use super::merge_into_slots;
+use crate::contact::Spring;
+use crate::error::{Capacity, Error};
+use crate::executor::Phase;
+use crate::grains::Grains;
+use crate::periodic::periodic;
+use crate::real::Real;
+
+/// The bins of a build ([`Neighbours::sort`]): square, at least the
+/// largest cut-off wide, `nx` across the periodic width and hashed into
+/// `buckets` buckets from `y_min` up; what a search reads besides the
+/// sorted grains.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Bins<R: Real> {
+    pub(super) nx: u32,
+    pub(super) inv_bin: R,
+    pub(super) y_min: R,
+    pub(super) buckets: usize,
+    pub(super) may_repeat: bool,
+    pub(super) width: R,
+    pub(super) skin: R,
+}
+
+impl<R: Real> Bins<R> {
+    /// Grain i's bin (bx, by) and its bucket.
+    #[inline]
+    pub(super) fn bucket_of<const N: usize>(
+        &self,
+        g: &Grains<R, N>,
+        i: usize,
+    ) -> (u32, u32, usize) {
+        let bx = ((g.x[i] * self.inv_bin).to_f64() as u32).min(self.nx - 1);
+        let by = (((g.y[i] - self.y_min) * self.inv_bin).to_f64() as u32).min(1 << 30);
+        (bx, by, bucket(bx, by, self.nx, self.buckets))
+    }
+}
+
+/// The search of a range of grains' lists ([`Neighbours::search`]): each
+/// grain i of the range, in ascending order, tests the grains of the nine
+/// bins around it that follow it in its buckets (the buckets' `cursors`
+/// drop each grain once searched, so only grains j > i are met) and
+/// replaces its slots by those within the cut-off, keeping their history.
+/// Each grain's list depends on nothing else, so the range can be cut at
+/// any grain, each part searching on its own ([`Search::split_at`]; the
+/// phased step runs it as a phase); the lists are the same.
+pub(crate) struct Search<'a, R: Real, const N: usize, const K: usize> {
+    pub(super) g: &'a Grains<R, N>,
+    pub(super) bins: Bins<R>,
+    pub(super) order: &'a [u32],
+    pub(super) end: &'a [u32],
+    /// The range's first grain.
+    pub(super) lo: usize,
+    pub(super) count: &'a mut [u8],
+    pub(super) other: &'a mut [[u32; K]],
+    pub(super) spring: &'a mut [[Spring<R>; K]],
+    /// Per bucket, where its grains after the last one searched start in
+    /// `order` (`ready`), or room for them, set when the range runs.
+    pub(super) cursors: &'a mut [u32],
+    pub(super) ready: bool,
+    /// Room for the cursors of further ranges, `bins.buckets` each.
+    pub(super) spare: &'a mut [u32],
+}
+
+impl<R: Real, const N: usize, const K: usize> Search<'_, R, N, K> {
+    /// Grains in the range.
+    pub(crate) fn grains(&self) -> usize {
+        self.count.len()
+    }
+
+    /// The first `mid` grains and the rest, the rest with cursors of its
+    /// own from `spare` and `spare`'s other room shared by grains; not cut
+    /// (the whole and an empty range) without room for them.
+    pub(crate) fn split_at(self, mid: usize) -> (Self, Self) {
+        let (len, buckets) = (self.count.len(), self.bins.buckets);
+        let mid = mid.min(len);
+        if self.spare.len() < buckets || mid == 0 || mid == len {
+            let empty = Search {
+                lo: self.lo + len,
+                count: &mut [],
+                other: &mut [],
+                spring: &mut [],
+                cursors: &mut [],
+                ready: true,
+                spare: &mut [],
+                ..self
+            };
+            return (self, empty);
+        }
+        let (cursors, spare) = self.spare.split_at_mut(buckets);
+        let first_share = spare.len() / buckets * mid / len * buckets;
+        let (spare_first, spare_second) = spare.split_at_mut(first_share);
+        let (count, other, spring) = (
+            self.count.split_at_mut(mid),
+            self.other.split_at_mut(mid),
+            self.spring.split_at_mut(mid),
+        );
+        let second = Search {
+            lo: self.lo + mid,
+            count: count.1,
+            other: other.1,
+            spring: spring.1,
+            cursors,
+            ready: false,
+            spare: spare_second,
+            ..self
+        };
+        let first = Search {
+            count: count.0,
+            other: other.0,
+            spring: spring.0,
+            spare: spare_first,
+            ..self
+        };
+        (first, second)
+    }
+
+    /// Searches the range's grains: their lists, or the capacity error of
+    /// a grain with more than `K` neighbours (or [`FOUND_MAX`] − 1).
+    pub(crate) fn run(self) -> Result<(), Error> {
+        let (g, bins, order, end) = (self.g, self.bins, self.order, self.end);
+        let (nx, buckets) = (bins.nx, bins.buckets);
+        let Some(cursors) = self.cursors.get_mut(..buckets) else {
+            return Ok(()); // an empty range
+        };
+        if !self.ready {
+            // Each bucket's start (the end of the one before), past the
+            // grains before the range.
+            let mut start = 0;
+            for (cursor, &end) in cursors.iter_mut().zip(end) {
+                *cursor = start;
+                start = end;
+            }
+            for i in 0..self.lo {
+                if let Some(cursor) = cursors.get_mut(bins.bucket_of(g, i).2) {
+                    *cursor += 1;
+                }
+            }
+        }
+        let half_width = bins.width * R::HALF;
+        let slots = self
+            .count
+            .iter_mut()
+            .zip(self.other.iter_mut())
+            .zip(self.spring.iter_mut());
+        for (i, ((count, other), spring)) in (self.lo..).zip(slots) {
+            let (bx, by, own) = bins.bucket_of(g, i);
+            // Grains are searched in ascending order, so each bucket's grains
+            // before i are gone from it: i first, then those searched.
+            if let Some(first) = cursors.get_mut(own) {
+                *first += 1;
+            }
+            // The bins left and right, periodic in x (nx ≥ 3).
+            let left = if bx == 0 { nx - 1 } else { bx - 1 };
+            let right = if bx + 1 >= nx { 0 } else { bx + 1 };
+            let (x_i, y_i, r_i, fixed_i) = (g.x[i], g.y[i], g.r[i], g.fixed[i]);
+            let mut found = Found::new();
+            let mut searched = [usize::MAX; 9];
+            for (s, (dy, nbx)) in (0..3u32)
+                .flat_map(|dy| [left, bx, right].map(|nbx| (dy, nbx)))
+                .enumerate()
+            {
+                let Some(nby) = (by + dy).checked_sub(1) else {
+                    continue;
+                };
+                let b = bucket(nbx, nby, nx, buckets);
+                if bins.may_repeat {
+                    if searched.contains(&b) {
+                        continue;
+                    }
+                    searched[s] = b;
+                }
+                let (from, to) = (cursors[b] as usize, end[b] as usize);
+                for &j in order.get(from..to).unwrap_or(&[]) {
+                    let j = j as usize;
+                    let ddx = periodic(g.x[j] - x_i, bins.width, half_width);
+                    let ddy = g.y[j] - y_i;
+                    let reach = r_i + g.r[j] + bins.skin;
+                    let keep = !(fixed_i & g.fixed[j]) & (ddx * ddx + ddy * ddy < reach * reach);
+                    found.push(j as u32, keep);
+                }
+            }
+            let found = found.sorted(K).ok_or(Error::CapacityExceeded {
+                what: Capacity::NeighboursPerGrain,
+                capacity: K,
+            })?;
+            merge_into_slots(count, other, spring, found);
+        }
+        Ok(())
+    }
+}
+
+/// The neighbour search of a rebuild ([`Search`]) as a phase: each
+/// grain's list depends on nothing else, so any cut gives the same lists;
+/// the first range's error in grain order.
+impl<R: Real, const N: usize, const K: usize> Phase for Search<'_, R, N, K> {
+    type Output = Result<(), Error>;
+
+    fn grains(&self) -> usize {
+        Search::grains(self)
+    }
+
+    fn split_at(self, mid: usize) -> (Self, Self) {
+        Search::split_at(self, mid)
+    }
+
+    fn run(self) -> Self::Output {
+        Search::run(self)
+    }
+
+    fn merge(first: Self::Output, second: Self::Output) -> Self::Output {
+        first.and(second)
+    }
+}
+
+/// Most neighbours a build may find for one grain: a grain with more
+/// fails the build ([`Capacity::NeighboursPerGrain`]) whatever `K`.
+const FOUND_MAX: usize = 64;
+
+/// The neighbours found for one grain so far.
+struct Found {
+    js: [u32; FOUND_MAX],
+    len: usize,
+}
+
+impl Found {
+    fn new() -> Self {
+        Found {
+            js: [0; FOUND_MAX],
+            len: 0,
+        }
+    }
+
+    /// Adds j if `keep`, without a branch on it: j is written in the next
+    /// place either way (a later j overwrites it if not kept).
+    #[inline]
+    fn push(&mut self, j: u32, keep: bool) {
+        self.js[self.len.min(FOUND_MAX - 1)] = j;
+        self.len += usize::from(keep);
+    }
+
+    /// The grains found, ascending (insertion sort: a few per grain), or
+    /// `None` if more than `capacity` (or [`FOUND_MAX`] − 1) were found.
+    fn sorted(&mut self, capacity: usize) -> Option<&[u32]> {
+        if self.len > capacity.min(FOUND_MAX - 1) {
+            return None;
+        }
+        let js = self.js.get_mut(..self.len)?;
+        for k in 1..js.len() {
+            let mut m = k;
+            while m > 0 && js[m - 1] > js[m] {
+                js.swap(m - 1, m);
+                m -= 1;
+            }
+        }
+        Some(js)
+    }
+}
+
+/// Buckets for `n` grains with capacity `capacity`: the smallest power of
+/// two ≥ n, or the largest that fits the capacity (none if it is 0).
+pub(super) fn bucket_count(n: usize, capacity: usize) -> usize {
+    let fits = capacity.checked_ilog2().map_or(0, |log| 1 << log);
+    n.max(1)
+        .checked_next_power_of_two()
+        .unwrap_or(fits)
+        .min(fits)
+}
+
+/// Bucket of bin (bx, by) among `buckets` (a power of two).
+#[inline]
+pub(super) fn bucket(bx: u32, by: u32, nx: u32, buckets: usize) -> usize {
+    ((by as u64 * nx as u64 + bx as u64) & (buckets as u64 - 1)) as usize
+}
