@@ -412,9 +412,9 @@ pub struct ChannelSection {
     /// The grains' friction coefficient on the walls μ_w (0: none).
     #[serde(default)]
     pub grain_friction: f64,
-    /// Janssen's ratio K of the lateral to the vertical granular stress
-    /// that presses a grain on the walls (C12); 0: the spanwise
-    /// fluctuation's drag presses it (C11).
+    /// Janssen's ratio K of the lateral to the vertical granular stress:
+    /// the weight of the grains above also presses a grain on the walls
+    /// (C12), besides the spanwise fluctuation's drag (C11); 0: not.
     #[serde(default)]
     pub lateral_ratio: f64,
 }

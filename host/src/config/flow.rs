@@ -228,7 +228,7 @@ pub(super) fn fluid_spec(
                 c.lateral_ratio.is_finite() && (0.0..=10.0).contains(&c.lateral_ratio),
                 "channel.lateral_ratio",
                 c.lateral_ratio,
-                "in [0, 10] (0: pressed by the fluctuations)",
+                "in [0, 10] (0: no overburden on the walls)",
             )?;
             (
                 c.width_m,

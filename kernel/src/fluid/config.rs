@@ -115,9 +115,9 @@ pub struct FluidSpec {
     /// spanwise fluctuation, as in Maurin et al.'s (2015) YADE runs.
     pub grain_wall_friction: f64,
     /// Janssen's ratio K of the lateral to the vertical granular stress
-    /// (C12): 0 (the default) presses a grain on a wall by the drag of the
-    /// spanwise fluctuation (C11); K > 0 by K times the weight of the
-    /// grains above it.
+    /// (C12): a grain is also pressed on a wall by K times the weight of
+    /// the grains above it, besides the spanwise fluctuation's drag (C11);
+    /// 0 (the default): not.
     pub lateral_ratio: f64,
     /// The grains' drag law (docs/model.md (C8)).
     pub drag: DragLaw,
@@ -287,7 +287,7 @@ impl FluidConfig {
             spec.lateral_ratio.is_finite() && (0.0..=10.0).contains(&spec.lateral_ratio),
             "channel.lateral_ratio",
             spec.lateral_ratio,
-            "in [0, 10] (0: pressed by the fluctuations)",
+            "in [0, 10] (0: no overburden on the walls)",
         )
     }
 }

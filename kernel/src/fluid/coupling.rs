@@ -68,11 +68,9 @@ pub(crate) struct Closures<R: Real> {
     pub(crate) hfe: bool,
     /// μ_w √(2/π) of the grains' friction on the side walls (C11); 0: none.
     pub(crate) grain_wall: R,
-    /// The walls also take the overburden's load (C12): the table's fourth
-    /// column, times r².
-    pub(crate) overburden: bool,
     /// 2 π K μ_w (ρ_p − ρ_f) g cos θ (N/m³) of (C12): the load per r² of
-    /// the φ above, 0 without it.
+    /// the φ above; > 0: the walls also take it (the table's fourth
+    /// column, times r²), 0 without it.
     pub(crate) load_weight: f64,
     /// The free surface: no drag on a grain whose centre is above it.
     pub(crate) surface: R,
@@ -86,7 +84,6 @@ impl<R: Real> Closures<R> {
         viscous_term: R::ZERO,
         hfe: false,
         grain_wall: R::ZERO,
-        overburden: false,
         load_weight: 0.0,
         surface: R::ZERO,
     };
@@ -123,7 +120,7 @@ impl<R: Real> Closures<R> {
         if self.grain_wall <= R::ZERO {
             return None;
         }
-        let pressed = if self.overburden {
+        let pressed = if self.load_weight > 0.0 {
             xi * self.grain_wall * scale + load * r * r
         } else {
             xi * self.grain_wall * scale
@@ -257,7 +254,6 @@ impl<R: Real, const C: usize> Coupling<R, C> {
     ) {
         let viscous = config.spec.drag == DragLaw::Dallavalle;
         let walls = config.spec.channel_width > 0.0;
-        let overburden = walls && config.spec.lateral_ratio > 0.0;
         let mu_w = config.spec.grain_wall_friction;
         self.closures = Closures {
             viscous,
@@ -273,8 +269,7 @@ impl<R: Real, const C: usize> Coupling<R, C> {
             } else {
                 0.0
             }),
-            overburden,
-            load_weight: if overburden {
+            load_weight: if walls {
                 2.0 * core::f64::consts::PI * config.spec.lateral_ratio * mu_w * unit_weight
             } else {
                 0.0
@@ -426,7 +421,7 @@ impl<R: Real, const C: usize> Coupling<R, C> {
             };
             self.centres[j] = [u, scale, hindrance, R::ZERO];
         }
-        if self.closures.overburden {
+        if self.closures.load_weight > 0.0 {
             // (C12): the weight of the φ above each centre, half its own
             // cell's, summed from the top.
             let (dy, w) = (grid.dy.to_f64(), self.closures.load_weight);

@@ -155,7 +155,7 @@ impl<R: Real, const N: usize, const K: usize> Neighbours<R, N, K> {
     #[cfg(test)]
     pub(crate) fn rebuild(&mut self, g: &Grains<R, N>, width: R, y_min: R) -> Result<(), Error> {
         let bins = self.sort(g, width, y_min)?;
-        self.search(g, bins, &mut []).run()?;
+        crate::executor::Phase::run(self.search(g, bins, &mut []))?;
         self.built();
         Ok(())
     }

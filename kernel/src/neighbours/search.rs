@@ -64,16 +64,21 @@ pub(crate) struct Search<'a, R: Real, const N: usize, const K: usize> {
     pub(super) spare: &'a mut [u32],
 }
 
-impl<R: Real, const N: usize, const K: usize> Search<'_, R, N, K> {
+/// The search as a phase of the phased step: each grain's list depends on
+/// nothing else, so any cut gives the same lists; the first range's error
+/// in grain order.
+impl<R: Real, const N: usize, const K: usize> Phase for Search<'_, R, N, K> {
+    type Output = Result<(), Error>;
+
     /// Grains in the range.
-    pub(crate) fn grains(&self) -> usize {
+    fn grains(&self) -> usize {
         self.count.len()
     }
 
     /// The first `mid` grains and the rest, the rest with cursors of its
     /// own from `spare` and `spare`'s other room shared by grains; not cut
     /// (the whole and an empty range) without room for them.
-    pub(crate) fn split_at(self, mid: usize) -> (Self, Self) {
+    fn split_at(self, mid: usize) -> (Self, Self) {
         let (len, buckets) = (self.count.len(), self.bins.buckets);
         let mid = mid.min(len);
         if self.spare.len() < buckets || mid == 0 || mid == len {
@@ -119,7 +124,7 @@ impl<R: Real, const N: usize, const K: usize> Search<'_, R, N, K> {
 
     /// Searches the range's grains: their lists, or the capacity error of
     /// a grain with more than `K` neighbours (or [`FOUND_MAX`] − 1).
-    pub(crate) fn run(self) -> Result<(), Error> {
+    fn run(self) -> Result<(), Error> {
         let (g, bins, order, end) = (self.g, self.bins, self.order, self.end);
         let (nx, buckets) = (bins.nx, bins.buckets);
         let Some(cursors) = self.cursors.get_mut(..buckets) else {
@@ -189,25 +194,6 @@ impl<R: Real, const N: usize, const K: usize> Search<'_, R, N, K> {
             merge_into_slots(count, other, spring, found);
         }
         Ok(())
-    }
-}
-
-/// The neighbour search of a rebuild ([`Search`]) as a phase: each
-/// grain's list depends on nothing else, so any cut gives the same lists;
-/// the first range's error in grain order.
-impl<R: Real, const N: usize, const K: usize> Phase for Search<'_, R, N, K> {
-    type Output = Result<(), Error>;
-
-    fn grains(&self) -> usize {
-        Search::grains(self)
-    }
-
-    fn split_at(self, mid: usize) -> (Self, Self) {
-        Search::split_at(self, mid)
-    }
-
-    fn run(self) -> Self::Output {
-        Search::run(self)
     }
 
     fn merge(first: Self::Output, second: Self::Output) -> Self::Output {

@@ -217,7 +217,7 @@ macro_rules! drag {
                         let (sum_x, sum_y) = if grain_wall > 0.0 {
                             let (u, v) = (at(&g.u), at(&g.v));
                             let spanwise = mul(mul(xi, splat(grain_wall)), scale);
-                            let pressed = if closures.overburden {
+                            let pressed = if closures.load_weight > 0.0 {
                                 let r = at(&g.r);
                                 add(spanwise, mul(mul(lerp(load, dload), r), r))
                             } else {
