@@ -486,9 +486,15 @@ fn in_second_window<const N: usize>(start: usize, j: u32, lanes: usize) -> bool 
 
 /// Whether capacities suit `lanes` lanes (none: 0): N and K powers of
 /// two, so that masked indices need no bounds checks (every host capacity
-/// is), N a whole number of groups.
+/// is), N a whole number of groups and the pair places (N · [`PAIRS`]) a
+/// whole number of chunks (the pair pass reads each chunk's history as one
+/// array).
 pub(crate) const fn lanes_fit(n: usize, k: usize, lanes: usize) -> bool {
-    lanes > 0 && n.is_power_of_two() && k.is_power_of_two() && n >= lanes
+    lanes > 0
+        && n.is_power_of_two()
+        && k.is_power_of_two()
+        && n >= lanes
+        && n * PAIRS >= CHUNK * lanes
 }
 
 #[cfg(test)]

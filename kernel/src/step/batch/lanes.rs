@@ -91,15 +91,6 @@ macro_rules! helpers {
             }
         }
 
-        /// Stores a vector to `a[at..at + L]`, if in bounds.
-        #[inline]
-        #[target_feature(enable = "avx2")]
-        pub(crate) fn store(a: &mut [R], at: usize, v: V) {
-            if let Some(values) = a.get_mut(at..).and_then(|s| s.first_chunk_mut::<L>()) {
-                put(values, v);
-            }
-        }
-
         /// Stores a vector to L values.
         #[inline]
         #[target_feature(enable = "avx2")]

@@ -227,10 +227,18 @@ macro_rules! lanes {
                         chunk_span: &[],
                     };
                     let counts = match (p.count_events, no_tension) {
-                        (true, false) => pairs::pair_range::<N, true, false, false>(range, out),
-                        (false, false) => pairs::pair_range::<N, false, false, false>(range, out),
-                        (true, true) => pairs::pair_range::<N, true, true, false>(range, out),
-                        (false, true) => pairs::pair_range::<N, false, true, false>(range, out),
+                        (true, false) => {
+                            pairs::pair_range::<N, true, false, { pairs::EVERY }>(range, out)
+                        }
+                        (false, false) => {
+                            pairs::pair_range::<N, false, false, { pairs::EVERY }>(range, out)
+                        }
+                        (true, true) => {
+                            pairs::pair_range::<N, true, true, { pairs::EVERY }>(range, out)
+                        }
+                        (false, true) => {
+                            pairs::pair_range::<N, false, true, { pairs::EVERY }>(range, out)
+                        }
                     };
                     counts.add_to(events);
                     let s = &mut Moving::new(g, parts.mobile, parts.sums, groups, L);

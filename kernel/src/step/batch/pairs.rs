@@ -56,7 +56,7 @@ macro_rules! pairs {
             impl Out<'_> {
                 /// Whether the range sums every grain of chunk `c`.
                 #[inline]
-                fn sums_all(&self, c: usize) -> bool {
+                pub(crate) fn sums_all(&self, c: usize) -> bool {
                     let grains = self.g0..self.g0 + self.sums.len().min(self.done.len());
                     self.chunk_span.get(c).is_some_and(|s| {
                         holds(self.places, [s[0], s[1]])
@@ -65,6 +65,16 @@ macro_rules! pairs {
                     })
                 }
             }
+
+            /// [`pair_range`] sums every pair's grains: the batched pass.
+            pub(crate) const EVERY: u8 = 0;
+            /// The same in the pair phase: its own copy, so that each copy
+            /// has one caller and is inlined there (shared, neither was:
+            /// ~50 more instructions per grain-step).
+            pub(crate) const EVERY_IN_PHASE: u8 = 1;
+            /// [`pair_range`] sums the grains `Out::done` marks and keeps the
+            /// rows of the others.
+            pub(crate) const MARKED: u8 = 2;
 
             /// A batch's geometry and relative speeds: what its laws need of it
             /// (`State::contact`).
@@ -107,15 +117,18 @@ macro_rules! pairs {
             /// sums stay in a register from one to the next and are stored
             /// once, when the next first grain comes or the pass ends.
             ///
-            /// `PHASED` (the pair phase, `step/batch/phases.rs`): only the
-            /// grains `out.done` marks get rows to their sums; a pair with a
-            /// grain it does not mark stores its row in `out.rows`.
+            /// `SUMS`: [`EVERY`] or [`EVERY_IN_PHASE`], every pair's grains
+            /// (the batched pass; the pair phase's chunks whose grains its
+            /// range all sums); [`MARKED`] (the pair phase's chunks near a
+            /// cut or the seam, `step/batch/phases.rs`), only the grains
+            /// `out.done` marks, a pair with a grain it does not mark
+            /// storing its row in `out.rows`.
             #[target_feature(enable = "avx2")]
             pub(crate) fn pair_range<
                 const N: usize,
                 const COUNT: bool,
                 const NO_TENSION: bool,
-                const PHASED: bool,
+                const SUMS: u8,
             >(
                 r: &mut PairRange<'_, R, N>,
                 out: &mut Out<'_>,
@@ -128,8 +141,17 @@ macro_rules! pairs {
                 let law = &r.law;
                 let (dt, k_n, k_s) = (splat(law.step_dt), splat(law.k_n), splat(law.k_s));
                 let (eta_n, eta_s, mu) = (splat(law.eta_n), splat(law.eta_s), splat(law.mu));
+                let tested = SUMS == MARKED;
                 let b = r.listed;
                 let [x, y, u, v, w] = r.grains;
+                // The slices in locals (behind `r` and `out` their addresses
+                // would be read again after every store), the history as
+                // chunks of L pairs' worth (no bounds to check within a
+                // chunk; `index::lanes_fit`: the places are whole chunks).
+                let hist_n = r.e_n.as_chunks_mut::<L>().0.as_chunks_mut::<CHUNK>().0;
+                let hist_s = r.e_s.as_chunks_mut::<L>().0.as_chunks_mut::<CHUNK>().0;
+                let (g0, done) = (out.g0, out.done);
+                let (sums, out_rows) = (&mut *out.sums, &mut *out.rows);
                 // The range's first pair: its history's offset.
                 let first_pair = r.chunks.start * CHUNK * L;
                 let cap = N * PAIRS;
@@ -198,11 +220,11 @@ macro_rules! pairs {
                     v_n: zero,
                     v_s: zero,
                 }; CHUNK];
-                for chunk in range.clone().step_by(CHUNK) {
+                for (k, chunk) in range.clone().step_by(CHUNK).enumerate() {
+                    let (Some(h_n), Some(h_s)) = (hist_n.get_mut(k), hist_s.get_mut(k)) else {
+                        break;
+                    };
                     let seam = b.seam[(chunk / CHUNK) & (N - 1)];
-                    // The pair phase tests which grains it sums only in
-                    // chunks near a cut or the seam.
-                    let tested = PHASED && !out.sums_all(chunk / CHUNK);
                     let chunk = chunk..range.end.min(chunk + CHUNK);
                     // Geometry (State::contact).
                     for (t, g) in chunk.clone().zip(&mut geometry) {
@@ -249,7 +271,8 @@ macro_rules! pairs {
                             v_s,
                         };
                     }
-                    for (t, g) in chunk.zip(&geometry) {
+                    let history = h_n.iter_mut().zip(h_s.iter_mut());
+                    for ((t, g), (h_n, h_s)) in chunk.zip(&geometry).zip(history) {
                         let q = t * L;
                         let Geometry {
                             nx,
@@ -263,8 +286,7 @@ macro_rules! pairs {
                             v_s,
                         } = *g;
                         let (tx, ty) = (ny, neg(nx));
-                        let e_n0 = load_at(r.e_n, q - first_pair);
-                        let e_s0 = load_at(r.e_s, q - first_pair);
+                        let (e_n0, e_s0) = (load(h_n), load(h_s));
 
                         // Law (ContactLaw::apply).
                         let first = eq(e_n0, zero);
@@ -305,43 +327,42 @@ macro_rules! pairs {
                         // (`vmaskmovpd`, slow on AMD cores) as it did a select.
                         let e_n_out = xor(and(e_n, acts), and(e_n0, keeps));
                         let e_s_out = xor(and(e_s_new, acts), and(e_s0, keeps));
-                        store(r.e_n, q - first_pair, e_n_out);
-                        store(r.e_s, q - first_pair, e_s_out);
+                        put(h_n, e_n_out);
+                        put(h_s, e_s_out);
                         let fx = and(add(mul(neg(f_n), nx), mul(f_s, tx)), acts);
                         let fy = and(add(mul(neg(f_n), ny), mul(f_s, ty)), acts);
                         let f_s = and(f_s, acts);
                         let rows = to_rows([fx, fy, neg(mul(ri, f_s)), neg(mul(rj, f_s))]);
                         for (l, row) in rows.into_iter().enumerate() {
-                            let i = index(b.pair_i, q + l).wrapping_sub(out.g0);
-                            let j = index(b.pair_j, q + l).wrapping_sub(out.g0);
-                            let summed =
-                                |g: usize| !tested || out.done.get(g).is_some_and(|&d| d != 0);
+                            let i = index(b.pair_i, q + l).wrapping_sub(g0);
+                            let j = index(b.pair_j, q + l).wrapping_sub(g0);
+                            let summed = |g: usize| !tested || done.get(g).is_some_and(|&d| d != 0);
                             let (sum_i, sum_j) = (summed(i), summed(j));
                             if sum_i {
                                 let base = if i == last.0 {
                                     last.1
                                 } else {
-                                    if let Some(sums) = out.sums.get_mut(last.0) {
+                                    if let Some(sums) = sums.get_mut(last.0) {
                                         put_row(sums, last.1);
                                     }
-                                    load_row(out.sums.get(i).unwrap_or(&[0.0; 4]))
+                                    load_row(sums.get(i).unwrap_or(&[0.0; 4]))
                                 };
                                 last = (i, row_add(base, row));
                             }
-                            if sum_j && let Some(sums) = out.sums.get_mut(j) {
+                            if sum_j && let Some(sums) = sums.get_mut(j) {
                                 add_row(sums, second_row(row));
                             }
                             if tested
                                 && !(sum_i && sum_j)
                                 && let Some(place) =
-                                    out.rows.get_mut((q + l).wrapping_sub(first_pair))
+                                    out_rows.get_mut((q + l).wrapping_sub(first_pair))
                             {
                                 put_row(place, row);
                             }
                         }
                     }
                 }
-                if let Some(sums) = out.sums.get_mut(last.0) {
+                if let Some(sums) = sums.get_mut(last.0) {
                     put_row(sums, last.1);
                 }
                 let total = |n: __m256i| {

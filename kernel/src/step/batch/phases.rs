@@ -13,9 +13,9 @@
 //!    it is marked done. A pair with a grain not summed here stores its row
 //!    (f_x, f_y, −r_i f_s, −r_j f_s) at its place in
 //!    [`Phases`](crate::step::phased::Phases). Each pair's history stays at
-//!    its place. Only the grains near a cut are not summed here. A chunk
-//!    whose grains this range all sums (its `ChunkSpan`, found with the
-//!    lists) runs as in the batched pass, without those tests.
+//!    its place. Only the grains near a cut are not summed here. A run of
+//!    chunks whose grains this range all sums (their `ChunkSpan`s, found
+//!    with the lists) runs the batched pass's code, without those tests.
 //! 2. **Moves** (`MoveLanes`): over a range of whole groups of lanes'
 //!    worth of grains, each grain not done gathers its rows in pair order
 //!    — the pairs that name it as second grain (their rows as its own:
@@ -199,21 +199,59 @@ macro_rules! phases {
                 for (done, span) in p.done.iter_mut().zip(spans) {
                     *done = u8::from(holds([q0, q1], *span));
                 }
-                let out = &mut Out {
+                let (c0, c1) = (p.range.chunks.start, p.range.chunks.end);
+                let out = Out {
                     g0: p.g0,
                     sums: &mut *p.sums,
                     done: &*p.done,
-                    rows: &mut *p.rows,
+                    rows: &mut [],
                     places: [q0, q1],
                     chunk_span: p.chunk_span,
                 };
-                let r = &mut p.range;
-                match (p.count, p.no_tension) {
-                    (true, false) => pairs::pair_range::<N, true, false, true>(r, out),
-                    (false, false) => pairs::pair_range::<N, false, false, true>(r, out),
-                    (true, true) => pairs::pair_range::<N, true, true, true>(r, out),
-                    (false, true) => pairs::pair_range::<N, false, true, true>(r, out),
+                let mut counts = Counts::default();
+                // Runs of chunks that need the tests (near a cut or the
+                // seam) and runs that do not, each by its own copy of the
+                // pair pass (a run of the second kind: the batched pass's
+                // instructions).
+                let mut c = c0;
+                while c < c1 {
+                    let tested = !out.sums_all(c);
+                    let end = (c + 1..c1)
+                        .find(|&e| out.sums_all(e) == tested)
+                        .unwrap_or(c1);
+                    let (from, to) = ((c - c0) * PER_CHUNK, (end - c0) * PER_CHUNK);
+                    let r = &mut PairRange {
+                        chunks: c..end,
+                        e_n: part(p.range.e_n, from, to),
+                        e_s: part(p.range.e_s, from, to),
+                        ..p.range
+                    };
+                    let out = &mut Out {
+                        sums: &mut *out.sums,
+                        rows: part(p.rows, from, to),
+                        ..out
+                    };
+                    use pairs::{pair_range, EVERY_IN_PHASE as ALL, MARKED};
+                    let part = match (p.count, p.no_tension, tested) {
+                        (true, false, true) => pair_range::<N, true, false, MARKED>(r, out),
+                        (false, false, true) => pair_range::<N, false, false, MARKED>(r, out),
+                        (true, true, true) => pair_range::<N, true, true, MARKED>(r, out),
+                        (false, true, true) => pair_range::<N, false, true, MARKED>(r, out),
+                        (true, false, false) => pair_range::<N, true, false, ALL>(r, out),
+                        (false, false, false) => pair_range::<N, false, false, ALL>(r, out),
+                        (true, true, false) => pair_range::<N, true, true, ALL>(r, out),
+                        (false, true, false) => pair_range::<N, false, true, ALL>(r, out),
+                    };
+                    counts = counts.merge(part);
+                    c = end;
                 }
+                counts
+            }
+
+            /// The places `from..to` of `a` (clamped to it).
+            fn part<T>(a: &mut [T], from: usize, to: usize) -> &mut [T] {
+                let len = a.len();
+                a.get_mut(from.min(len)..to.min(len)).unwrap_or_default()
             }
 
             /// The move phase over a range of whole groups (module docs,
