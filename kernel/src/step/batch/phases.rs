@@ -334,8 +334,10 @@ macro_rules! phases {
                 let no_row = [0.0; 4];
                 let row = |q: usize| load_row(rows.get(q).unwrap_or(&no_row));
                 let before = |grp: usize, sums: &mut [[R; 4]; L]| {
-                    let group = done.get(grp * L..(grp + 1) * L).unwrap_or(&[]);
-                    if group.iter().all(|&d| d != 0) {
+                    // A group whose grains are all done (flags of 1): one
+                    // compare of the flags as a word.
+                    let group = done.get(grp * L..).and_then(|d| d.first_chunk::<L>());
+                    if group == Some(&[1; L]) {
                         return;
                     }
                     for (l, sums) in sums.iter_mut().enumerate() {
