@@ -58,13 +58,22 @@ pub enum Case {
     Flow,
     /// The neighbour-list rebuild alone.
     Rebuild,
+    /// The neighbour-list rebuild alone, of the bed of the flow case (a
+    /// larger skin, more candidates: what a flowing bed's rebuilds cost).
+    RebuildFlow,
     /// The contact law (6)–(9) alone, over the bed's contacts.
     Contacts,
 }
 
 impl Case {
     /// Every case, in table order.
-    pub const ALL: [Case; 4] = [Case::Still, Case::Flow, Case::Rebuild, Case::Contacts];
+    pub const ALL: [Case; 5] = [
+        Case::Still,
+        Case::Flow,
+        Case::Rebuild,
+        Case::RebuildFlow,
+        Case::Contacts,
+    ];
 
     /// The case steps the bed (and is rewound every [`WINDOW_STEPS`]).
     pub fn steps(self) -> bool {
@@ -77,6 +86,7 @@ impl Case {
             Case::Still => "still",
             Case::Flow => "flow",
             Case::Rebuild => "rebuild",
+            Case::RebuildFlow => "rebuild-flow",
             Case::Contacts => "contacts",
         }
     }
@@ -293,8 +303,9 @@ impl<'s, R: Real, const N: usize, const K: usize, const C: usize> Prepared<'s, R
         case: Case,
         beds: Option<&Path>,
     ) -> Result<Self, HostError> {
-        prepare(sim, bed, case == Case::Flow, beds)?;
-        if case == Case::Flow {
+        let flow = matches!(case, Case::Flow | Case::RebuildFlow);
+        prepare(sim, bed, flow, beds)?;
+        if flow {
             sim.step().map_err(bed_error)?;
         }
         let mut start = Vec::new();
@@ -404,7 +415,9 @@ impl<'s, R: Real, const N: usize, const K: usize, const C: usize> Prepared<'s, R
     fn repeat(&mut self, times: u64) -> Result<(), Error> {
         match self.case {
             Case::Still | Case::Flow => self.stepping.run(self.sim, times),
-            Case::Rebuild => (0..times).try_for_each(|_| self.sim.rebuild_neighbours()),
+            Case::Rebuild | Case::RebuildFlow => {
+                (0..times).try_for_each(|_| self.sim.rebuild_neighbours())
+            }
             Case::Contacts => {
                 (0..times).for_each(|_| self.law.pass());
                 Ok(())

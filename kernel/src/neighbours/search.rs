@@ -162,29 +162,39 @@ impl<R: Real, const N: usize, const K: usize> Phase for Search<'_, R, N, K> {
             let right = if bx + 1 >= nx { 0 } else { bx + 1 };
             let (x_i, y_i, r_i, fixed_i) = (g.x[i], g.y[i], g.r[i], g.fixed[i]);
             let mut found = Found::new();
-            let mut searched = [usize::MAX; 9];
-            for (s, (dy, nbx)) in (0..3u32)
-                .flat_map(|dy| [left, bx, right].map(|nbx| (dy, nbx)))
-                .enumerate()
-            {
-                let Some(nby) = (by + dy).checked_sub(1) else {
-                    continue;
-                };
-                let b = bucket(nbx, nby, nx, buckets);
-                if bins.may_repeat {
-                    if searched.contains(&b) {
-                        continue;
-                    }
-                    searched[s] = b;
-                }
-                let (from, to) = (cursors[b] as usize, end[b] as usize);
-                for &j in order.get(from..to).unwrap_or(&[]) {
+            // The grains of `order` from `from` to `to` within reach; j > i
+            // only (a run may hold grains already searched).
+            let mut test = |from: u32, to: u32| {
+                for &j in order.get(from as usize..to as usize).unwrap_or(&[]) {
                     let j = j as usize;
                     let ddx = periodic(g.x[j] - x_i, bins.width, half_width);
                     let ddy = g.y[j] - y_i;
                     let reach = r_i + g.r[j] + bins.skin;
-                    let keep = !(fixed_i & g.fixed[j]) & (ddx * ddx + ddy * ddy < reach * reach);
-                    found.push(j as u32, keep);
+                    let near = ddx * ddx + ddy * ddy < reach * reach;
+                    found.push(j as u32, (j > i) & !(fixed_i & g.fixed[j]) & near);
+                }
+            };
+            let mut searched = [usize::MAX; 9];
+            for (row, dy) in (0..3u32).enumerate() {
+                let Some(nby) = (by + dy).checked_sub(1) else {
+                    continue;
+                };
+                let [l, c, r] = [left, bx, right].map(|nbx| bucket(nbx, nby, nx, buckets));
+                if !bins.may_repeat && l + 1 == c && c + 1 == r {
+                    // Three buckets side by side in `order`: one run, from
+                    // the left one's first grain after those searched (the
+                    // middle and right ones' searched grains are j < i).
+                    test(cursors[l], end[r]);
+                    continue;
+                }
+                for (s, b) in [l, c, r].into_iter().enumerate() {
+                    if bins.may_repeat {
+                        if searched.contains(&b) {
+                            continue;
+                        }
+                        searched[3 * row + s] = b;
+                    }
+                    test(cursors[b], end[b]);
                 }
             }
             let found = found.sorted(K).ok_or(Error::CapacityExceeded {
