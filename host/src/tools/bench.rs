@@ -2,9 +2,10 @@
 //! (`benches/step.rs`): settled beds of the paper's grains (d = 0.5 mm,
 //! α_m = 20, α_cn = 1.3, constants from constants_dt = 2.0e-5 s, integrated
 //! at step_dt = constants_dt/8),
-//! [`ROWS`] rows deep over a fixed row, periodic in x, and four cases: a
+//! [`ROWS`] rows deep over a fixed row, periodic in x, and five cases: a
 //! step without flow, a step with the flow at τ* = 0.2, the neighbour
-//! rebuild alone and the contact law alone.
+//! rebuild alone of the settled and of the flowing bed, and the contact
+//! law alone.
 //!
 //! Beds wider than one tile of [`TILE_COLUMNS`] columns are that settled
 //! tile repeated side by side and settled again, so a 65 536-grain bed costs
@@ -293,7 +294,7 @@ pub struct Prepared<'s, R: Real, const N: usize, const K: usize, const C: usize>
 impl<'s, R: Real, const N: usize, const K: usize, const C: usize> Prepared<'s, R, N, K, C> {
     /// Prepares `bed` in `sim` for `case` ([`prepare`]) and rebuilds the
     /// neighbour lists, which a restored bed would otherwise do, untimed,
-    /// on its first step. The flow case also takes that first step untimed:
+    /// on its first step. The flow cases also take that first step untimed:
     /// it recomputes the bed level and redraws the fluctuations, which the
     /// flow does once per 800 steps, so a short timed run (callgrind's 20
     /// steps) would otherwise count them 40 times too often.

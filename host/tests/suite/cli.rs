@@ -300,7 +300,7 @@ fn digest_matches_the_golden_file() {
 #[test]
 fn bench_runs_every_case_and_keeps_prepared_beds() {
     let beds = tempfile::tempdir().unwrap();
-    for case in ["still", "flow", "rebuild", "contacts"] {
+    for case in ["still", "flow", "rebuild", "rebuild-flow", "contacts"] {
         mbs()
             .args(["bench", "--grains", "64", "--steps", "50", "--case", case])
             .arg("--beds")

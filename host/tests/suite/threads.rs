@@ -6,7 +6,7 @@
 
 use mbs::sim::sims::{boxed_sim, HostSim, NEIGHBOURS};
 use mbs::sim::threads::{boxed_phases, Threads};
-use mbs_kernel::{BedSpec, Executor, Phase, Phases, Scenario};
+use mbs_kernel::{BedSpec, Executor, Phase, Phases, Real, Scenario};
 
 /// Grains of the test bed: 60 columns × 12 rows of the paper's bed, so
 /// that 7 ranges of a phase hold about 100 grains each.
@@ -45,12 +45,12 @@ const STEPS: u64 = 1500;
 
 /// Digests after settling and after a flow at τ* = 0.3, stepping with
 /// `step` (the event counts too).
-fn run<const M: usize>(
+fn run<R: Real, const M: usize>(
     coupled: bool,
-    step: &mut dyn FnMut(&mut HostSim<f64, M>) -> Result<(), mbs_kernel::Error>,
+    step: &mut dyn FnMut(&mut HostSim<R, M>) -> Result<(), mbs_kernel::Error>,
 ) -> (u64, u64, mbs_kernel::Events) {
     let sc = scenario(coupled);
-    let mut sim = boxed_sim::<f64, M, NEIGHBOURS>();
+    let mut sim = boxed_sim::<R, M, NEIGHBOURS>();
     sc.build(&mut *sim).unwrap();
     sim.count_events(true);
     for _ in 0..STEPS {
@@ -71,15 +71,15 @@ fn run<const M: usize>(
 #[test]
 fn any_thread_count_gives_the_bits_of_one_core() {
     for coupled in [false, true] {
-        let (a, b, events) = run::<N>(coupled, &mut |s| s.step());
+        let (a, b, events) = run::<f64, N>(coupled, &mut |s| s.step());
         assert_eq!(events.batched_steps > 0, LANES, "{events:?}");
         let mut phases = boxed_phases::<f64, N, NEIGHBOURS>();
-        let (c, d, scalar) = run::<NO_LANES>(coupled, &mut |s| s.step());
+        let (c, d, scalar) = run::<f64, NO_LANES>(coupled, &mut |s| s.step());
         assert_eq!(scalar.batched_steps, 0);
         let mut no_lanes = boxed_phases::<f64, NO_LANES, NEIGHBOURS>();
         for threads in [1, 2, 3, 7] {
             let exec = Threads::exactly(threads);
-            let got = run::<N>(coupled, &mut |s| s.step_phased(&mut phases, &exec));
+            let got = run::<f64, N>(coupled, &mut |s| s.step_phased(&mut phases, &exec));
             let with = format!("coupled {coupled}, {threads} threads");
             assert_eq!((got.0, got.1), (a, b), "{with}");
             let phased = |e: mbs_kernel::Events| mbs_kernel::Events {
@@ -87,7 +87,7 @@ fn any_thread_count_gives_the_bits_of_one_core() {
                 ..e
             };
             assert_eq!(got.2, phased(events), "{with}");
-            let got = run::<NO_LANES>(coupled, &mut |s| s.step_phased(&mut no_lanes, &exec));
+            let got = run::<f64, NO_LANES>(coupled, &mut |s| s.step_phased(&mut no_lanes, &exec));
             assert_eq!((got.0, got.1), (c, d), "{with}, no lanes");
             assert_eq!(got.2, phased(scalar), "{with}, no lanes");
         }
@@ -118,15 +118,21 @@ impl Executor for RandomCuts {
     }
 }
 
+/// Random cuts in both precisions (f32's lanes hold 8 grains and its
+/// chunks 64 pairs, f64's 4 and 32), clear water and the coupled flow.
 #[test]
 fn any_cut_gives_the_same_bits() {
-    for coupled in [false, true] {
-        let (a, b, _) = run::<N>(coupled, &mut |s| s.step());
-        let mut phases = boxed_phases::<f64, N, NEIGHBOURS>();
-        let exec = RandomCuts(std::cell::Cell::new(7));
-        let got = run::<N>(coupled, &mut |s| s.step_phased(&mut phases, &exec));
-        assert_eq!((got.0, got.1), (a, b), "coupled {coupled}");
+    fn cut<R: Real>(seed: u64) {
+        for coupled in [false, true] {
+            let (a, b, _) = run::<R, N>(coupled, &mut |s| s.step());
+            let mut phases = boxed_phases::<R, N, NEIGHBOURS>();
+            let exec = RandomCuts(std::cell::Cell::new(seed));
+            let got = run::<R, N>(coupled, &mut |s| s.step_phased(&mut phases, &exec));
+            assert_eq!((got.0, got.1), (a, b), "{}, coupled {coupled}", R::NAME);
+        }
     }
+    cut::<f64>(7);
+    cut::<f32>(11);
 }
 
 #[test]

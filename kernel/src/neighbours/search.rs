@@ -41,7 +41,7 @@ impl<R: Real> Bins<R> {
 /// The search of a range of grains' lists ([`Neighbours::search`]): each
 /// grain i of the range, in ascending order, tests the grains of the nine
 /// bins around it that follow it in its buckets (the buckets' `cursors`
-/// drop each grain once searched, so only grains j > i are met) and
+/// drop each grain once searched, so only grains j > i are kept) and
 /// replaces its slots by those within the cut-off, keeping their history.
 /// Each grain's list depends on nothing else, so the range can be cut at
 /// any grain, each part searching on its own ([`Search::split_at`]; the
@@ -183,7 +183,7 @@ impl<R: Real, const N: usize, const K: usize> Phase for Search<'_, R, N, K> {
                 if !bins.may_repeat && l + 1 == c && c + 1 == r {
                     // Three buckets side by side in `order`: one run, from
                     // the left one's first grain after those searched (the
-                    // middle and right ones' searched grains are j < i).
+                    // middle and right ones' searched grains are j ≤ i).
                     test(cursors[l], end[r]);
                     continue;
                 }

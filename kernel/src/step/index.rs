@@ -509,6 +509,16 @@ mod tests {
     /// picked by its controls (a batch of four grains' pairs would reach
     /// 16 grains ahead: it ends early), and only the batch across the
     /// boundary gathers its second grains.
+    /// Lanes need powers of two, whole groups and whole chunks of pair
+    /// places: f32's 8 lanes take N = 16 but not 8 (32 places, half a
+    /// chunk of 64); f64's 4 lanes take N = 8 but not 4.
+    #[test]
+    fn lanes_fit_whole_groups_and_chunks() {
+        assert!(lanes_fit(16, 4, 8) && !lanes_fit(8, 4, 8));
+        assert!(lanes_fit(8, 4, 4) && !lanes_fit(4, 4, 4));
+        assert!(!lanes_fit(1000, 8, 4) && !lanes_fit(1024, 6, 4) && !lanes_fit(1024, 8, 0));
+    }
+
     #[test]
     fn second_grains_lie_in_windows_but_across_the_boundary() {
         const N: usize = 64;

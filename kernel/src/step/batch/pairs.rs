@@ -19,7 +19,7 @@
 //! into each precision's module of the batched step (`lanes!` in
 //! [`super`]).
 
-/// Writes the module `pairs` (the pass `pair_pass`) in the lanes of
+/// Writes the module `pairs` (the pass `pair_range`) in the lanes of
 /// `lanes::$lanes` ([`super::lanes`]).
 macro_rules! pairs {
     ($lanes:ident) => {
@@ -146,8 +146,10 @@ macro_rules! pairs {
                 let [x, y, u, v, w] = r.grains;
                 // The slices in locals (behind `r` and `out` their addresses
                 // would be read again after every store), the history as
-                // chunks of L pairs' worth (no bounds to check within a
-                // chunk; `index::lanes_fit`: the places are whole chunks).
+                // chunks of CHUNK batches of L pairs (no bounds to check
+                // within a chunk): whole chunks, as ranges and runs are cut
+                // at chunks and the places are whole chunks
+                // (`index::lanes_fit`).
                 let hist_n = r.e_n.as_chunks_mut::<L>().0.as_chunks_mut::<CHUNK>().0;
                 let hist_s = r.e_s.as_chunks_mut::<L>().0.as_chunks_mut::<CHUNK>().0;
                 let (g0, done) = (out.g0, out.done);
@@ -221,6 +223,8 @@ macro_rules! pairs {
                     v_s: zero,
                 }; CHUNK];
                 for (k, chunk) in range.clone().step_by(CHUNK).enumerate() {
+                    // Never short (above): a chunk past the history would
+                    // be a pair list longer than the places.
                     let (Some(h_n), Some(h_s)) = (hist_n.get_mut(k), hist_s.get_mut(k)) else {
                         break;
                     };

@@ -64,7 +64,8 @@ pub(super) struct PairRange<'a, R: Real, const N: usize> {
     pub(super) width: R,
     /// The range's chunks (indices of chunks).
     pub(super) chunks: Range<usize>,
-    /// The history (e_n, e_s) of the range's pairs, from its first pair.
+    /// The history (e_n, e_s) of the range's pairs, from its first pair:
+    /// whole chunks (the pair pass reads them chunk by chunk).
     pub(super) e_n: &'a mut [R],
     pub(super) e_s: &'a mut [R],
 }
