@@ -223,8 +223,6 @@ macro_rules! lanes {
                         sums: &mut *parts.sums,
                         done: &[],
                         rows: &mut [],
-                        places: [0, 0],
-                        chunk_span: &[],
                     };
                     let counts = match (p.count_events, no_tension) {
                         (true, false) => {

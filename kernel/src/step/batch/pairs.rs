@@ -28,7 +28,6 @@ macro_rules! pairs {
             use crate::step::batch::lanes::$lanes::*;
             use crate::step::batch::params::PairRange;
             use crate::step::index::{second_window, window_start, CHUNK, FAR, PAIRS};
-            use crate::step::phased::{holds, ChunkSpan};
             use crate::step::scalar::Counts;
             use core::arch::x86_64::{
                 __m256i, _mm256_cvtepu8_epi32, _mm256_setzero_si256, _mm256_slli_epi32,
@@ -39,31 +38,15 @@ macro_rules! pairs {
             const SECOND_WINDOW: bool = second_window(L) == 2 * L;
 
             /// Where [`pair_range`] puts the rows: the sums of the grains from
-            /// `g0` (the batched pass: every grain's, from 0), and, for the pair
-            /// phase, which of them it sums (`done`: those whose pair places
-            /// all lie in `places`) and the rows of the range's pairs (from
-            /// its first pair) that it does not, and each chunk's
-            /// [`ChunkSpan`] (a chunk whose grains it all sums needs no test).
+            /// `g0` (the batched pass: every grain's, from 0), and, for the
+            /// pair phase's tested chunks ([`MARKED`]), which of them it sums
+            /// (`done`) and the rows of the run's pairs (from its first pair)
+            /// that it does not.
             pub(crate) struct Out<'a> {
                 pub(crate) g0: usize,
                 pub(crate) sums: &'a mut [[R; 4]],
                 pub(crate) done: &'a [u8],
                 pub(crate) rows: &'a mut [[R; 4]],
-                pub(crate) places: [u32; 2],
-                pub(crate) chunk_span: &'a [ChunkSpan],
-            }
-
-            impl Out<'_> {
-                /// Whether the range sums every grain of chunk `c`.
-                #[inline]
-                pub(crate) fn sums_all(&self, c: usize) -> bool {
-                    let grains = self.g0..self.g0 + self.sums.len().min(self.done.len());
-                    self.chunk_span.get(c).is_some_and(|s| {
-                        holds(self.places, [s[0], s[1]])
-                            && grains.contains(&(s[2] as usize))
-                            && grains.contains(&(s[3] as usize))
-                    })
-                }
             }
 
             /// [`pair_range`] sums every pair's grains: the batched pass.

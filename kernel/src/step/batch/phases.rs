@@ -200,13 +200,15 @@ macro_rules! phases {
                     *done = u8::from(holds([q0, q1], *span));
                 }
                 let (c0, c1) = (p.range.chunks.start, p.range.chunks.end);
-                let out = Out {
-                    g0: p.g0,
-                    sums: &mut *p.sums,
-                    done: &*p.done,
-                    rows: &mut [],
-                    places: [q0, q1],
-                    chunk_span: p.chunk_span,
+                // Whether the range sums every grain of chunk `c` (its
+                // pairs' places and its grains all in the range).
+                let grains = p.g0..p.g0 + p.sums.len().min(p.done.len());
+                let sums_all = |c: usize| {
+                    p.chunk_span.get(c).is_some_and(|s| {
+                        holds([q0, q1], [s[0], s[1]])
+                            && grains.contains(&(s[2] as usize))
+                            && grains.contains(&(s[3] as usize))
+                    })
                 };
                 let mut counts = Counts::default();
                 // Runs of chunks that need the tests (near a cut or the
@@ -215,10 +217,8 @@ macro_rules! phases {
                 // instructions).
                 let mut c = c0;
                 while c < c1 {
-                    let tested = !out.sums_all(c);
-                    let end = (c + 1..c1)
-                        .find(|&e| out.sums_all(e) == tested)
-                        .unwrap_or(c1);
+                    let tested = !sums_all(c);
+                    let end = (c + 1..c1).find(|&e| sums_all(e) == tested).unwrap_or(c1);
                     let (from, to) = ((c - c0) * PER_CHUNK, (end - c0) * PER_CHUNK);
                     let r = &mut PairRange {
                         chunks: c..end,
@@ -227,9 +227,10 @@ macro_rules! phases {
                         ..p.range
                     };
                     let out = &mut Out {
-                        sums: &mut *out.sums,
+                        g0: p.g0,
+                        sums: &mut *p.sums,
+                        done: &*p.done,
                         rows: part(p.rows, from, to),
-                        ..out
                     };
                     use pairs::{pair_range, EVERY_IN_PHASE as ALL, MARKED};
                     let part = match (p.count, p.no_tension, tested) {
