@@ -160,20 +160,9 @@ impl<R: Real, const N: usize, const K: usize> Phase for Search<'_, R, N, K> {
             // The bins left and right, periodic in x (nx ≥ 3).
             let left = if bx == 0 { nx - 1 } else { bx - 1 };
             let right = if bx + 1 >= nx { 0 } else { bx + 1 };
-            let (x_i, y_i, r_i, fixed_i) = (g.x[i], g.y[i], g.r[i], g.fixed[i]);
-            let mut found = Found::new();
-            // The grains of `order` from `from` to `to` within reach; j > i
-            // only (a run may hold grains already searched).
-            let mut test = |from: u32, to: u32| {
-                for &j in order.get(from as usize..to as usize).unwrap_or(&[]) {
-                    let j = j as usize;
-                    let ddx = periodic(g.x[j] - x_i, bins.width, half_width);
-                    let ddy = g.y[j] - y_i;
-                    let reach = r_i + g.r[j] + bins.skin;
-                    let near = ddx * ddx + ddy * ddy < reach * reach;
-                    found.push(j as u32, (j > i) & !(fixed_i & g.fixed[j]) & near);
-                }
-            };
+            // The runs of `order` to test: a bucket's grains not yet
+            // searched, or a row's three buckets.
+            let (mut runs, mut count_runs) = ([(0, 0); 9], 0);
             let mut searched = [usize::MAX; 9];
             for (row, dy) in (0..3u32).enumerate() {
                 let Some(nby) = (by + dy).checked_sub(1) else {
@@ -184,7 +173,8 @@ impl<R: Real, const N: usize, const K: usize> Phase for Search<'_, R, N, K> {
                     // Three buckets side by side in `order`: one run, from
                     // the left one's first grain after those searched (the
                     // middle and right ones' searched grains are j ≤ i).
-                    test(cursors[l], end[r]);
+                    runs[count_runs] = (cursors[l], end[r]);
+                    count_runs += 1;
                     continue;
                 }
                 for (s, b) in [l, c, r].into_iter().enumerate() {
@@ -194,8 +184,32 @@ impl<R: Real, const N: usize, const K: usize> Phase for Search<'_, R, N, K> {
                         }
                         searched[3 * row + s] = b;
                     }
-                    test(cursors[b], end[b]);
+                    runs[count_runs] = (cursors[b], end[b]);
+                    count_runs += 1;
                 }
+            }
+            let at = At {
+                i,
+                x: g.x[i],
+                y: g.y[i],
+                r: g.r[i],
+                skin: bins.skin,
+                width: bins.width,
+                half_width,
+            };
+            // Two bins or more from the seam (bins 2 to nx − 3), every
+            // grain's periodic image is more than a bin (≥ the cut-off)
+            // away, rounding included, so the separation itself decides
+            // (one bin would do but for rounding at a cut-off of exactly a
+            // bin). Only a fixed grain tests for fixed–fixed pairs.
+            let seam = bx < 2 || bx + 2 >= nx;
+            let runs = &runs[..count_runs.min(9)];
+            let mut found = Found::new();
+            match (seam, g.fixed[i]) {
+                (false, false) => at.test::<N, false, false>(g, order, runs, &mut found),
+                (true, false) => at.test::<N, true, false>(g, order, runs, &mut found),
+                (false, true) => at.test::<N, false, true>(g, order, runs, &mut found),
+                (true, true) => at.test::<N, true, true>(g, order, runs, &mut found),
             }
             let found = found.sorted(K).ok_or(Error::CapacityExceeded {
                 what: Capacity::NeighboursPerGrain,
@@ -208,6 +222,54 @@ impl<R: Real, const N: usize, const K: usize> Phase for Search<'_, R, N, K> {
 
     fn merge(first: Self::Output, second: Self::Output) -> Self::Output {
         first.and(second)
+    }
+}
+
+/// The grain a search is at: what its tests of candidates read.
+struct At<R: Real> {
+    i: usize,
+    x: R,
+    y: R,
+    r: R,
+    skin: R,
+    width: R,
+    half_width: R,
+}
+
+impl<R: Real> At<R> {
+    /// Adds to `found` the grains j of `order` in `runs` within reach of
+    /// grain i, j > i only (a run may hold grains already searched), no
+    /// fixed–fixed pair. `SEAM`: the separation's periodic image is taken
+    /// (else the separation itself); `FIXED`: grain i is fixed. Branch-free
+    /// on the outcome of a test.
+    #[inline(always)]
+    fn test<const N: usize, const SEAM: bool, const FIXED: bool>(
+        &self,
+        g: &Grains<R, N>,
+        order: &[u32],
+        runs: &[(u32, u32)],
+        found: &mut Found,
+    ) {
+        for &(from, to) in runs {
+            for &j in order.get(from as usize..to as usize).unwrap_or(&[]) {
+                let j = j as usize;
+                let (Some(&x), Some(&y), Some(&r), Some(&fixed)) =
+                    (g.x.get(j), g.y.get(j), g.r.get(j), g.fixed.get(j))
+                else {
+                    continue;
+                };
+                let dx = x - self.x;
+                let ddx = if SEAM {
+                    periodic(dx, self.width, self.half_width)
+                } else {
+                    dx
+                };
+                let ddy = y - self.y;
+                let reach = self.r + r + self.skin;
+                let near = ddx * ddx + ddy * ddy < reach * reach;
+                found.push(j as u32, (j > self.i) & !(FIXED & fixed) & near);
+            }
+        }
     }
 }
 

@@ -181,6 +181,7 @@ macro_rules! lanes {
             use crate::grains::Grains;
             use crate::neighbours::Neighbours;
             use crate::step::batch::lanes::$lanes::{L, R};
+            use crate::step::batch::pairs::pair_range_for;
             use crate::step::batch::params::{Moving, PairRange, Params};
             use crate::step::index::PairIndex;
             use crate::step::phased::Phases;
@@ -224,20 +225,12 @@ macro_rules! lanes {
                         done: &[],
                         rows: &mut [],
                     };
-                    let counts = match (p.count_events, no_tension) {
-                        (true, false) => {
-                            pairs::pair_range::<N, true, false, { pairs::EVERY }>(range, out)
-                        }
-                        (false, false) => {
-                            pairs::pair_range::<N, false, false, { pairs::EVERY }>(range, out)
-                        }
-                        (true, true) => {
-                            pairs::pair_range::<N, true, true, { pairs::EVERY }>(range, out)
-                        }
-                        (false, true) => {
-                            pairs::pair_range::<N, false, true, { pairs::EVERY }>(range, out)
-                        }
-                    };
+                    let counts = pair_range_for!(pairs::<N, pairs::EVERY>(
+                        p.count_events,
+                        no_tension,
+                        range,
+                        out
+                    ));
                     counts.add_to(events);
                     let s = &mut Moving::new(g, parts.mobile, parts.sums, groups, L);
                     let (max_v2, crossings) = grains::grain_pass(s, &p.mover, |_, _| {})?;

@@ -368,3 +368,20 @@ macro_rules! pairs {
     };
 }
 pub(super) use pairs;
+
+/// Calls the copy of `$pairs::pair_range` for the run-time flags
+/// (`$count`, `$no_tension`) and the summing `$sums` on `($r, $out)`: each
+/// copy from one call site only, so that each is inlined where it is
+/// called (a copy called from two places was inlined into neither: ~50
+/// more instructions per grain-step).
+macro_rules! pair_range_for {
+    ($pairs:ident::<$n:ident, $sums:path>($count:expr, $no_tension:expr, $r:expr, $out:expr)) => {
+        match ($count, $no_tension) {
+            (true, false) => $pairs::pair_range::<$n, true, false, { $sums }>($r, $out),
+            (false, false) => $pairs::pair_range::<$n, false, false, { $sums }>($r, $out),
+            (true, true) => $pairs::pair_range::<$n, true, true, { $sums }>($r, $out),
+            (false, true) => $pairs::pair_range::<$n, false, true, { $sums }>($r, $out),
+        }
+    };
+}
+pub(super) use pair_range_for;

@@ -43,6 +43,7 @@ macro_rules! phases {
             use crate::error::Error;
             use crate::executor::Phase;
             use crate::step::batch::lanes::$lanes::*;
+            use crate::step::batch::pairs::pair_range_for;
             use crate::step::batch::params::{Moving, PairRange};
             use crate::step::index::{Listed, CHUNK};
             use crate::step::mover::Mover;
@@ -232,16 +233,12 @@ macro_rules! phases {
                         done: &*p.done,
                         rows: part(p.rows, from, to),
                     };
-                    use pairs::{pair_range, EVERY_IN_PHASE as ALL, MARKED};
-                    let part = match (p.count, p.no_tension, tested) {
-                        (true, false, true) => pair_range::<N, true, false, MARKED>(r, out),
-                        (false, false, true) => pair_range::<N, false, false, MARKED>(r, out),
-                        (true, true, true) => pair_range::<N, true, true, MARKED>(r, out),
-                        (false, true, true) => pair_range::<N, false, true, MARKED>(r, out),
-                        (true, false, false) => pair_range::<N, true, false, ALL>(r, out),
-                        (false, false, false) => pair_range::<N, false, false, ALL>(r, out),
-                        (true, true, false) => pair_range::<N, true, true, ALL>(r, out),
-                        (false, true, false) => pair_range::<N, false, true, ALL>(r, out),
+                    use pairs::{EVERY_IN_PHASE as ALL, MARKED};
+                    let (count, no_tension) = (p.count, p.no_tension);
+                    let part = if tested {
+                        pair_range_for!(pairs::<N, MARKED>(count, no_tension, r, out))
+                    } else {
+                        pair_range_for!(pairs::<N, ALL>(count, no_tension, r, out))
                     };
                     counts = counts.merge(part);
                     c = end;
