@@ -173,8 +173,7 @@ impl<R: Real, const N: usize, const K: usize> Phase for Search<'_, R, N, K> {
                     // Three buckets side by side in `order`: one run, from
                     // the left one's first grain after those searched (the
                     // middle and right ones' searched grains are j ≤ i).
-                    runs[count_runs] = (cursors[l], end[r]);
-                    count_runs += 1;
+                    push_run(&mut runs, &mut count_runs, (cursors[l], end[r]));
                     continue;
                 }
                 for (s, b) in [l, c, r].into_iter().enumerate() {
@@ -184,8 +183,7 @@ impl<R: Real, const N: usize, const K: usize> Phase for Search<'_, R, N, K> {
                         }
                         searched[3 * row + s] = b;
                     }
-                    runs[count_runs] = (cursors[b], end[b]);
-                    count_runs += 1;
+                    push_run(&mut runs, &mut count_runs, (cursors[b], end[b]));
                 }
             }
             let at = At {
@@ -222,6 +220,16 @@ impl<R: Real, const N: usize, const K: usize> Phase for Search<'_, R, N, K> {
 
     fn merge(first: Self::Output, second: Self::Output) -> Self::Output {
         first.and(second)
+    }
+}
+
+/// Appends `run` to the first `count` of `runs` (at most nine: three rows
+/// of one run or three buckets).
+#[inline(always)]
+fn push_run(runs: &mut [(u32, u32); 9], count: &mut usize, run: (u32, u32)) {
+    if let Some(slot) = runs.get_mut(*count) {
+        *slot = run;
+        *count += 1;
     }
 }
 
