@@ -325,3 +325,35 @@ fn grains_placed_overlapping_are_pushed_apart() {
         }
     }
 }
+
+/// Every grain lies in [0, width) in the simulation's own precision, as the
+/// neighbour search and the mover assume: a position just below the width
+/// that rounds to it in f32 is placed at the seam, and a checkpoint whose
+/// grain stands at the width (in its precision) is refused.
+#[test]
+fn a_position_that_rounds_to_the_width_is_inside_the_domain() {
+    let cfg = config(1e-5, 1.0, 1e-4, 0.5);
+    let width = cfg.width as f32;
+    assert!(f64::from(width) < cfg.width, "a width that f32 rounds down");
+    let mut s = Box::new(Sim::<f32, 256, 8>::new());
+    s.reset(&cfg).unwrap();
+    let i = s
+        .add_grain(&mobile(f64::from(width), 0.0, 0.0, 0.0))
+        .unwrap();
+    let x = s.grain(i).unwrap().x;
+    assert!((0.0..f64::from(width)).contains(&x), "x = {x}");
+    let marked = (10.5 * D) as f32;
+    s.add_grain(&mobile(f64::from(marked), 0.0, 0.0, 0.0))
+        .unwrap();
+    let mut saved = Vec::new();
+    s.checkpoint(|b| saved.extend_from_slice(b));
+    let mut restored = Box::new(Sim::<f32, 256, 8>::new());
+    restored.restore(&saved).unwrap();
+    let bits = marked.to_le_bytes();
+    let at = saved.windows(4).position(|w| w == bits).unwrap();
+    saved[at..at + 4].copy_from_slice(&width.to_le_bytes());
+    assert!(matches!(
+        restored.restore(&saved),
+        Err(Error::BadCheckpoint { .. })
+    ));
+}

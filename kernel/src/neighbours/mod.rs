@@ -382,16 +382,16 @@ mod tests {
 
     /// Every grain j > i within r_i + r_j + skin of grain i (periodic in
     /// x), unless both are fixed: the search by brute force.
-    fn brute_force<const N: usize>(
-        g: &Grains<f64, N>,
-        width: f64,
-        skin: f64,
+    fn brute_force<R: Real, const N: usize>(
+        g: &Grains<R, N>,
+        width: R,
+        skin: R,
         i: usize,
     ) -> Vec<u32> {
         (i + 1..g.len)
             .filter(|&j| !(g.fixed[i] && g.fixed[j]))
             .filter(|&j| {
-                let ddx = periodic(g.x[j] - g.x[i], width, width / 2.0);
+                let ddx = periodic(g.x[j] - g.x[i], width, width * R::HALF);
                 let ddy = g.y[j] - g.y[i];
                 let reach = g.r[i] + g.r[j] + skin;
                 ddx * ddx + ddy * ddy < reach * reach
@@ -466,6 +466,77 @@ mod tests {
             builds > 500 && overflows > 10 && kept > 1000,
             "{builds} {overflows} {kept}"
         );
+    }
+
+    /// Bins exactly a cut-off wide (no skin, every radius the largest or
+    /// less), 3 to 9 and 40 across, in f32 and f64: grains on the bins'
+    /// edges and a few ulps either side, at 0 and just below the width, in
+    /// rows a cut-off apart. Every list is the brute force's: the search's
+    /// tests without the periodic image (two bins or more from the seam)
+    /// decide as the image would, rounding included.
+    fn edges_list_what_the_brute_force_lists<R: Real>(seed: u64) {
+        const N: usize = 128;
+        const K: usize = 16;
+        let mut uniform = uniform(seed);
+        let mut checked = 0;
+        for case in 0..600 {
+            let across = [3u32, 4, 5, 6, 7, 9, 40][case % 7];
+            let r_max = R::from_f64([0.5, 0.3][case / 7 % 2]);
+            let cut = r_max + r_max;
+            let width = cut * R::from_f64(f64::from(across));
+            let bin = width.to_f64() / f64::from(across);
+            let mut g = Box::new(Grains::<R, N>::new());
+            g.len = 2 + case % (N - 2);
+            for i in 0..g.len {
+                let edge = (uniform() * f64::from(across)) as u32;
+                let ulps = (uniform() * 7.0) as i64 - 3;
+                let x = match (i + case) % 5 {
+                    0 => R::from_f64(f64::from(edge) * bin),
+                    1 => R::ZERO,
+                    2 => R::from_f64(width.to_f64() * (1.0 - 1e-7 * uniform())),
+                    _ => R::from_f64(f64::from(edge) * bin * (1.0 + ulps as f64 * 1e-7)),
+                };
+                g.x[i] = if x >= width || x < R::ZERO {
+                    R::ZERO
+                } else {
+                    x
+                };
+                g.y[i] = cut * R::from_f64(f64::from((uniform() * 3.0) as u32));
+                g.r[i] = if uniform() < 0.7 {
+                    r_max
+                } else {
+                    r_max * R::from_f64(uniform())
+                };
+                g.fixed[i] = uniform() < 0.2;
+            }
+            let mut nbrs = Box::new(Neighbours::<R, N, K>::new());
+            nbrs.set_skin(R::ZERO, R::ONE);
+            let expected: Vec<Vec<u32>> = (0..g.len)
+                .map(|i| brute_force(&g, width, R::ZERO, i))
+                .collect();
+            let built = nbrs.rebuild(&g, width, R::ZERO);
+            if expected.iter().any(|js| js.len() > K) {
+                assert!(built.is_err(), "case {case}");
+                continue;
+            }
+            assert!(built.is_ok(), "case {case}: {built:?}");
+            for (i, js) in expected.iter().enumerate() {
+                let listed = &nbrs.other[i][..usize::from(nbrs.count[i])];
+                assert_eq!(listed, &js[..], "{} case {case}, grain {i}", R::NAME);
+                checked += js.len();
+            }
+        }
+        assert!(checked > 5000, "{checked}");
+    }
+
+    #[test]
+    fn bins_a_cutoff_wide_list_what_the_brute_force_lists_f32() {
+        edges_list_what_the_brute_force_lists::<f32>(0x2545_f491_4f6c_dd1d);
+    }
+
+    #[test]
+    fn bins_a_cutoff_wide_list_what_the_brute_force_lists_f64() {
+        edges_list_what_the_brute_force_lists::<f64>(0x9e37_79b9_7f4a_7c15);
     }
 
     /// The search cut into ranges (2, 3, 5 and 8, each after the first

@@ -198,8 +198,9 @@ impl<R: Real, const N: usize, const K: usize> Phase for Search<'_, R, N, K> {
             // Two bins or more from the seam (bins 2 to nx − 3), every
             // grain's periodic image is more than a bin (≥ the cut-off)
             // away, rounding included, so the separation itself decides
-            // (one bin would do but for rounding at a cut-off of exactly a
-            // bin). Only a fixed grain tests for fixed–fixed pairs.
+            // (one bin would do but for rounding when the cut-off is
+            // exactly a bin, which no test provokes: the second bin is a
+            // margin). Only a fixed grain tests for fixed–fixed pairs.
             let seam = bx < 2 || bx + 2 >= nx;
             let runs = &runs[..count_runs.min(9)];
             let mut found = Found::new();
@@ -261,9 +262,7 @@ impl<R: Real> At<R> {
         for &(from, to) in runs {
             for &j in order.get(from as usize..to as usize).unwrap_or(&[]) {
                 let j = j as usize;
-                let (Some(&x), Some(&y), Some(&r), Some(&fixed)) =
-                    (g.x.get(j), g.y.get(j), g.r.get(j), g.fixed.get(j))
-                else {
+                let (Some(&x), Some(&y), Some(&r)) = (g.x.get(j), g.y.get(j), g.r.get(j)) else {
                     continue;
                 };
                 let dx = x - self.x;
@@ -275,7 +274,8 @@ impl<R: Real> At<R> {
                 let ddy = y - self.y;
                 let reach = self.r + r + self.skin;
                 let near = ddx * ddx + ddy * ddy < reach * reach;
-                found.push(j as u32, (j > self.i) & !(FIXED & fixed) & near);
+                let both_fixed = FIXED && g.fixed.get(j).is_some_and(|&f| f);
+                found.push(j as u32, (j > self.i) & !both_fixed & near);
             }
         }
     }

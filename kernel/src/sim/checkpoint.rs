@@ -510,6 +510,11 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
                 class,
             };
             check_grain(&head.config, &spec).map_err(|_| bad())?;
+            // In the checkpoint's precision too: x < width (the mover keeps
+            // it so; a width rounded down could let x equal it).
+            if v[0] >= R::from_f64(head.config.width) {
+                return Err(bad());
+            }
             if apply {
                 self.add_grain(&spec).map_err(|_| bad())?;
                 let g = &mut self.grains;

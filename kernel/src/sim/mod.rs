@@ -347,7 +347,10 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
         let g = &mut self.grains;
         let mobile = !spec.fixed;
         let d = spec.diameter;
-        g.x[i] = R::from_f64(spec.x);
+        // x < width, but in a coarser precision it may round to the width:
+        // then it is at the seam, x − width (exact: +0).
+        let x = R::from_f64(spec.x);
+        g.x[i] = if x >= self.width { x - self.width } else { x };
         g.y[i] = R::from_f64(spec.y);
         g.u[i] = if mobile { R::from_f64(spec.u) } else { R::ZERO };
         g.v[i] = if mobile { R::from_f64(spec.v) } else { R::ZERO };
