@@ -53,6 +53,7 @@ use crate::flow::{FlowConfig, FlowModel, FlowSpec, LogLaw};
 use crate::fluid::{Coupling, DragLaw, Fluctuations, FluidConfig, FluidSpec};
 use crate::grains::{GrainSpec, Grains};
 use crate::neighbours::Neighbours;
+use crate::periodic::into_domain;
 use crate::real::Real;
 #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
 use crate::step::batch;
@@ -349,8 +350,7 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
         let d = spec.diameter;
         // x < width, but in a coarser precision it may round to the width:
         // then it is at the seam, x − width (exact: +0).
-        let x = R::from_f64(spec.x);
-        g.x[i] = if x >= self.width { x - self.width } else { x };
+        g.x[i] = into_domain(R::from_f64(spec.x), self.width).0;
         g.y[i] = R::from_f64(spec.y);
         g.u[i] = if mobile { R::from_f64(spec.u) } else { R::ZERO };
         g.v[i] = if mobile { R::from_f64(spec.v) } else { R::ZERO };

@@ -4,6 +4,7 @@
 //! is finite and inside the domain.
 
 use crate::error::{Error, Quantity};
+use crate::periodic::into_domain;
 use crate::real::Real;
 
 /// Symplectic Euler for one mobile grain (docs/model.md (1)–(3)) with the periodic
@@ -53,19 +54,8 @@ impl<R: Real> Mover<R> {
         let u = u + (accel[0] + gravity[0]) * dt;
         let v = v + (accel[1] + gravity[1]) * dt;
         let w = w + spin * dt;
-        let mut x = x + u * dt;
+        let (x, wrapped) = into_domain(x + u * dt, self.width);
         let y = y + v * dt;
-        let mut wrapped = true;
-        if x >= self.width {
-            x -= self.width;
-        } else if x < R::ZERO {
-            x += self.width;
-            if x >= self.width {
-                x = R::ZERO; // −tiny + L rounded up to L
-            }
-        } else {
-            wrapped = false;
-        }
         // One test on the common path: every value finite and inside the domain.
         // The domain test also rejects a non-finite u or v (x, y then become
         // ±∞ or NaN, step_dt > 0) and a non-finite y; ω needs its own test.
