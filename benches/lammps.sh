@@ -36,4 +36,5 @@ m_ours=$(median "${ours[@]}")
 m_theirs=$(median "${theirs[@]}")
 echo "median: mbs $m_ours, LAMMPS $m_theirs ns per grain-step ($grains grains, one core):" \
   "$(awk -v a="$m_theirs" -v b="$m_ours" 'BEGIN { printf "%.1f", a / b }')x"
-grep -E "^ +0 |^ +$steps " "$dir/lammps.out" | sed 's/^/LAMMPS step, kinetic energy (J): /'
+grep -E "^ +0 |^ +$steps " "$dir/lammps.out" |
+  sed 's/^/LAMMPS step, kinetic energy (J), contacts per grain: /'

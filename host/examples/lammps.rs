@@ -79,7 +79,10 @@ fix weight mobile gravity {g:e} vector 0 -1 0
 fix frozen fixed freeze
 fix plane all enforce2d
 timestep {dt:e}
-thermo_style custom step ke
+compute touching all contact/atom
+compute contacts all reduce sum c_touching
+variable per_grain equal c_contacts/2/atoms
+thermo_style custom step ke v_per_grain
 thermo ${{steps}}
 run ${{steps}}
 ",
