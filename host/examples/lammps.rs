@@ -9,8 +9,9 @@
 //! spring–dashpot with a tangential spring and Coulomb's cap
 //! (docs/model.md (6)–(9)); its dashpots are per unit of effective mass,
 //! so γ = η/m_eff with m_eff = m/2 of two equal grains. The grains carry
-//! their added mass (m = (σ + C_M ρ) V) and feel the buoyant weight
-//! g (s − 1)/(s + C_M); the fixed grains are frozen.
+//! their added mass (`Material::translational_mass`) and feel the
+//! buoyant weight (`SimConfig::reduced_gravity`); the fixed grains are
+//! frozen.
 
 use mbs::sim::sims::boxed_sim;
 use mbs::tools::bench::{prepare, BenchBed};
@@ -33,11 +34,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let m = c.material;
     let specs: Vec<_> = (0..sim.len()).filter_map(|i| sim.grain(i)).collect();
     let d = specs.iter().map(|g| g.diameter).fold(0.0, f64::max);
-    let volume = |d: f64| std::f64::consts::PI * d * d * d / 6.0;
-    // LAMMPS's sphere mass is density · (4/3)π r³ in 2-D too.
-    let density = (m.s + m.c_m) * m.rho;
-    let m_eff = density * volume(d) / 2.0;
-    let g = -c.gravity[1] * (m.s - 1.0) / (m.s + m.c_m);
+    // LAMMPS's sphere mass is density · (4/3)π r³ in 2-D too: the
+    // kernel's mass (added mass included) per unit of that volume.
+    let density = m.rho * (m.s + m.c_m);
+    let m_eff = m.translational_mass(d) / 2.0;
+    let [g_x, g_y] = c.reduced_gravity();
+    if g_x != 0.0 {
+        return Err("the bench bed is horizontal; a slope is not translated".into());
+    }
+    let g = -g_y;
     let (y_lo, y_hi) = (c.y_min, c.y_max);
 
     let mut data = String::new();
