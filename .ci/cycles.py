@@ -49,7 +49,7 @@ LAYERS = {
     "kernel/src": {
         # 0 numbers: leaves
         "real": 0, "error": 0, "events": 0, "executor": 0, "random": 0, "periodic": 0,
-        "digest": 0,
+        "digest": 0, "lanes": 0,
         "steps": 0,
         # 1 model laws
         "constants": 1, "contact": 1, "flow": 1, "fluid": 1,

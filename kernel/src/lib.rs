@@ -37,12 +37,14 @@
 //! - `#![no_std]`, no allocator: storage is inline with compile-time
 //!   capacities (`N` grains, `K` neighbour slots per grain), and an all-zero
 //!   [`Sim`] is a valid empty one ([`Sim::new`]). No `unsafe` outside the
-//!   x86-64 vector lanes of the batched step: four audited `unsafe`
-//!   blocks, two in `step/batch/lanes.rs` (`read` and `write`: a vector or
-//!   row from and to an array of exactly its size) and two in the `lanes!`
-//!   macro of `step/batch/mod.rs` (its entry points' calls of the
-//!   `#[target_feature(enable = "avx2")]` passes, compiled only where the
-//!   build enables AVX2; the macro writes them once per precision).
+//!   x86-64 vector lanes: eight audited `unsafe` blocks, two in
+//!   `lanes.rs` (`read` and `write`: a vector or row from and to
+//!   an array of exactly its size), and six calls of
+//!   `#[target_feature(enable = "avx2")]` functions, compiled only where the
+//!   build enables AVX2: two in the `lanes!` macro of `step/batch/mod.rs`
+//!   (the batched step's entry points), three in `step/batch/phases.rs`
+//!   (each phase's pass) and one in `neighbours/lanes.rs` (the search's
+//!   tests).
 //! - Never panics: every failure is an [`Error`].
 //! - Bit-reproducible: fixed iteration orders, `libm` for every
 //!   transcendental, no fused multiply-add, keyed random streams, canonical
@@ -137,6 +139,8 @@ mod fields;
 pub mod flow;
 pub mod fluid;
 mod grains;
+#[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+mod lanes;
 mod neighbours;
 mod observe;
 mod periodic;

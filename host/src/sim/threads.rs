@@ -122,4 +122,19 @@ impl<R: Real, const N: usize, const K: usize> Stepping<R, N, K> {
             _ => sim.run(steps),
         }
     }
+
+    /// Rebuilds `sim`'s neighbour lists `times` times (a benchmark of the
+    /// rebuild alone), the search cut among the threads as a step's is.
+    pub fn rebuild<const C: usize>(
+        &mut self,
+        sim: &mut Sim<R, N, K, C>,
+        times: u64,
+    ) -> Result<(), mbs_kernel::Error> {
+        match &mut self.phased {
+            Some((phases, threads)) if sim.len() >= 2 * threads.min_grains => rayon::scope(|_| {
+                (0..times).try_for_each(|_| sim.rebuild_neighbours_phased(phases, threads))
+            }),
+            _ => (0..times).try_for_each(|_| sim.rebuild_neighbours()),
+        }
+    }
 }

@@ -416,9 +416,7 @@ impl<'s, R: Real, const N: usize, const K: usize, const C: usize> Prepared<'s, R
     fn repeat(&mut self, times: u64) -> Result<(), Error> {
         match self.case {
             Case::Still | Case::Flow => self.stepping.run(self.sim, times),
-            Case::Rebuild | Case::RebuildFlow => {
-                (0..times).try_for_each(|_| self.sim.rebuild_neighbours())
-            }
+            Case::Rebuild | Case::RebuildFlow => self.stepping.rebuild(self.sim, times),
             Case::Contacts => {
                 (0..times).for_each(|_| self.law.pass());
                 Ok(())

@@ -1,12 +1,12 @@
 //! The search of a build (module docs): the bins, and each grain's list
 //! over a range of grains ([`Search`]), a phase of the phased step.
 
+use super::found::{At, Found};
 use super::merge_into_slots;
 use crate::contact::Spring;
 use crate::error::{Capacity, Error};
 use crate::executor::Phase;
 use crate::grains::Grains;
-use crate::periodic::periodic;
 use crate::real::Real;
 
 /// The bins of a build ([`Neighbours::sort`]): square, at least the
@@ -50,6 +50,9 @@ pub(crate) struct Search<'a, R: Real, const N: usize, const K: usize> {
     pub(super) g: &'a Grains<R, N>,
     pub(super) bins: Bins<R>,
     pub(super) order: &'a [u32],
+    /// The grains' positions and radii in `order`'s order (lanes only).
+    #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+    pub(super) sorted: &'a super::lanes::Sorted<R, N>,
     pub(super) end: &'a [u32],
     /// The range's first grain.
     pub(super) lo: usize,
@@ -150,6 +153,7 @@ impl<R: Real, const N: usize, const K: usize> Phase for Search<'_, R, N, K> {
             .iter_mut()
             .zip(self.other.iter_mut())
             .zip(self.spring.iter_mut());
+        let mut found = Found::new();
         for (i, ((count, other), spring)) in (self.lo..).zip(slots) {
             let (bx, by, own) = bins.bucket_of(g, i);
             // Grains are searched in ascending order, so each bucket's grains
@@ -203,12 +207,18 @@ impl<R: Real, const N: usize, const K: usize> Phase for Search<'_, R, N, K> {
             // margin). Only a fixed grain tests for fixed–fixed pairs.
             let seam = bx < 2 || bx + 2 >= nx;
             let runs = &runs[..count_runs.min(9)];
-            let mut found = Found::new();
-            match (seam, g.fixed[i]) {
-                (false, false) => at.test::<N, false, false>(g, order, runs, &mut found),
-                (true, false) => at.test::<N, true, false>(g, order, runs, &mut found),
-                (false, true) => at.test::<N, false, true>(g, order, runs, &mut found),
-                (true, true) => at.test::<N, true, true>(g, order, runs, &mut found),
+            found.len = 0;
+            #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+            let in_lanes = !g.fixed[i]
+                && super::lanes::test_in_lanes(&at, seam, self.sorted, order, runs, &mut found);
+            #[cfg(not(all(target_arch = "x86_64", target_feature = "avx2")))]
+            let in_lanes = false;
+            match (in_lanes, seam, g.fixed[i]) {
+                (true, ..) => {}
+                (false, false, false) => at.test::<N, false, false>(g, order, runs, &mut found),
+                (false, true, false) => at.test::<N, true, false>(g, order, runs, &mut found),
+                (false, false, true) => at.test::<N, false, true>(g, order, runs, &mut found),
+                (false, true, true) => at.test::<N, true, true>(g, order, runs, &mut found),
             }
             let found = found.sorted(K).ok_or(Error::CapacityExceeded {
                 what: Capacity::NeighboursPerGrain,
@@ -231,97 +241,6 @@ fn push_run(runs: &mut [(u32, u32); 9], count: &mut usize, run: (u32, u32)) {
     if let Some(slot) = runs.get_mut(*count) {
         *slot = run;
         *count += 1;
-    }
-}
-
-/// The grain a search is at: what its tests of candidates read.
-struct At<R: Real> {
-    i: usize,
-    x: R,
-    y: R,
-    r: R,
-    skin: R,
-    width: R,
-    half_width: R,
-}
-
-impl<R: Real> At<R> {
-    /// Adds to `found` the grains j of `order` in `runs` within reach of
-    /// grain i, j > i only (a run may hold grains already searched), no
-    /// fixed–fixed pair. `SEAM`: the separation's periodic image is taken
-    /// (else the separation itself); `FIXED`: grain i is fixed. Branch-free
-    /// on the outcome of a test.
-    #[inline(always)]
-    fn test<const N: usize, const SEAM: bool, const FIXED: bool>(
-        &self,
-        g: &Grains<R, N>,
-        order: &[u32],
-        runs: &[(u32, u32)],
-        found: &mut Found,
-    ) {
-        for &(from, to) in runs {
-            for &j in order.get(from as usize..to as usize).unwrap_or(&[]) {
-                let j = j as usize;
-                let (Some(&x), Some(&y), Some(&r)) = (g.x.get(j), g.y.get(j), g.r.get(j)) else {
-                    continue;
-                };
-                let dx = x - self.x;
-                let ddx = if SEAM {
-                    periodic(dx, self.width, self.half_width)
-                } else {
-                    dx
-                };
-                let ddy = y - self.y;
-                let reach = self.r + r + self.skin;
-                let near = ddx * ddx + ddy * ddy < reach * reach;
-                let both_fixed = FIXED && g.fixed.get(j).is_some_and(|&f| f);
-                found.push(j as u32, (j > self.i) & !both_fixed & near);
-            }
-        }
-    }
-}
-
-/// Most neighbours a build may find for one grain: a grain with more
-/// fails the build ([`Capacity::NeighboursPerGrain`]) whatever `K`.
-const FOUND_MAX: usize = 64;
-
-/// The neighbours found for one grain so far.
-struct Found {
-    js: [u32; FOUND_MAX],
-    len: usize,
-}
-
-impl Found {
-    fn new() -> Self {
-        Found {
-            js: [0; FOUND_MAX],
-            len: 0,
-        }
-    }
-
-    /// Adds j if `keep`, without a branch on it: j is written in the next
-    /// place either way (a later j overwrites it if not kept).
-    #[inline]
-    fn push(&mut self, j: u32, keep: bool) {
-        self.js[self.len.min(FOUND_MAX - 1)] = j;
-        self.len += usize::from(keep);
-    }
-
-    /// The grains found, ascending (insertion sort: a few per grain), or
-    /// `None` if more than `capacity` (or [`FOUND_MAX`] − 1) were found.
-    fn sorted(&mut self, capacity: usize) -> Option<&[u32]> {
-        if self.len > capacity.min(FOUND_MAX - 1) {
-            return None;
-        }
-        let js = self.js.get_mut(..self.len)?;
-        for k in 1..js.len() {
-            let mut m = k;
-            while m > 0 && js[m - 1] > js[m] {
-                js.swap(m - 1, m);
-                m -= 1;
-            }
-        }
-        Some(js)
     }
 }
 

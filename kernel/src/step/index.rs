@@ -31,6 +31,10 @@ pub(super) const fn lanes<R: Real>() -> usize {
     VECTOR_BYTES / R::BYTES
 }
 
+// The lane modules hold as many.
+const _: () = assert!(crate::lanes::f64x4::L == lanes::<f64>());
+const _: () = assert!(crate::lanes::f32x8::L == lanes::<f32>());
+
 /// Listed pairs the storage holds per grain on average (a settled bed has
 /// about 2.3; more: the scalar step runs).
 pub(crate) const PAIRS: usize = 4;

@@ -17,15 +17,15 @@
 //! precision's module of the batched step (`lanes!` in [`super`]).
 
 /// Writes the module `drag` (the passes `drag_pass` and `coupled_pass`)
-/// in the lanes of `lanes::$lanes` ([`super::lanes`]).
+/// in the lanes of `lanes::$lanes` ([`crate::lanes`]).
 macro_rules! drag {
     ($lanes:ident) => {
         /// The drag passes in these lanes (`step/batch/drag.rs`).
         pub(super) mod drag {
             use crate::fluid::Cells;
             use crate::grains::Grains;
+            use crate::lanes::$lanes::*;
             use crate::real::Real;
-            use crate::step::batch::lanes::$lanes::*;
             use crate::step::batch::params::Moving;
             use crate::step::index::PairIndex;
             use crate::step::phased::ClearDrag;

@@ -13,14 +13,14 @@
 //! [`super`]).
 
 /// Writes the module `grains` (the pass `grain_pass`) in the lanes of
-/// `lanes::$lanes` ([`super::lanes`]).
+/// `lanes::$lanes` ([`crate::lanes`]).
 macro_rules! grains {
     ($lanes:ident) => {
         /// The grain pass in these lanes (`step/batch/grains.rs`).
         pub(super) mod grains {
             use crate::error::Error;
+            use crate::lanes::$lanes::*;
             use crate::real::Real;
-            use crate::step::batch::lanes::$lanes::*;
             use crate::step::batch::params::Moving;
             use crate::step::mover::Mover;
 

@@ -33,7 +33,7 @@
 //! capacities that are powers of two (every host capacity), so that masked
 //! indices need no bounds checks. Elsewhere the scalar step runs. The
 //! passes are written once, against the operations of a lane module
-//! (`lanes`: [`lanes::f64x4`], [`lanes::f32x8`]); `lanes!` writes the step
+//! (`lanes`: [`crate::lanes::f64x4`], [`crate::lanes::f32x8`]); `lanes!` writes the step
 //! in each precision's lanes.
 //!
 //! `unsafe` in the batched step: seven blocks, audited. Two in `lanes`
@@ -45,7 +45,6 @@
 
 mod drag;
 mod grains;
-mod lanes;
 mod pairs;
 mod params;
 mod phases;
@@ -160,8 +159,8 @@ pub(crate) fn phased_step<R: Real, const N: usize, const K: usize, const C: usiz
 }
 
 /// Writes the batched step in the lanes of one precision as the module
-/// `$module`: `$lanes` is the lane module ([`lanes::f64x4`] or
-/// [`lanes::f32x8`]: the lane type, its scalar, the row type, the
+/// `$module`: `$lanes` is the lane module ([`crate::lanes::f64x4`] or
+/// [`crate::lanes::f32x8`]: the lane type, its scalar, the row type, the
 /// operations) the passes are written in. The passes come from `drag.rs`,
 /// `pairs.rs` and `grains.rs`, the phases from `phases.rs` (each writes its
 /// own module with its own macro); the entry points call them. Their two `unsafe` blocks call
@@ -179,8 +178,8 @@ macro_rules! lanes {
             use crate::executor::Executor;
             use crate::fluid::Cells;
             use crate::grains::Grains;
+            use crate::lanes::$lanes::{L, R};
             use crate::neighbours::Neighbours;
-            use crate::step::batch::lanes::$lanes::{L, R};
             use crate::step::batch::pairs::pair_range_for;
             use crate::step::batch::params::{Moving, PairRange, Params};
             use crate::step::index::PairIndex;

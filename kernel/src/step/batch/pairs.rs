@@ -20,12 +20,12 @@
 //! [`super`]).
 
 /// Writes the module `pairs` (the pass `pair_range`) in the lanes of
-/// `lanes::$lanes` ([`super::lanes`]).
+/// `lanes::$lanes` ([`crate::lanes`]).
 macro_rules! pairs {
     ($lanes:ident) => {
         /// The pair pass in these lanes (`step/batch/pairs.rs`).
         pub(super) mod pairs {
-            use crate::step::batch::lanes::$lanes::*;
+            use crate::lanes::$lanes::*;
             use crate::step::batch::params::PairRange;
             use crate::step::index::{second_window, window_start, CHUNK, FAR, PAIRS};
             use crate::step::scalar::Counts;

@@ -33,7 +33,7 @@
 
 /// Writes the module `phases` (the phases `DragLanes`, `PairLanes` and
 /// `MoveLanes`, which the lanes' `phased_step` runs) in the lanes of
-/// `lanes::$lanes` ([`super::lanes`]).
+/// `lanes::$lanes` ([`crate::lanes`]).
 macro_rules! phases {
     ($lanes:ident) => {
         /// The phased step in these lanes (`step/batch/phases.rs`).
@@ -42,7 +42,7 @@ macro_rules! phases {
             use super::{drag, grains};
             use crate::error::Error;
             use crate::executor::Phase;
-            use crate::step::batch::lanes::$lanes::*;
+            use crate::lanes::$lanes::*;
             use crate::step::batch::pairs::pair_range_for;
             use crate::step::batch::params::{Moving, PairRange};
             use crate::step::index::{Listed, CHUNK};

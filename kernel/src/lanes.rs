@@ -1,11 +1,12 @@
-//! The vector lanes of the batched step: one module per precision,
+//! The vector lanes (x86-64 with AVX2) of the batched step and of the
+//! neighbour search: one module per precision,
 //! [`f64x4`] (four `f64` per AVX2 vector) and [`f32x8`] (eight `f32`),
 //! each the **lane type** `V` with its scalar `R`, its lane count `L`, the
 //! row type `Row` that holds one grain's four sums, and the same
 //! operations under the same names (`add`, `mul`, `select`, `gt`,
 //! `to_rows`, `load`, `gather`, …). The passes (`drag`, `pairs`, `grains`)
 //! are written once against these names and compiled once per precision
-//! ([`super`]'s `lanes!`); implements no equation itself: each operation
+//! (`step::batch`'s `lanes!`; the search's tests, `neighbours::lanes`); implements no equation itself: each operation
 //! is the one IEEE operation of its scalar counterpart, so the lanes give
 //! the scalar step's bits.
 //!
@@ -64,7 +65,7 @@ macro_rules! helpers {
         #[inline]
         #[target_feature(enable = "avx2")]
         pub(crate) fn load(values: &[R; L]) -> V {
-            crate::step::batch::lanes::read(values)
+            crate::lanes::read(values)
         }
 
         /// Group `group` of L grains of an array (zeros past its whole groups).
@@ -95,14 +96,14 @@ macro_rules! helpers {
         #[inline]
         #[target_feature(enable = "avx2")]
         pub(crate) fn put(values: &mut [R; L], v: V) {
-            crate::step::batch::lanes::write(values, v)
+            crate::lanes::write(values, v)
         }
 
         /// A grain's sums as a row.
         #[inline]
         #[target_feature(enable = "avx2")]
         pub(crate) fn load_row(values: &[R; 4]) -> Row {
-            crate::step::batch::lanes::read(values)
+            crate::lanes::read(values)
         }
 
         /// Adds a row to a grain's sums.
@@ -116,7 +117,7 @@ macro_rules! helpers {
         #[inline]
         #[target_feature(enable = "avx2")]
         pub(crate) fn put_row(values: &mut [R; 4], row: Row) {
-            crate::step::batch::lanes::write(values, row)
+            crate::lanes::write(values, row)
         }
 
         /// The lanes of a vector.
@@ -196,7 +197,6 @@ pub(crate) mod f64x4 {
     pub(crate) const TRUE: R = f64::from_bits(u64::MAX);
     /// Every bit but the sign: the mask of |x|.
     pub(crate) const ABS: R = f64::from_bits(u64::MAX >> 1);
-    const _: () = assert!(L == crate::step::index::lanes::<R>());
 
     /// A vector from L values, built in registers.
     #[inline]
@@ -339,7 +339,6 @@ pub(crate) mod f32x8 {
     pub(crate) const TRUE: R = f32::from_bits(u32::MAX);
     /// Every bit but the sign: the mask of |x|.
     pub(crate) const ABS: R = f32::from_bits(u32::MAX >> 1);
-    const _: () = assert!(L == crate::step::index::lanes::<R>());
 
     /// A vector from L values, built in registers.
     #[inline]
