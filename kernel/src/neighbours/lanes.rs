@@ -5,8 +5,11 @@
 //! with the scalar test's operations in its order, so the lists are the
 //! same ([`super::search`]'s brute-force tests compare them). Most runs
 //! hold fewer than eight candidates: one vector test instead of a loop of
-//! scalar tests whose exit is hard to predict.
+//! scalar tests whose exit is hard to predict. The sort also notes each
+//! grain's bin, which it and the search would otherwise find three times
+//! (8 bytes per grain: not on the boards, whose largest bed fills the RAM).
 
+use super::bins::{bucket, Bins};
 use super::found::{At, Found, FOUND_MAX};
 use crate::real::Real;
 use core::any::Any;
@@ -14,6 +17,9 @@ use core::any::Any;
 /// The grains' positions and radii in the order of the sort's `order`.
 #[derive(Debug, Clone)]
 pub(crate) struct Sorted<R: Real, const N: usize> {
+    /// Each grain's bin (bx, by), by grain (what the sort and the search
+    /// would otherwise find three times).
+    bin: [[u32; 2]; N],
     pub(super) x: [R; N],
     pub(super) y: [R; N],
     pub(super) r: [R; N],
@@ -23,10 +29,26 @@ impl<R: Real, const N: usize> Sorted<R, N> {
     /// All zero.
     pub(super) const fn new() -> Self {
         Sorted {
+            bin: [[0; 2]; N],
             x: [R::ZERO; N],
             y: [R::ZERO; N],
             r: [R::ZERO; N],
         }
+    }
+
+    /// Notes grain i's bin (bx, by).
+    #[inline]
+    pub(super) fn note_bin(&mut self, i: usize, bx: u32, by: u32) {
+        if let Some(bin) = self.bin.get_mut(i) {
+            *bin = [bx, by];
+        }
+    }
+
+    /// Grain i's bin (bx, by) as noted, and its bucket.
+    #[inline]
+    pub(super) fn bin_of(&self, bins: &Bins<R>, i: usize) -> (u32, u32, usize) {
+        let [bx, by] = self.bin.get(i).copied().unwrap_or_default();
+        (bx, by, bucket(bx, by, bins.nx, bins.buckets))
     }
 
     /// Grain i (position, radius) at place k of `order`.

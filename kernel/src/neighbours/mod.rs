@@ -33,13 +33,15 @@
 //! it is a field of [`crate::Sim`] (`step::index`), which lends the slots
 //! the history it holds ([`Neighbours::contacts`]).
 
+mod bins;
 mod found;
 #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
 mod lanes;
 mod search;
 
-use search::bucket_count;
-pub(crate) use search::{Bins, Search};
+use bins::bucket_count;
+pub(crate) use bins::Bins;
+pub(crate) use search::Search;
 
 use crate::contact::Spring;
 use crate::error::Error;
@@ -222,7 +224,10 @@ impl<R: Real, const N: usize, const K: usize> Neighbours<R, N, K> {
         // order, from `first` (each bucket's start once all are placed).
         self.end[..buckets].fill(0);
         for i in 0..n {
-            self.end[bins.bucket_of(g, i).2] += 1;
+            let (_bx, _by, b) = bins.bucket_of(g, i);
+            #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+            self.sorted.note_bin(i, _bx, _by);
+            self.end[b] += 1;
         }
         let mut placed = 0;
         for end in &mut self.end[..buckets] {
@@ -231,7 +236,11 @@ impl<R: Real, const N: usize, const K: usize> Neighbours<R, N, K> {
         }
         self.first[..buckets].copy_from_slice(&self.end[..buckets]);
         for i in (0..n).rev() {
-            let first = &mut self.first[bins.bucket_of(g, i).2];
+            #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+            let (.., b) = self.sorted.bin_of(&bins, i);
+            #[cfg(not(all(target_arch = "x86_64", target_feature = "avx2")))]
+            let (.., b) = bins.bucket_of(g, i);
+            let first = &mut self.first[b];
             *first -= 1;
             self.order[*first as usize] = i as u32;
             #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]

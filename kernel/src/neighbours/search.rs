@@ -1,6 +1,7 @@
-//! The search of a build (module docs): the bins, and each grain's list
-//! over a range of grains ([`Search`]), a phase of the phased step.
+//! The search of a build (module docs): each grain's list over a range of
+//! grains ([`Search`]), a phase of the phased step.
 
+use super::bins::{bucket, Bins};
 use super::found::{At, Found};
 use super::merge_into_slots;
 use crate::contact::Spring;
@@ -8,35 +9,6 @@ use crate::error::{Capacity, Error};
 use crate::executor::Phase;
 use crate::grains::Grains;
 use crate::real::Real;
-
-/// The bins of a build ([`Neighbours::sort`]): square, at least the
-/// largest cut-off wide, `nx` across the periodic width and hashed into
-/// `buckets` buckets from `y_min` up; what a search reads besides the
-/// sorted grains.
-#[derive(Debug, Clone, Copy)]
-pub(crate) struct Bins<R: Real> {
-    pub(super) nx: u32,
-    pub(super) inv_bin: R,
-    pub(super) y_min: R,
-    pub(super) buckets: usize,
-    pub(super) may_repeat: bool,
-    pub(super) width: R,
-    pub(super) skin: R,
-}
-
-impl<R: Real> Bins<R> {
-    /// Grain i's bin (bx, by) and its bucket.
-    #[inline]
-    pub(super) fn bucket_of<const N: usize>(
-        &self,
-        g: &Grains<R, N>,
-        i: usize,
-    ) -> (u32, u32, usize) {
-        let bx = ((g.x[i] * self.inv_bin).to_f64() as u32).min(self.nx - 1);
-        let by = (((g.y[i] - self.y_min) * self.inv_bin).to_f64() as u32).min(1 << 30);
-        (bx, by, bucket(bx, by, self.nx, self.buckets))
-    }
-}
 
 /// The search of a range of grains' lists ([`Neighbours::search`]): each
 /// grain i of the range, in ascending order, tests the grains of the nine
@@ -142,7 +114,11 @@ impl<R: Real, const N: usize, const K: usize> Phase for Search<'_, R, N, K> {
                 start = end;
             }
             for i in 0..self.lo {
-                if let Some(cursor) = cursors.get_mut(bins.bucket_of(g, i).2) {
+                #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+                let (.., b) = self.sorted.bin_of(&bins, i);
+                #[cfg(not(all(target_arch = "x86_64", target_feature = "avx2")))]
+                let (.., b) = bins.bucket_of(g, i);
+                if let Some(cursor) = cursors.get_mut(b) {
                     *cursor += 1;
                 }
             }
@@ -155,6 +131,9 @@ impl<R: Real, const N: usize, const K: usize> Phase for Search<'_, R, N, K> {
             .zip(self.spring.iter_mut());
         let mut found = Found::new();
         for (i, ((count, other), spring)) in (self.lo..).zip(slots) {
+            #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+            let (bx, by, own) = self.sorted.bin_of(&bins, i);
+            #[cfg(not(all(target_arch = "x86_64", target_feature = "avx2")))]
             let (bx, by, own) = bins.bucket_of(g, i);
             // Grains are searched in ascending order, so each bucket's grains
             // before i are gone from it: i first, then those searched.
@@ -242,20 +221,4 @@ fn push_run(runs: &mut [(u32, u32); 9], count: &mut usize, run: (u32, u32)) {
         *slot = run;
         *count += 1;
     }
-}
-
-/// Buckets for `n` grains with capacity `capacity`: the smallest power of
-/// two ≥ n, or the largest that fits the capacity (none if it is 0).
-pub(super) fn bucket_count(n: usize, capacity: usize) -> usize {
-    let fits = capacity.checked_ilog2().map_or(0, |log| 1 << log);
-    n.max(1)
-        .checked_next_power_of_two()
-        .unwrap_or(fits)
-        .min(fits)
-}
-
-/// Bucket of bin (bx, by) among `buckets` (a power of two).
-#[inline]
-pub(super) fn bucket(bx: u32, by: u32, nx: u32, buckets: usize) -> usize {
-    ((by as u64 * nx as u64 + bx as u64) & (buckets as u64 - 1)) as usize
 }
