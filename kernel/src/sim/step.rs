@@ -177,8 +177,9 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
         let bins = self.nbrs.sort(&self.grains, self.width, self.y_min)?;
         executor.execute(self.nbrs.search(&self.grains, bins, spare))?;
         self.nbrs.built();
-        // A pair across the seam has both grains within the cut-off of it,
-        // and a grain moves less than half a skin before the next rebuild.
+        // A pair across the seam has both grains (so its first) within the
+        // cut-off of it, and a grain moves less than half a skin before the
+        // next rebuild.
         let margin = self.nbrs.cutoff + self.nbrs.skin;
         self.index
             .index(&self.grains, &self.nbrs, self.width, margin);

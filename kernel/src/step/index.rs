@@ -115,7 +115,7 @@ pub(crate) struct PairIndex<R: Real, const N: usize, const K: usize> {
     pub(super) second_lanes: [[u8; 8]; N],
     _pad12: Pad,
     /// Per chunk of [`CHUNK`] batches, whether a pair of it may need the
-    /// periodic image of its separation ([`PairIndex::find_seams`]); the
+    /// periodic image of its separation ([`PairIndex::index`]); the
     /// others' separations are within half the width and skip it.
     pub(super) seam: [bool; N],
     /// Per grain, its sums during a step: force (x, y), torque, and a
@@ -173,8 +173,14 @@ impl<R: Real, const N: usize, const K: usize> PairIndex<R, N, K> {
 
     /// Indexes the listed pairs of the grains `g` (the slots of `nbrs`,
     /// just rebuilt): pair list with its radii, history and windows, lane
-    /// masks, and the chunks near the periodic seam of a bed `width` wide
-    /// (`margin`: see [`PairIndex::find_seams`]). Not ready (the scalar step
+    /// masks, and the chunks near the periodic seam of a bed `width` wide:
+    /// those with a pair whose first grain lies within `margin` of it (x
+    /// below it, or above `width` less it; or x not a number). With
+    /// `margin` at least the neighbour cut-off plus the skin, every pair
+    /// whose separation can exceed half the width before the next rebuild
+    /// is in a marked chunk: a listed pair across the seam has both grains,
+    /// so its first, within the cut-off of it, and a grain moves less than
+    /// half a skin between rebuilds. Not ready (the scalar step
     /// runs) if the capacities do not suit the lanes ([`lanes_fit`]), or
     /// the pairs with padding (`PAIRS` per grain) do not fit.
     pub(crate) fn index(
@@ -207,16 +213,27 @@ impl<R: Real, const N: usize, const K: usize> PairIndex<R, N, K> {
             len: 0,
             lanes,
         };
-        for (m, ((&c, js), springs)) in count.iter().zip(other).zip(spring).take(n).enumerate() {
+        let per_chunk = (CHUNK * lanes).max(1);
+        self.seam.fill(false);
+        let grains = count.iter().zip(other).zip(spring).zip(&g.x).take(n);
+        for (m, (((&c, js), springs), &x)) in grains.enumerate() {
             let own = usize::from(c).min(K);
             // A grain's pairs are consecutive: a new batch starts before them.
             if own > 0 && list.leaves_windows(m, &js[..own]) && !list.pad() {
                 return;
             }
-            self.start[m] = list.len as u32;
+            let first = list.len;
+            self.start[m] = first as u32;
             for (k, (&j, h)) in js.iter().zip(springs).take(own).enumerate() {
                 if j as usize >= n || j as usize <= m || !list.push(m as u32, j, k as u8, *h) {
                     return;
+                }
+            }
+            // The chunks of its pairs, if near the seam (or not a number).
+            if own > 0 && !(x >= margin && x <= width - margin) {
+                let chunks = first / per_chunk..=(list.len - 1) / per_chunk;
+                if let Some(marks) = self.seam.get_mut(chunks) {
+                    marks.fill(true);
                 }
             }
         }
@@ -229,7 +246,6 @@ impl<R: Real, const N: usize, const K: usize> PairIndex<R, N, K> {
         if !self.find_windows(pairs, lanes) {
             return;
         }
-        self.find_seams(pairs, lanes, &g.x, width, margin);
         (self.listed, self.pairs) = (listed, pairs);
         self.ready = true;
     }
@@ -268,32 +284,6 @@ impl<R: Real, const N: usize, const K: usize> PairIndex<R, N, K> {
             }
         }
         true
-    }
-
-    /// Marks each chunk of the first `pairs` pairs ([`CHUNK`] batches of
-    /// `lanes`) that has a grain within `margin` of the periodic seam (x
-    /// below it, or above `width` less it; any x that is not a number).
-    /// With `margin` at least the neighbour cutoff plus the skin, every pair
-    /// whose separation can exceed half the width before the next rebuild
-    /// is in a marked chunk: a listed pair across the seam has both grains
-    /// within the cutoff of it, and a grain moves less than half a skin
-    /// between rebuilds, so only one that starts within that of the seam
-    /// can wrap around it.
-    fn find_seams(&mut self, pairs: usize, lanes: usize, x: &[R; N], width: R, margin: R) {
-        let (pair_i, pair_j) = (self.pair_i.as_flattened(), self.pair_j.as_flattened());
-        let pairs = pairs.min(pair_i.len()).min(pair_j.len());
-        let near = |g: u32| {
-            x.get(g as usize)
-                .is_none_or(|&x| !(x >= margin && x <= width - margin))
-        };
-        let per_chunk = (CHUNK * lanes).max(1);
-        let chunks = pair_i[..pairs]
-            .chunks(per_chunk)
-            .zip(pair_j[..pairs].chunks(per_chunk));
-        self.seam.fill(false);
-        for ((firsts, seconds), seam) in chunks.zip(&mut self.seam) {
-            *seam = firsts.iter().chain(seconds).any(|&g| near(g));
-        }
     }
 
     /// Chunks of pairs marked as near the seam, and chunks.
