@@ -107,12 +107,13 @@ fn f32_beds(c: &mut Criterion) {
 
 /// One bed on several cores: f64, β = 15.8, still and flow, 16 k and 65 k
 /// grains, on 2 threads and on every core (the phased step; its bits are
-/// those of one thread, whose timings are `f64_beds`').
+/// those of one thread, whose timings are `f64_beds`'), and the rebuild
+/// alone (its search cut among the threads: the same lists).
 fn threads(c: &mut Criterion) {
     let all = std::thread::available_parallelism().map_or(1, |n| n.get());
     let mut counts = vec![2, all];
     counts.dedup();
-    for case in [Case::Still, Case::Flow] {
+    for case in [Case::Still, Case::Flow, Case::Rebuild] {
         let mut group = c.benchmark_group(format!("f64/{}", case.name()));
         for grains in [16_384, 65_536] {
             for &threads in counts.iter().filter(|&&t| t > 1) {
