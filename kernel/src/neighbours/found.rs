@@ -19,6 +19,22 @@ pub(super) struct At<R: Real> {
 }
 
 impl<R: Real> At<R> {
+    /// Whether a grain at (x, y) of radius r lies within reach: its
+    /// separation (through the periodic image if `SEAM`) shorter than the
+    /// radii and the skin.
+    #[inline(always)]
+    pub(super) fn near<const SEAM: bool>(&self, x: R, y: R, r: R) -> bool {
+        let dx = x - self.x;
+        let ddx = if SEAM {
+            periodic(dx, self.width, self.half_width)
+        } else {
+            dx
+        };
+        let ddy = y - self.y;
+        let reach = self.r + r + self.skin;
+        ddx * ddx + ddy * ddy < reach * reach
+    }
+
     /// Adds to `found` the grains j of `order` in `runs` within reach of
     /// grain i, j > i only (a run may hold grains already searched), no
     /// fixed–fixed pair. `SEAM`: the separation's periodic image is taken
@@ -38,15 +54,7 @@ impl<R: Real> At<R> {
                 let (Some(&x), Some(&y), Some(&r)) = (g.x.get(j), g.y.get(j), g.r.get(j)) else {
                     continue;
                 };
-                let dx = x - self.x;
-                let ddx = if SEAM {
-                    periodic(dx, self.width, self.half_width)
-                } else {
-                    dx
-                };
-                let ddy = y - self.y;
-                let reach = self.r + r + self.skin;
-                let near = ddx * ddx + ddy * ddy < reach * reach;
+                let near = self.near::<SEAM>(x, y, r);
                 let both_fixed = FIXED && g.fixed.get(j).is_some_and(|&f| f);
                 found.push(j as u32, (j > self.i) & !both_fixed & near);
             }

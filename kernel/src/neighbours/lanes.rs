@@ -150,7 +150,6 @@ macro_rules! tests_in {
             use super::pack;
             use super::{At, Found, Sorted, FOUND_MAX};
             use crate::lanes::$lanes::*;
-            use crate::periodic::periodic;
             use core::arch::x86_64::{
                 _mm256_castsi256_ps, _mm256_cmpgt_epi32, _mm256_movemask_ps, _mm256_set1_epi32,
                 _mm256_setr_epi32,
@@ -185,22 +184,12 @@ macro_rules! tests_in {
                                 else {
                                     continue;
                                 };
-                                let dx = xj - at.x;
-                                let ddx = if SEAM {
-                                    periodic(dx, at.width, at.half_width)
-                                } else {
-                                    dx
-                                };
-                                let ddy = yj - at.y;
-                                let reach = at.r + rj + at.skin;
-                                found.push(
-                                    j,
-                                    (j as usize > at.i) & (ddx * ddx + ddy * ddy < reach * reach),
-                                );
+                                let near = at.near::<SEAM>(xj, yj, rj);
+                                found.push(j, (j as usize > at.i) & near);
                             }
                             break;
                         };
-                        // `periodic` and the test as in `At::test`, lane by lane.
+                        // `periodic` and the test as in `At::near`, lane by lane.
                         let dx = sub(load(xs), x);
                         let ddx = if SEAM {
                             let wrapped = select(dx, add(dx, width), lt(dx, below));
