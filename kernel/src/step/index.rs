@@ -211,7 +211,6 @@ impl<R: Real, const N: usize, const K: usize> PairIndex<R, N, K> {
             e_n: self.e_n.as_flattened_mut(),
             e_s: self.e_s.as_flattened_mut(),
             len: 0,
-            lanes,
         };
         let per_chunk = (CHUNK * lanes).max(1);
         self.seam.fill(false);
@@ -386,7 +385,7 @@ pub(crate) struct Parts<'a, R: Real, const N: usize> {
 
 /// The pair list being built by [`PairIndex::index`]: first and second grain,
 /// slot, radii (from the grains' `radius`) and history per pair, `len`
-/// pairs so far, `lanes` per batch.
+/// pairs so far, [`lanes`] per batch.
 struct PairList<'a, R, const N: usize> {
     i: &'a mut [u32],
     j: &'a mut [u32],
@@ -397,7 +396,6 @@ struct PairList<'a, R, const N: usize> {
     e_n: &'a mut [R],
     e_s: &'a mut [R],
     len: usize,
-    lanes: usize,
 }
 
 impl<R: Real, const N: usize> PairList<'_, R, N> {
@@ -424,7 +422,7 @@ impl<R: Real, const N: usize> PairList<'_, R, N> {
 
     /// The first grain of the batch being filled (None: none is).
     fn window_of_batch(&self) -> Option<usize> {
-        let filled = self.len % self.lanes.max(1);
+        let filled = self.len % lanes::<R>();
         let first = self.i.get(self.len.wrapping_sub(filled))?;
         (filled > 0).then_some(*first as usize)
     }
@@ -440,9 +438,10 @@ impl<R: Real, const N: usize> PairList<'_, R, N> {
             return false;
         };
         let holds = |first: usize, j: u32| {
-            in_second_window::<N>(window_start::<N>(first as u32, self.lanes), j, self.lanes)
+            let lanes = lanes::<R>();
+            in_second_window::<N>(window_start::<N>(first as u32, lanes), j, lanes)
         };
-        m - w >= self.lanes || js.iter().any(|&j| !holds(w, j) && holds(m, j))
+        m - w >= lanes::<R>() || js.iter().any(|&j| !holds(w, j) && holds(m, j))
     }
 
     /// Fills the batch being filled with pairs (w, w) of its first grain w:
@@ -452,7 +451,7 @@ impl<R: Real, const N: usize> PairList<'_, R, N> {
         let Some(w) = self.window_of_batch() else {
             return true;
         };
-        while !self.len.is_multiple_of(self.lanes.max(1)) {
+        while !self.len.is_multiple_of(lanes::<R>()) {
             if !self.push(w as u32, w as u32, SELF_PAIR, Spring::ZERO) {
                 return false;
             }
