@@ -1,9 +1,10 @@
 //! `impl Sim`: the phased step ([`Sim::step_phased`]), the step's
 //! operations in the phases of `step::phased` over ranges of grains, for
 //! several cores, with the bits of [`Sim::step`] (docs/model.md §2: (1)–(3);
-//! docs/determinism.md, "One bed on several cores").
+//! docs/determinism.md, "One bed on several cores"), and the rebuild
+//! alone with its search in such ranges ([`Sim::rebuild_neighbours_phased`]).
 
-use crate::error::Error;
+use crate::error::{check, Error};
 use crate::executor::Executor;
 use crate::real::Real;
 use crate::sim::Sim;
@@ -90,6 +91,32 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
             Err(e) => Err(e),
         };
         self.finish(moved, events)
+    }
+
+    /// As [`Sim::rebuild_neighbours`], the search run by `executor` over
+    /// ranges of grains as [`Sim::step_phased`] runs it (its cursors in the
+    /// room of `phases`): the same lists.
+    ///
+    /// ```
+    /// use mbs_kernel::{Phases, Ranges, Scenario, Sim};
+    ///
+    /// let mut sim = Sim::<f64, 64, 8>::new();
+    /// Scenario::paper().build(&mut sim)?;
+    /// let mut cut = sim.clone();
+    /// sim.rebuild_neighbours()?;
+    /// cut.rebuild_neighbours_phased(&mut Phases::new(), &Ranges(3))?;
+    /// sim.step()?;
+    /// cut.step()?;
+    /// assert_eq!(sim.digest(), cut.digest());
+    /// # Ok::<(), mbs_kernel::Error>(())
+    /// ```
+    pub fn rebuild_neighbours_phased<E: Executor>(
+        &mut self,
+        phases: &mut Phases<R, N, K>,
+        executor: &E,
+    ) -> Result<(), Error> {
+        check(self.configured, "sim", 0.0, "configured by reset() first")?;
+        self.rebuild(phases.scratch(), executor)
     }
 }
 

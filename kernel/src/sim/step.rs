@@ -14,7 +14,6 @@ use crate::real::Real;
 use crate::sim::{Redraw, Sim};
 #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
 use crate::step::batch;
-use crate::step::phased::Phases;
 use crate::step::scalar;
 use crate::step::GEOMETRY_AHEAD;
 
@@ -191,32 +190,6 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
     pub fn rebuild_neighbours(&mut self) -> Result<(), Error> {
         check(self.configured, "sim", 0.0, "configured by reset() first")?;
         self.rebuild(&mut [], &Serial)
-    }
-
-    /// As [`Sim::rebuild_neighbours`], the search run by `executor` over
-    /// ranges of grains as [`Sim::step_phased`] runs it (its cursors in the
-    /// room of `phases`): the same lists.
-    ///
-    /// ```
-    /// use mbs_kernel::{Phases, Ranges, Scenario, Sim};
-    ///
-    /// let mut sim = Sim::<f64, 64, 8>::new();
-    /// Scenario::paper().build(&mut sim)?;
-    /// let mut cut = sim.clone();
-    /// sim.rebuild_neighbours()?;
-    /// cut.rebuild_neighbours_phased(&mut Phases::new(), &Ranges(3))?;
-    /// sim.step()?;
-    /// cut.step()?;
-    /// assert_eq!(sim.digest(), cut.digest());
-    /// # Ok::<(), mbs_kernel::Error>(())
-    /// ```
-    pub fn rebuild_neighbours_phased<E: Executor>(
-        &mut self,
-        phases: &mut Phases<R, N, K>,
-        executor: &E,
-    ) -> Result<(), Error> {
-        check(self.configured, "sim", 0.0, "configured by reset() first")?;
-        self.rebuild(phases.scratch(), executor)
     }
 
     /// Zeroes every force and torque. They are zero between steps: both
