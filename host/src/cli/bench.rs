@@ -66,8 +66,8 @@ impl BenchArgs {
             case: if self.flow { Case::Flow } else { self.case },
             repetitions: self.steps,
             beds: self.beds.as_deref(),
-            // `--threads N`: one bed's step (the phased step) or rebuild's search on N threads,
-            // the same bits; by default on one.
+            // `--threads N`: one bed's step (the phased step) or its
+            // rebuild's search on N threads, the same bits; by default on one.
             threads: how.common.threads.max(1),
         };
         bench_command(self.precision, job, how.common)

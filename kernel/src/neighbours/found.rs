@@ -63,7 +63,8 @@ impl<R: Real> At<R> {
 }
 
 /// Most neighbours a build may find for one grain: a grain with more
-/// fails the build ([`Capacity::NeighboursPerGrain`]) whatever `K`.
+/// fails the build ([`crate::error::Capacity::NeighboursPerGrain`])
+/// whatever `K`.
 pub(super) const FOUND_MAX: usize = 64;
 
 /// The neighbours found for one grain so far.

@@ -14,7 +14,8 @@ use super::found::{At, Found, FOUND_MAX};
 use crate::real::Real;
 use core::any::Any;
 
-/// The grains' positions and radii in the order of the sort's `order`.
+/// What the sort copies for the search in lanes: each grain's bin, and the
+/// grains' positions and radii in the order of the sort's `order`.
 #[derive(Debug, Clone)]
 pub(crate) struct Sorted<R: Real, const N: usize> {
     /// Each grain's bin (bx, by), by grain (what the sort and the search
@@ -143,7 +144,7 @@ static PACK: [[u32; 8]; 256] = {
 };
 
 /// Writes the tests in one precision's lanes (`$lanes`, a module of
-/// `step::batch::lanes`) as the module `$module`.
+/// [`crate::lanes`]) as the module `$module`.
 macro_rules! tests_in {
     ($module:ident, $lanes:ident) => {
         mod $module {

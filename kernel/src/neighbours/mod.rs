@@ -17,11 +17,12 @@
 //! bucket and searched in ascending order, each bucket dropping a grain
 //! once it is searched, so a search meets only grains j > i, and tests
 //! them without a branch on the outcome; where there are vector lanes
-//! (x86-64 with AVX2) the sort also copies the grains' positions and radii
-//! in that order, and a mobile grain tests a run of candidates four (f64)
-//! or eight (f32) at a time (`lanes`), with the same lists. A grain within the cut-off lies
-//! in one of the nine bins around (a bin is at least a cut-off wide), so
-//! the distance test alone decides. History moves from the old slots to
+//! (x86-64 with AVX2) the sort also notes each grain's bin and copies the
+//! grains' positions and radii in that order, and a mobile grain tests a
+//! run of candidates four (f64) or eight (f32) at a time (`lanes`), with
+//! the same lists. A grain within the cut-off lies in one of the nine bins
+//! around (a bin is at least a cut-off wide), so the distance test alone
+//! decides. History moves from the old slots to
 //! the new ones by merging the two sorted lists, so no contact is lost.
 //! A build is a serial sort ([`Neighbours::sort`]) and a search
 //! ([`Search`]) that can be cut into ranges of grains run on their own
@@ -91,7 +92,8 @@ pub struct Neighbours<R: Real, const N: usize, const K: usize> {
     /// The grains sorted by bucket (a counting sort), ascending within
     /// each.
     order: [u32; N],
-    /// The grains' positions and radii in `order`'s order.
+    /// Each grain's bin, and the grains' positions and radii in `order`'s
+    /// order (the search in lanes).
     #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
     sorted: lanes::Sorted<R, N>,
     /// Largest distance any grain may have travelled since the last build.
