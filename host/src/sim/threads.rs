@@ -105,21 +105,28 @@ impl<R: Real, const N: usize, const K: usize> Stepping<R, N, K> {
         }
     }
 
+    /// The buffers and executor of the phased step, if it runs on threads
+    /// and a bed of `grains` is large enough to cut in two ranges of
+    /// [`MIN_GRAINS_PER_RANGE`] (else the calling core runs it).
+    fn cut(&mut self, grains: usize) -> Option<(&mut Phases<R, N, K>, &Threads)> {
+        let (phases, threads) = self.phased.as_mut()?;
+        (grains >= 2 * threads.min_grains).then_some((&mut **phases, &*threads))
+    }
+
     /// Advances `sim` by `steps` steps.
     pub fn run<const C: usize>(
         &mut self,
         sim: &mut Sim<R, N, K, C>,
         steps: u64,
     ) -> Result<(), mbs_kernel::Error> {
-        match &mut self.phased {
-            // A bed too small to cut runs the step of one core.
-            Some((phases, threads)) if sim.len() >= 2 * threads.min_grains => {
-                // On a worker of the pool: each phase's `join` then hands
-                // its second half to another worker without waking the
-                // caller's thread (about 10 % of a 16 k-grain step).
+        match self.cut(sim.len()) {
+            // On a worker of the pool: each phase's `join` then hands its
+            // second half to another worker without waking the caller's
+            // thread (about 10 % of a 16 k-grain step).
+            Some((phases, threads)) => {
                 rayon::scope(|_| (0..steps).try_for_each(|_| sim.step_phased(phases, threads)))
             }
-            _ => sim.run(steps),
+            None => sim.run(steps),
         }
     }
 
@@ -130,11 +137,11 @@ impl<R: Real, const N: usize, const K: usize> Stepping<R, N, K> {
         sim: &mut Sim<R, N, K, C>,
         times: u64,
     ) -> Result<(), mbs_kernel::Error> {
-        match &mut self.phased {
-            Some((phases, threads)) if sim.len() >= 2 * threads.min_grains => rayon::scope(|_| {
+        match self.cut(sim.len()) {
+            Some((phases, threads)) => rayon::scope(|_| {
                 (0..times).try_for_each(|_| sim.rebuild_neighbours_phased(phases, threads))
             }),
-            _ => (0..times).try_for_each(|_| sim.rebuild_neighbours()),
+            None => (0..times).try_for_each(|_| sim.rebuild_neighbours()),
         }
     }
 }
