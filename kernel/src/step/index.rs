@@ -223,10 +223,8 @@ impl<R: Real, const N: usize, const K: usize> PairIndex<R, N, K> {
             }
             let first = list.len;
             self.start[m] = first as u32;
-            for (k, (&j, h)) in js.iter().zip(springs).take(own).enumerate() {
-                if j as usize >= n || j as usize <= m || !list.push(m as u32, j, k as u8, *h) {
-                    return;
-                }
+            if !list.extend(m, &js[..own], &springs[..own], n) {
+                return;
             }
             // The chunks of its pairs, if near the seam (or not a number).
             if own > 0 && !(x >= margin && x <= width - margin) {
@@ -417,6 +415,43 @@ impl<R: Real, const N: usize> PairList<'_, R, N> {
         (self.r_i[q], self.r_j[q]) = (r_i, r_j);
         (self.e_n[q], self.e_s[q]) = (h.e_n, h.e_s);
         self.len += 1;
+        true
+    }
+
+    /// Appends grain i's pairs (i, j) of slots 0, 1, … with second grains
+    /// `js` and histories `springs` (as many): false if full, or a j not
+    /// after i or not below `n`.
+    fn extend(&mut self, i: usize, js: &[u32], springs: &[Spring<R>], n: usize) -> bool {
+        let (q, own) = (self.len, js.len().min(springs.len()));
+        let end = q + own;
+        let Some(&r_i) = self.radius.get(i) else {
+            return false;
+        };
+        let (Some(pi), Some(pj), Some(pk)) = (
+            self.i.get_mut(q..end),
+            self.j.get_mut(q..end),
+            self.k.get_mut(q..end),
+        ) else {
+            return false;
+        };
+        let (Some(ri), Some(rj), Some(en), Some(es)) = (
+            self.r_i.get_mut(q..end),
+            self.r_j.get_mut(q..end),
+            self.e_n.get_mut(q..end),
+            self.e_s.get_mut(q..end),
+        ) else {
+            return false;
+        };
+        for k in 0..own {
+            let j = js[k] as usize;
+            let Some(&r_j) = self.radius.get(j).filter(|_| j > i && j < n) else {
+                return false;
+            };
+            (pi[k], pj[k], pk[k]) = (i as u32, j as u32, k as u8);
+            (ri[k], rj[k]) = (r_i, r_j);
+            (en[k], es[k]) = (springs[k].e_n, springs[k].e_s);
+        }
+        self.len = end;
         true
     }
 
