@@ -242,11 +242,11 @@ impl<R: Real, const N: usize, const K: usize> Neighbours<R, N, K> {
             let (.., b) = self.sorted.bin_of(&bins, i);
             #[cfg(not(all(target_arch = "x86_64", target_feature = "avx2")))]
             let (.., b) = bins.bucket_of(g, i);
-            let first = &mut self.first[b];
-            *first -= 1;
-            self.order[*first as usize] = i as u32;
+            let place = self.first[b] - 1;
+            self.first[b] = place;
+            self.order[place as usize] = i as u32;
             #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
-            self.sorted.place(*first as usize, g.x[i], g.y[i], g.r[i]);
+            self.sorted.place(place as usize, g.x[i], g.y[i], g.r[i]);
         }
         Ok(bins)
     }
