@@ -356,18 +356,30 @@ impl<R: Real, const N: usize, const K: usize> Default for Neighbours<R, N, K> {
 
 /// Replaces a grain's `count` slots (`other`, `spring`) by `found`
 /// (sorted), keeping the history of pairs present before.
+#[inline(always)]
 pub(super) fn merge_into_slots<R: Real, const K: usize>(
     count: &mut u8,
     other: &mut [u32; K],
     spring: &mut [Spring<R>; K],
     found: &[u32],
 ) {
-    let old_count = usize::from(*count).min(K);
     // Most builds list the pairs listed before (a word-by-word test: the
-    // lists are a few words long).
-    if old_count == found.len() && other.iter().zip(found).all(|(a, b)| a == b) {
+    // lists are a few words long), and need no call.
+    if usize::from(*count) == found.len() && other.iter().zip(found).all(|(a, b)| a == b) {
         return;
     }
+    replace_slots(count, other, spring, found);
+}
+
+/// [`merge_into_slots`] where the list changed.
+#[inline(never)]
+fn replace_slots<R: Real, const K: usize>(
+    count: &mut u8,
+    other: &mut [u32; K],
+    spring: &mut [Spring<R>; K],
+    found: &[u32],
+) {
+    let old_count = usize::from(*count).min(K);
     let (old_other, old_spring) = (*other, *spring);
     let mut k_old = 0;
     for (k, &j) in found.iter().enumerate().take(K) {
