@@ -147,8 +147,11 @@ impl<R: Real, const N: usize, const K: usize> Phase for Search<'_, R, N, K> {
             // searched, or a row's three buckets.
             let (mut runs, mut count_runs) = ([(0, 0); 9], 0);
             let mut searched = [usize::MAX; 9];
-            // Whether a row's three bins are its middle bucket's neighbours
-            // in `order` where that bucket is neither the first nor the last.
+            // A row's three bins are three buckets side by side in `order`
+            // (its middle bucket's neighbours) exactly when no bucket
+            // repeats, the bin is not at the seam (a wrap would need nx a
+            // multiple of the buckets, which are at least 3 nx) and the
+            // middle bucket is neither the first nor the last.
             let inner = !bins.may_repeat && bx >= 1 && bx + 1 < nx;
             for (row, dy) in (0..3u32).enumerate() {
                 let Some(nby) = (by + dy).checked_sub(1) else {
@@ -156,17 +159,13 @@ impl<R: Real, const N: usize, const K: usize> Phase for Search<'_, R, N, K> {
                 };
                 let c = bucket(bx, nby, nx, buckets);
                 if inner && c >= 1 && c + 1 < buckets {
+                    // One run, from the left one's first grain after those
+                    // searched (the middle and right ones' searched grains
+                    // are j ≤ i).
                     push_run(&mut runs, &mut count_runs, (cursors[c - 1], end[c + 1]));
                     continue;
                 }
                 let [l, r] = [left, right].map(|nbx| bucket(nbx, nby, nx, buckets));
-                if !bins.may_repeat && l + 1 == c && c + 1 == r {
-                    // Three buckets side by side in `order`: one run, from
-                    // the left one's first grain after those searched (the
-                    // middle and right ones' searched grains are j ≤ i).
-                    push_run(&mut runs, &mut count_runs, (cursors[l], end[r]));
-                    continue;
-                }
                 for (s, b) in [l, c, r].into_iter().enumerate() {
                     if bins.may_repeat {
                         if searched.contains(&b) {
