@@ -397,25 +397,18 @@ struct PairList<'a, R, const N: usize> {
 }
 
 impl<R: Real, const N: usize> PairList<'_, R, N> {
-    /// Appends pair (i, j) of slot k with history h: false if full (or a
-    /// grain out of bounds).
-    fn push(&mut self, i: u32, j: u32, k: u8, h: Spring<R>) -> bool {
-        let q = self.len;
-        let radii = (self.radius.get(i as usize), self.radius.get(j as usize));
-        let (Some(&r_i), Some(&r_j)) = radii else {
-            return false;
-        };
-        if q >= self.i.len().min(self.j.len()).min(self.k.len())
-            || q >= self.r_i.len().min(self.r_j.len())
-            || q >= self.e_n.len().min(self.e_s.len())
-        {
-            return false;
-        }
-        (self.i[q], self.j[q], self.k[q]) = (i, j, k);
-        (self.r_i[q], self.r_j[q]) = (r_i, r_j);
-        (self.e_n[q], self.e_s[q]) = (h.e_n, h.e_s);
-        self.len += 1;
-        true
+    /// The places `q..end` of every array of the list (None: past its
+    /// end).
+    fn places(&mut self, q: usize, end: usize) -> Option<Places<'_, R>> {
+        Some(Places {
+            i: self.i.get_mut(q..end)?,
+            j: self.j.get_mut(q..end)?,
+            k: self.k.get_mut(q..end)?,
+            r_i: self.r_i.get_mut(q..end)?,
+            r_j: self.r_j.get_mut(q..end)?,
+            e_n: self.e_n.get_mut(q..end)?,
+            e_s: self.e_s.get_mut(q..end)?,
+        })
     }
 
     /// Appends grain i's pairs (i, j) of slots 0, 1, … with second grains
@@ -423,33 +416,21 @@ impl<R: Real, const N: usize> PairList<'_, R, N> {
     /// after i or not below `n`.
     fn extend(&mut self, i: usize, js: &[u32], springs: &[Spring<R>], n: usize) -> bool {
         let (q, own) = (self.len, js.len().min(springs.len()));
-        let end = q + own;
-        let Some(&r_i) = self.radius.get(i) else {
+        let (end, radius) = (q + own, self.radius);
+        let Some(&r_i) = radius.get(i) else {
             return false;
         };
-        let (Some(pi), Some(pj), Some(pk)) = (
-            self.i.get_mut(q..end),
-            self.j.get_mut(q..end),
-            self.k.get_mut(q..end),
-        ) else {
-            return false;
-        };
-        let (Some(ri), Some(rj), Some(en), Some(es)) = (
-            self.r_i.get_mut(q..end),
-            self.r_j.get_mut(q..end),
-            self.e_n.get_mut(q..end),
-            self.e_s.get_mut(q..end),
-        ) else {
+        let Some(p) = self.places(q, end) else {
             return false;
         };
         for k in 0..own {
             let j = js[k] as usize;
-            let Some(&r_j) = self.radius.get(j).filter(|_| j > i && j < n) else {
+            let Some(&r_j) = radius.get(j).filter(|_| j > i && j < n) else {
                 return false;
             };
-            (pi[k], pj[k], pk[k]) = (i as u32, j as u32, k as u8);
-            (ri[k], rj[k]) = (r_i, r_j);
-            (en[k], es[k]) = (springs[k].e_n, springs[k].e_s);
+            (p.i[k], p.j[k], p.k[k]) = (i as u32, j as u32, k as u8);
+            (p.r_i[k], p.r_j[k]) = (r_i, r_j);
+            (p.e_n[k], p.e_s[k]) = (springs[k].e_n, springs[k].e_s);
         }
         self.len = end;
         true
@@ -486,13 +467,35 @@ impl<R: Real, const N: usize> PairList<'_, R, N> {
         let Some(w) = self.window_of_batch() else {
             return true;
         };
-        while !self.len.is_multiple_of(lanes::<R>()) {
-            if !self.push(w as u32, w as u32, SELF_PAIR, Spring::ZERO) {
-                return false;
-            }
-        }
+        let (q, end) = (self.len, self.len.next_multiple_of(lanes::<R>()));
+        let Some(&r_w) = self.radius.get(w) else {
+            return false;
+        };
+        let Some(p) = self.places(q, end) else {
+            return false;
+        };
+        p.i.fill(w as u32);
+        p.j.fill(w as u32);
+        p.k.fill(SELF_PAIR);
+        p.r_i.fill(r_w);
+        p.r_j.fill(r_w);
+        p.e_n.fill(R::ZERO);
+        p.e_s.fill(R::ZERO);
+        self.len = end;
         true
     }
+}
+
+/// Places of every array of a [`PairList`] (its first grain, second grain,
+/// slot, radii and history).
+struct Places<'a, R> {
+    i: &'a mut [u32],
+    j: &'a mut [u32],
+    k: &'a mut [u8],
+    r_i: &'a mut [R],
+    r_j: &'a mut [R],
+    e_n: &'a mut [R],
+    e_s: &'a mut [R],
 }
 
 /// The first grain of the window of a batch of pairs whose first pair's
