@@ -75,13 +75,6 @@ macro_rules! helpers {
             groups.get(group).unwrap_or(&[0.0; L])
         }
 
-        /// Group `group` of L grains of an array, to write.
-        #[inline]
-        pub(crate) fn group_mut(a: &mut [R], group: usize) -> Option<&mut [R; L]> {
-            let (groups, _) = a.as_chunks_mut::<L>();
-            groups.get_mut(group)
-        }
-
         /// A vector from `a[at..at + L]`, zero if out of bounds.
         #[inline]
         #[target_feature(enable = "avx2")]

@@ -70,22 +70,11 @@ pub(super) const fn second_window(lanes: usize) -> usize {
 #[derive(Debug, Clone)]
 #[repr(C)]
 pub(crate) struct PairIndex<R: Real, const N: usize, const K: usize> {
-    /// Listed pairs, padded with pairs (w, w) ([`SELF_PAIR`]) so that each
-    /// batch's first grains lie in one window and the last batch is whole,
-    /// first and second grain, and slot k.
-    pub(super) pair_i: [[u32; PAIRS]; N],
-    _pad1: Pad,
-    pub(super) pair_j: [[u32; PAIRS]; N],
-    _pad2: Pad,
+    /// The pair list the pair pass reads ([`List`]).
+    pub(super) list: List<R, N>,
+    /// Per pair, its slot k ([`SELF_PAIR`]: a padding pair).
     pair_k: [[u8; PAIRS]; N],
     _pad3: Pad,
-    /// Per pair, its grains' radii (r_i, r_j): copied when the pairs are
-    /// indexed (a radius changes only with the grains, which marks the
-    /// slots stale), so a batch loads them instead of gathering them.
-    pub(super) r_i: [[R; PAIRS]; N],
-    _pad13: Pad,
-    pub(super) r_j: [[R; PAIRS]; N],
-    _pad14: Pad,
     /// Pairs up to the last listed one (padding pairs between included),
     /// and pairs in whole batches (a multiple of the lanes).
     listed: usize,
@@ -99,25 +88,6 @@ pub(crate) struct PairIndex<R: Real, const N: usize, const K: usize> {
     /// Per grain, its first pair: pairs (i, slot k) are listed at
     /// `start[i] + k`.
     start: [u32; N],
-    /// Per batch of pairs, the 32-bit lanes (one byte each) that pick each
-    /// pair's first grain from the batch's window (a permutation control):
-    /// the window is the lanes' worth of grains from the batch's first
-    /// grain ([`window_start`]; pairs are listed by first grain, and padded
-    /// so that each batch's lie in one window), and their values are one
-    /// load and one permutation instead of a gather.
-    pub(super) window_lanes: [[u8; 8]; N],
-    _pad11: Pad,
-    /// Per batch of pairs, the 32-bit lanes that pick each pair's second
-    /// grain from the [`second_window`] grains from the batch's window
-    /// start (values 0 to 15: the low three bits pick a lane of a vector,
-    /// the fourth which of two), or [`FAR`] first if they do not lie there
-    /// (then they are gathered).
-    pub(super) second_lanes: [[u8; 8]; N],
-    _pad12: Pad,
-    /// Per chunk of [`CHUNK`] batches, whether a pair of it may need the
-    /// periodic image of its separation ([`PairIndex::index`]); the
-    /// others' separations are within half the width and skip it.
-    pub(super) seam: [bool; N],
     /// Per grain, its sums during a step: force (x, y), torque, and a
     /// fourth value that is never read. Zero between steps.
     pub(super) sums: [[R; 4]; N],
@@ -132,20 +102,78 @@ pub(crate) struct PairIndex<R: Real, const N: usize, const K: usize> {
     pub(crate) ready: bool,
 }
 
-impl<R: Real, const N: usize, const K: usize> PairIndex<R, N, K> {
+/// The pair list of the [`PairIndex`], as every range of the pair pass
+/// reads it (shared): one struct, so that a pass holds one address for
+/// all its arrays (seven addresses spilled registers in the pair phase's
+/// loop: ~15 % of its time).
+#[derive(Debug, Clone)]
+#[repr(C)]
+pub(crate) struct List<R: Real, const N: usize> {
+    /// Listed pairs, padded with pairs (w, w) ([`SELF_PAIR`]) so that each
+    /// batch's first grains lie in one window and the last batch is whole:
+    /// first and second grain.
+    pub(crate) pair_i: [[u32; PAIRS]; N],
+    _pad1: Pad,
+    pub(crate) pair_j: [[u32; PAIRS]; N],
+    _pad2: Pad,
+    /// Per pair, its grains' radii (r_i, r_j): copied when the pairs are
+    /// indexed (a radius changes only with the grains, which marks the
+    /// slots stale), so a batch loads them instead of gathering them.
+    pub(crate) r_i: [[R; PAIRS]; N],
+    _pad13: Pad,
+    pub(crate) r_j: [[R; PAIRS]; N],
+    _pad14: Pad,
+    /// Per batch of pairs, the 32-bit lanes (one byte each) that pick each
+    /// pair's first grain from the batch's window (a permutation control):
+    /// the window is the lanes' worth of grains from the batch's first
+    /// grain ([`window_start`]; pairs are listed by first grain, and padded
+    /// so that each batch's lie in one window), and their values are one
+    /// load and one permutation instead of a gather.
+    pub(crate) window_lanes: [[u8; 8]; N],
+    _pad11: Pad,
+    /// Per batch of pairs, the 32-bit lanes that pick each pair's second
+    /// grain from the [`second_window`] grains from the batch's window
+    /// start (values 0 to 15: the low three bits pick a lane of a vector,
+    /// the fourth which of two), or [`FAR`] first if they do not lie there
+    /// (then they are gathered).
+    pub(crate) second_lanes: [[u8; 8]; N],
+    _pad12: Pad,
+    /// Per chunk of [`CHUNK`] batches, whether a pair of it may need the
+    /// periodic image of its separation ([`PairIndex::index`]); the
+    /// others' separations are within half the width and skip it.
+    pub(crate) seam: [bool; N],
+    _pad15: Pad,
+}
+
+impl<R: Real, const N: usize> List<R, N> {
     /// Empty (all-zero bits).
-    pub(crate) const fn new() -> Self {
-        PairIndex {
+    const fn new() -> Self {
+        List {
             pair_i: [[0; PAIRS]; N],
             _pad1: PAD,
             pair_j: [[0; PAIRS]; N],
             _pad2: PAD,
-            pair_k: [[0; PAIRS]; N],
-            _pad3: PAD,
             r_i: [[R::ZERO; PAIRS]; N],
             _pad13: PAD,
             r_j: [[R::ZERO; PAIRS]; N],
             _pad14: PAD,
+            window_lanes: [[0; 8]; N],
+            _pad11: PAD,
+            second_lanes: [[0; 8]; N],
+            _pad12: PAD,
+            seam: [false; N],
+            _pad15: PAD,
+        }
+    }
+}
+
+impl<R: Real, const N: usize, const K: usize> PairIndex<R, N, K> {
+    /// Empty (all-zero bits).
+    pub(crate) const fn new() -> Self {
+        PairIndex {
+            list: List::new(),
+            pair_k: [[0; PAIRS]; N],
+            _pad3: PAD,
             listed: 0,
             pairs: 0,
             e_n: [[R::ZERO; PAIRS]; N],
@@ -153,11 +181,6 @@ impl<R: Real, const N: usize, const K: usize> PairIndex<R, N, K> {
             e_s: [[R::ZERO; PAIRS]; N],
             _pad5: PAD,
             start: [0; N],
-            window_lanes: [[0; 8]; N],
-            _pad11: PAD,
-            second_lanes: [[0; 8]; N],
-            _pad12: PAD,
-            seam: [false; N],
             sums: [[R::ZERO; 4]; N],
             _pad6: PAD,
             mobile: [R::ZERO; N],
@@ -202,18 +225,18 @@ impl<R: Real, const N: usize, const K: usize> PairIndex<R, N, K> {
         }
         self.mobile[n..].fill(R::ZERO);
         let mut list = PairList::<R, N> {
-            i: self.pair_i.as_flattened_mut(),
-            j: self.pair_j.as_flattened_mut(),
+            i: self.list.pair_i.as_flattened_mut(),
+            j: self.list.pair_j.as_flattened_mut(),
             k: self.pair_k.as_flattened_mut(),
-            r_i: self.r_i.as_flattened_mut(),
-            r_j: self.r_j.as_flattened_mut(),
+            r_i: self.list.r_i.as_flattened_mut(),
+            r_j: self.list.r_j.as_flattened_mut(),
             radius: &g.r,
             e_n: self.e_n.as_flattened_mut(),
             e_s: self.e_s.as_flattened_mut(),
             len: 0,
         };
         let per_chunk = (CHUNK * lanes).max(1);
-        self.seam.fill(false);
+        self.list.seam.fill(false);
         let grains = count.iter().zip(other).zip(spring).zip(&g.x).take(n);
         for (m, (((&c, js), springs), &x)) in grains.enumerate() {
             let own = usize::from(c).min(K);
@@ -229,7 +252,7 @@ impl<R: Real, const N: usize, const K: usize> PairIndex<R, N, K> {
             // The chunks of its pairs, if near the seam (or not a number).
             if own > 0 && !(x >= margin && x <= width - margin) {
                 let chunks = first / per_chunk..=(list.len - 1) / per_chunk;
-                if let Some(marks) = self.seam.get_mut(chunks) {
+                if let Some(marks) = self.list.seam.get_mut(chunks) {
                     marks.fill(true);
                 }
             }
@@ -251,13 +274,20 @@ impl<R: Real, const N: usize, const K: usize> PairIndex<R, N, K> {
     /// first `pairs` pairs, `lanes` per batch: false if a batch's first
     /// grains do not lie in its window.
     fn find_windows(&mut self, pairs: usize, lanes: usize) -> bool {
-        let (pair_i, pair_j) = (self.pair_i.as_flattened(), self.pair_j.as_flattened());
+        let (pair_i, pair_j) = (
+            self.list.pair_i.as_flattened(),
+            self.list.pair_j.as_flattened(),
+        );
         let pairs = pairs.min(pair_i.len()).min(pair_j.len());
         let per_lane = (8 / lanes.max(1)).max(1);
         let batches = pair_i[..pairs]
             .chunks_exact(lanes.max(1))
             .zip(pair_j[..pairs].chunks_exact(lanes.max(1)));
-        let controls = self.window_lanes.iter_mut().zip(&mut self.second_lanes);
+        let controls = self
+            .list
+            .window_lanes
+            .iter_mut()
+            .zip(&mut self.list.second_lanes);
         for ((batch, seconds), (control, second_control)) in batches.zip(controls) {
             let first = window_start::<N>(batch[0], lanes) as u32;
             if batch.iter().any(|&i| i.wrapping_sub(first) >= lanes as u32) {
@@ -287,7 +317,7 @@ impl<R: Real, const N: usize, const K: usize> PairIndex<R, N, K> {
     #[cfg(test)]
     pub(crate) fn chunks_near_the_seam(&self) -> (usize, usize) {
         let chunks = self.pairs.div_ceil(CHUNK * lanes::<R>());
-        let marked = self.seam.iter().take(chunks).filter(|&&s| s).count();
+        let marked = self.list.seam.iter().take(chunks).filter(|&&s| s).count();
         (marked, chunks)
     }
 
@@ -295,13 +325,7 @@ impl<R: Real, const N: usize, const K: usize> PairIndex<R, N, K> {
     pub(crate) fn parts(&mut self) -> Parts<'_, R, N> {
         Parts {
             listed: Listed {
-                pair_i: &self.pair_i,
-                pair_j: &self.pair_j,
-                r_i: &self.r_i,
-                r_j: &self.r_j,
-                window_lanes: &self.window_lanes,
-                second_lanes: &self.second_lanes,
-                seam: &self.seam,
+                list: &self.list,
                 pairs: self.pairs,
             },
             e_n: self.e_n.as_flattened_mut(),
@@ -335,7 +359,7 @@ impl<R: Real, const N: usize, const K: usize> PairIndex<R, N, K> {
         }
         self.ready = false;
         let (e_n, e_s) = (self.e_n.as_flattened(), self.e_s.as_flattened());
-        let (pair_i, pair_k) = (self.pair_i.as_flattened(), self.pair_k.as_flattened());
+        let (pair_i, pair_k) = (self.list.pair_i.as_flattened(), self.pair_k.as_flattened());
         let listed = self.listed.min(e_n.len());
         for q in 0..listed {
             if pair_k[q] == SELF_PAIR {
@@ -353,18 +377,20 @@ impl<R: Real, const N: usize, const K: usize> PairIndex<R, N, K> {
 }
 
 /// The pair list of the pair index as every range of the pair pass reads
-/// it (shared): each pair's grains and radii, each batch's window
-/// controls, each chunk's seam mark, and the pairs in whole batches.
+/// it (shared, [`List`]'s arrays through `Deref`), and the pairs in whole
+/// batches.
 #[derive(Clone, Copy)]
 pub(crate) struct Listed<'a, R: Real, const N: usize> {
-    pub(crate) pair_i: &'a [[u32; PAIRS]; N],
-    pub(crate) pair_j: &'a [[u32; PAIRS]; N],
-    pub(crate) r_i: &'a [[R; PAIRS]; N],
-    pub(crate) r_j: &'a [[R; PAIRS]; N],
-    pub(crate) window_lanes: &'a [[u8; 8]; N],
-    pub(crate) second_lanes: &'a [[u8; 8]; N],
-    pub(crate) seam: &'a [bool; N],
+    pub(crate) list: &'a List<R, N>,
     pub(crate) pairs: usize,
+}
+
+impl<R: Real, const N: usize> core::ops::Deref for Listed<'_, R, N> {
+    type Target = List<R, N>;
+
+    fn deref(&self) -> &List<R, N> {
+        self.list
+    }
 }
 
 /// The pair index split for the passes ([`PairIndex::parts`]): the pair
@@ -569,7 +595,10 @@ mod tests {
         grains.len = n;
         batch.index(&grains, &nbrs, 1.0, 1.0);
         assert!(batch.ready);
-        let (pair_i, pair_j) = (batch.pair_i.as_flattened(), batch.pair_j.as_flattened());
+        let (pair_i, pair_j) = (
+            batch.list.pair_i.as_flattened(),
+            batch.list.pair_j.as_flattened(),
+        );
         for m in 0..n {
             for (k, &j) in other[m][..usize::from(count[m])].iter().enumerate() {
                 let q = batch.start[m] as usize + k;
@@ -581,16 +610,16 @@ mod tests {
             let pairs = t * 8..t * 8 + 8;
             let start = window_start::<N>(pair_i[t * 8], 8);
             for (l, q) in pairs.clone().enumerate() {
-                let first = usize::from(batch.window_lanes[t][l]);
+                let first = usize::from(batch.list.window_lanes[t][l]);
                 assert_eq!(pair_i[q] as usize, start + first);
             }
-            if batch.second_lanes[t][0] == FAR {
+            if batch.list.second_lanes[t][0] == FAR {
                 far += 1;
                 assert!(pairs.clone().any(|q| (pair_i[q], pair_j[q]) == (3, 39)));
                 continue;
             }
             for (l, q) in pairs.enumerate() {
-                let second = usize::from(batch.second_lanes[t][l]);
+                let second = usize::from(batch.list.second_lanes[t][l]);
                 assert!(second < second_window(8));
                 assert_eq!(pair_j[q] as usize, start + second);
             }

@@ -45,29 +45,38 @@ macro_rules! grains {
                 let abs = splat(ABS);
                 let mut crossings = 0u64;
                 let mut max_v2 = zero;
-                let groups = s.len() / L;
-                for grp in 0..groups {
+                // Every array as groups of L, zipped (no index to check).
+                let (xs, ys) = (s.x.as_chunks_mut::<L>().0, s.y.as_chunks_mut::<L>().0);
+                let (us, vs) = (s.u.as_chunks_mut::<L>().0, s.v.as_chunks_mut::<L>().0);
+                let ws = s.w.as_chunks_mut::<L>().0;
+                let inv_mass = s.inv_mass.as_chunks::<L>().0;
+                let inv_inertia = s.inv_inertia.as_chunks::<L>().0;
+                let mobiles = s.mobile.as_chunks::<L>().0;
+                let all_sums = s.sums.as_chunks_mut::<L>().0;
+                let mut failed = None;
+                let state = xs
+                    .iter_mut()
+                    .zip(ys.iter_mut())
+                    .zip(us.iter_mut())
+                    .zip(vs.iter_mut());
+                let state = state.zip(ws.iter_mut()).zip(inv_mass).zip(inv_inertia);
+                let groups = state.zip(mobiles).zip(all_sums.iter_mut()).enumerate();
+                for (grp, ((((((((gx_, gy_), gu), gv), gw), im), ii), mobile), sums)) in groups {
                     let g = s.first + grp * L;
-                    let mobile = load(group(s.mobile, grp));
+                    let mobile = load(mobile);
                     if movemask(mobile) == 0 {
-                        if let Some(sums) = s.sums.as_chunks_mut::<L>().0.get_mut(grp) {
-                            *sums = [[0.0; 4]; L];
-                        }
+                        *sums = [[0.0; 4]; L];
                         continue;
                     }
-                    let at = |a: &[R]| load(group(a, grp));
-                    let Some(sums) = s.sums.as_chunks_mut::<L>().0.get_mut(grp) else {
-                        break;
-                    };
                     before(grp, sums);
                     let [fx, fy, torque, _] = from_rows(sums.each_ref().map(|row| load_row(row)));
                     *sums = [[0.0; 4]; L];
                     // Mover::advance.
-                    let im = at(s.inv_mass);
-                    let (x0, y0, u0, v0, w0) = (at(s.x), at(s.y), at(s.u), at(s.v), at(s.w));
-                    let u = add(u0, mul(add(mul(fx, im), gx), dt));
-                    let v = add(v0, mul(add(mul(fy, im), gy), dt));
-                    let w = add(w0, mul(mul(torque, at(s.inv_inertia)), dt));
+                    let im_v = load(im);
+                    let (x0, y0, u0, v0, w0) = (load(gx_), load(gy_), load(gu), load(gv), load(gw));
+                    let u = add(u0, mul(add(mul(fx, im_v), gx), dt));
+                    let v = add(v0, mul(add(mul(fy, im_v), gy), dt));
+                    let w = add(w0, mul(mul(torque, load(ii)), dt));
                     let x = add(x0, mul(u, dt));
                     let y = add(y0, mul(v, dt));
                     let inside = |x: V| and(ge(x, zero), lt(x, width));
@@ -100,49 +109,55 @@ macro_rules! grains {
                         let sums = [lanes(fx), lanes(fy), lanes(torque)];
                         let mobile = lanes(mobile);
                         for l in 0..L {
-                            let i = grp * L + l;
-                            if mobile[l].to_bits() == 0 || i >= s.len() {
+                            if mobile[l].to_bits() == 0 {
                                 continue;
                             }
                             let moved = m.advance(
                                 g + l,
-                                [s.x[i], s.y[i], s.u[i], s.v[i], s.w[i]],
-                                [
-                                    sums[0][l] * s.inv_mass[i],
-                                    sums[1][l] * s.inv_mass[i],
-                                    sums[2][l] * s.inv_inertia[i],
-                                ],
+                                [gx_[l], gy_[l], gu[l], gv[l], gw[l]],
+                                [sums[0][l] * im[l], sums[1][l] * im[l], sums[2][l] * ii[l]],
                             );
-                            let (moved, _) = moved.inspect_err(|_| s.sums.fill([0.0; 4]))?;
-                            [s.x[i], s.y[i], s.u[i], s.v[i], s.w[i]] = moved;
+                            let (moved, _) = match moved {
+                                Ok(moved) => moved,
+                                Err(e) => {
+                                    failed = Some(e);
+                                    break;
+                                }
+                            };
+                            [gx_[l], gy_[l], gu[l], gv[l], gw[l]] = moved;
                             let v2 = moved[2] * moved[2] + moved[3] * moved[3];
                             max_v2 = max(splat(v2), max_v2);
+                        }
+                        if failed.is_some() {
+                            break;
                         }
                         continue;
                     }
                     // Fixed grains keep their state (a whole group of mobile
                     // grains, the usual case, needs no blend).
                     let all_mobile = movemask(mobile) == (1 << L) - 1;
-                    for (a, old, new) in [
-                        (&mut *s.x, x0, x),
-                        (&mut *s.y, y0, y),
-                        (&mut *s.u, u0, u),
-                        (&mut *s.v, v0, v),
-                        (&mut *s.w, w0, w),
+                    for (values, old, new) in [
+                        (gx_, x0, x),
+                        (gy_, y0, y),
+                        (gu, u0, u),
+                        (gv, v0, v),
+                        (gw, w0, w),
                     ] {
-                        if let Some(values) = group_mut(a, grp) {
-                            put(
-                                values,
-                                if all_mobile {
-                                    new
-                                } else {
-                                    select(old, new, mobile)
-                                },
-                            );
-                        }
+                        put(
+                            values,
+                            if all_mobile {
+                                new
+                            } else {
+                                select(old, new, mobile)
+                            },
+                        );
                     }
                     let v2 = and(add(mul(u, u), mul(v, v)), mobile);
                     max_v2 = max(v2, max_v2);
+                }
+                if let Some(e) = failed {
+                    s.sums.fill([0.0; 4]);
+                    return Err(e);
                 }
                 let max_v2 = lanes(max_v2).into_iter().fold(0.0, <R as Real>::max);
                 Ok((max_v2, crossings))

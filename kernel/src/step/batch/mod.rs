@@ -36,12 +36,16 @@
 //! (`lanes`: [`crate::lanes::f64x4`], [`crate::lanes::f32x8`]); `lanes!` writes the step
 //! in each precision's lanes.
 //!
-//! `unsafe` in the batched step: seven blocks, audited. Two in `lanes`
+//! `unsafe` in the batched step: nine blocks, audited. Two in `lanes`
 //! (`read` and `write`: a vector from and to an array of exactly its
 //! size), two here, in `lanes!` (the entry points' calls of the passes,
 //! `#[target_feature(enable = "avx2")]` functions), and three in `phases`
 //! (each phase's `run`, which calls its pass): all sound because the
-//! module is compiled only where the whole build enables AVX2.
+//! module is compiled only where the whole build enables AVX2. Two in
+//! `pairs`, in the pair phase's copy for chunks whose grains its range
+//! all sums: a grain's sums addressed by its number from the range's
+//! first grain, sound because the copy first checks that every pair's
+//! grains lie in the range (`grains_within`; else the tested copy runs).
 
 mod drag;
 mod grains;
@@ -230,7 +234,8 @@ macro_rules! lanes {
                         range,
                         out
                     ));
-                    counts.add_to(events);
+                    // Always `Some` in the batched pass.
+                    counts.unwrap_or_default().add_to(events);
                     let s = &mut Moving::new(g, parts.mobile, parts.sums, groups, L);
                     let (max_v2, crossings) = grains::grain_pass(s, &p.mover, |_, _| {})?;
                     events.seam_crossings = events.seam_crossings.wrapping_add(crossings);

@@ -27,12 +27,13 @@ macro_rules! pairs {
         pub(super) mod pairs {
             use crate::lanes::$lanes::*;
             use crate::step::batch::params::PairRange;
-            use crate::step::index::{second_window, window_start, CHUNK, FAR, PAIRS};
+            use crate::step::index::{second_window, window_start, List, CHUNK, FAR, PAIRS};
             use crate::step::scalar::Counts;
             use core::arch::x86_64::{
                 __m256i, _mm256_cvtepu8_epi32, _mm256_setzero_si256, _mm256_slli_epi32,
                 _mm_cvtsi64_si128,
             };
+            use core::ops::Range;
 
             /// Second grains from a window ([`second_window`]).
             const SECOND_WINDOW: bool = second_window(L) == 2 * L;
@@ -106,6 +107,7 @@ macro_rules! pairs {
             /// cut or the seam, `step/batch/phases.rs`), only the grains
             /// `out.done` marks, a pair with a grain it does not mark
             /// storing its row in `out.rows`.
+            #[allow(unsafe_code)]
             #[target_feature(enable = "avx2")]
             pub(crate) fn pair_range<
                 const N: usize,
@@ -115,7 +117,7 @@ macro_rules! pairs {
             >(
                 r: &mut PairRange<'_, R, N>,
                 out: &mut Out<'_>,
-            ) -> Counts {
+            ) -> Option<Counts> {
                 let zero = zero();
                 let sign = splat(-0.0);
                 let all = splat(TRUE);
@@ -125,8 +127,15 @@ macro_rules! pairs {
                 let (dt, k_n, k_s) = (splat(law.step_dt), splat(law.k_n), splat(law.k_s));
                 let (eta_n, eta_s, mu) = (splat(law.eta_n), splat(law.eta_s), splat(law.mu));
                 let tested = SUMS == MARKED;
-                let b = r.listed;
-                let [x, y, u, v, w] = r.grains;
+                // The pair phase's copy for chunks whose grains its range
+                // all sums: the sums addressed by grain, as the batched pass
+                // does (no offset, no bounds check per lane), once every
+                // pair's grains are found in the range's sums (else `None`:
+                // the caller runs the tested copy).
+                let in_phase = SUMS == EVERY_IN_PHASE;
+                let b = r.listed.list;
+                let g = r.grains;
+                let [x, y, u, v, w] = [&g.x, &g.y, &g.u, &g.v, &g.w];
                 // The slices in locals (behind `r` and `out` their addresses
                 // would be read again after every store), the history as
                 // chunks of CHUNK batches of L pairs (no bounds to check
@@ -169,7 +178,7 @@ macro_rules! pairs {
                             select(low, window(a, start + L, lanes), high)
                         })
                     } else {
-                        let j = at(b.pair_j, t * L);
+                        let j = at(&b.pair_j, t * L);
                         grains.map(|a| gather(a, &j))
                     }
                 };
@@ -178,9 +187,16 @@ macro_rules! pairs {
                 // and relative speeds (the gathers), then their laws and sums, so
                 // that the core overlaps many batches' square roots, divisions and
                 // gathers instead of waiting for each.
-                let batches = b.pairs.min(cap) / L;
+                let batches = r.listed.pairs.min(cap) / L;
                 let range =
                     (r.chunks.start * CHUNK).min(batches)..(r.chunks.end * CHUNK).min(batches);
+                if in_phase && !grains_within(b, range.start * L..range.end * L, g0, sums.len()) {
+                    return None;
+                }
+                // Grain g's sums at `by_grain + g` (an address computed
+                // with wrapping arithmetic, dereferenced only for grains in
+                // the range's sums).
+                let by_grain = sums.as_mut_ptr().wrapping_sub(g0);
                 // The last first grain to sum, and its sums.
                 let mut last = (usize::MAX, load_row(&[0.0; 4]));
                 // One buffer for every chunk (zeroing it per chunk cost ~8
@@ -321,8 +337,30 @@ macro_rules! pairs {
                         let f_s = and(f_s, acts);
                         let rows = to_rows([fx, fy, neg(mul(ri, f_s)), neg(mul(rj, f_s))]);
                         for (l, row) in rows.into_iter().enumerate() {
-                            let i = index(b.pair_i, q + l).wrapping_sub(g0);
-                            let j = index(b.pair_j, q + l).wrapping_sub(g0);
+                            if in_phase {
+                                let (i, j) = (index(&b.pair_i, q + l), index(&b.pair_j, q + l));
+                                // SAFETY: `grains_within` found both grains
+                                // of every pair of the range in
+                                // g0..g0 + sums.len(), so grains i, j and
+                                // last.0 (an earlier pair's i) lie in `sums`,
+                                // which this copy reads and writes only
+                                // through `by_grain`.
+                                unsafe {
+                                    let base = if i == last.0 {
+                                        last.1
+                                    } else {
+                                        if last.0 != usize::MAX {
+                                            put_row(&mut *by_grain.wrapping_add(last.0), last.1);
+                                        }
+                                        load_row(&*by_grain.wrapping_add(i))
+                                    };
+                                    last = (i, row_add(base, row));
+                                    add_row(&mut *by_grain.wrapping_add(j), second_row(row));
+                                }
+                                continue;
+                            }
+                            let i = index(&b.pair_i, q + l).wrapping_sub(g0);
+                            let j = index(&b.pair_j, q + l).wrapping_sub(g0);
                             let summed = |g: usize| !tested || done.get(g).is_some_and(|&d| d != 0);
                             let (sum_i, sum_j) = (summed(i), summed(j));
                             if sum_i {
@@ -349,7 +387,12 @@ macro_rules! pairs {
                         }
                     }
                 }
-                if let Some(sums) = sums.get_mut(last.0) {
+                if in_phase {
+                    if last.0 != usize::MAX {
+                        // SAFETY: as in the loop (last.0 is a pair's i).
+                        put_row(unsafe { &mut *by_grain.wrapping_add(last.0) }, last.1);
+                    }
+                } else if let Some(sums) = sums.get_mut(last.0) {
                     put_row(sums, last.1);
                 }
                 let total = |n: __m256i| {
@@ -358,10 +401,64 @@ macro_rules! pairs {
                         .map(|c| u64::from(c.to_bits()))
                         .sum::<u64>()
                 };
-                Counts {
+                Some(Counts {
                     made: total(made_n),
                     broken: total(broken_n),
                     sliding: total(sliding_n),
+                })
+            }
+
+            /// Whether both grains of every pair `pairs` of the list `b`
+            /// lie in `g0..g0 + len`.
+            fn grains_within<const N: usize>(
+                b: &List<R, N>,
+                pairs: Range<usize>,
+                g0: usize,
+                len: usize,
+            ) -> bool {
+                let (Ok(g0), Ok(len)) = (u32::try_from(g0), u32::try_from(len)) else {
+                    return false;
+                };
+                let firsts = b.pair_i.as_flattened().get(pairs.clone());
+                let seconds = b.pair_j.as_flattened().get(pairs);
+                // The largest offset from g0 (wrapping: a grain below g0
+                // is far above), one fold per array (vector code).
+                let reach = |a: &[u32]| a.iter().fold(0, |m: u32, &g| m.max(g.wrapping_sub(g0)));
+                match (firsts, seconds) {
+                    (Some(i), Some(j)) => len > 0 && reach(i) < len && reach(j) < len,
+                    _ => false,
+                }
+            }
+
+            #[cfg(test)]
+            mod tests {
+                use super::grains_within;
+                use crate::step::index::PairIndex;
+                use std::boxed::Box;
+
+                /// The check before sums are addressed by grain number:
+                /// every grain of the pairs inside, none below, none past.
+                #[test]
+                fn grains_within_finds_a_grain_outside() {
+                    let mut index = Box::new(PairIndex::<super::R, 64, 4>::new());
+                    let list = &mut index.list;
+                    for (q, (i, j)) in list
+                        .pair_i
+                        .as_flattened_mut()
+                        .iter_mut()
+                        .zip(list.pair_j.as_flattened_mut())
+                        .take(8)
+                        .enumerate()
+                    {
+                        (*i, *j) = (10 + q as u32, 12 + q as u32);
+                    }
+                    let list = &index.list;
+                    assert!(grains_within(list, 0..8, 10, 10));
+                    assert!(!grains_within(list, 0..8, 11, 20), "grain 10 below");
+                    assert!(!grains_within(list, 0..8, 10, 9), "grain 19 past");
+                    assert!(grains_within(list, 1..7, 11, 8));
+                    assert!(!grains_within(list, 0..300, 0, 64), "pairs past the list");
+                    assert!(!grains_within(list, 0..0, 0, 0), "no grains");
                 }
             }
         }

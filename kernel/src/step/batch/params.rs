@@ -59,7 +59,7 @@ pub(crate) enum Flow<R: Real> {
 /// the range's spring history (from its first pair).
 pub(super) struct PairRange<'a, R: Real, const N: usize> {
     pub(super) listed: Listed<'a, R, N>,
-    pub(super) grains: [&'a [R; N]; 5],
+    pub(super) grains: &'a Grains<R, N>,
     pub(super) law: ContactLaw<R>,
     pub(super) width: R,
     /// The range's chunks (indices of chunks).
@@ -84,7 +84,7 @@ impl<'a, R: Real, const N: usize> PairRange<'a, R, N> {
     ) -> Self {
         PairRange {
             listed,
-            grains: [&g.x, &g.y, &g.u, &g.v, &g.w],
+            grains: g,
             law: p.law,
             width: p.width,
             chunks: 0..listed.pairs.div_ceil(CHUNK * lanes),

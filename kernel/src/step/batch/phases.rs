@@ -112,7 +112,8 @@ macro_rules! phases {
                 /// The first grain of chunk `c` (`n` past the last).
                 fn grain_at(&self, c: usize) -> usize {
                     let q = c.saturating_mul(PER_CHUNK);
-                    let Listed { pair_i, pairs, .. } = self.range.listed;
+                    let Listed { list, pairs } = self.range.listed;
+                    let pair_i = &list.pair_i;
                     match pair_i.as_flattened().get(q) {
                         Some(&i) if q < pairs => (i as usize).min(self.n),
                         _ => self.n,
@@ -235,12 +236,12 @@ macro_rules! phases {
                     };
                     use pairs::{EVERY_IN_PHASE as ALL, MARKED};
                     let (count, no_tension) = (p.count, p.no_tension);
-                    let part = if tested {
-                        pair_range_for!(pairs::<N, MARKED>(count, no_tension, r, out))
-                    } else {
-                        pair_range_for!(pairs::<N, ALL>(count, no_tension, r, out))
-                    };
-                    counts = counts.merge(part);
+                    let all = (!tested)
+                        .then(|| pair_range_for!(pairs::<N, ALL>(count, no_tension, r, out)))
+                        .flatten();
+                    let part = all
+                        .or_else(|| pair_range_for!(pairs::<N, MARKED>(count, no_tension, r, out)));
+                    counts = counts.merge(part.unwrap_or_default());
                     c = end;
                 }
                 counts
