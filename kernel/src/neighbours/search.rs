@@ -102,7 +102,9 @@ impl<R: Real, const N: usize, const K: usize> Phase for Search<'_, R, N, K> {
     fn run(self) -> Result<(), Error> {
         let (g, bins, order, end) = (self.g, self.bins, self.order, self.end);
         let (nx, buckets) = (bins.nx, bins.buckets);
-        let Some(cursors) = self.cursors.get_mut(..buckets) else {
+        // Both `buckets` long: a bucket's cursor and end checked once.
+        let (Some(cursors), Some(end)) = (self.cursors.get_mut(..buckets), end.get(..buckets))
+        else {
             return Ok(()); // an empty range
         };
         if !self.ready {
