@@ -408,22 +408,28 @@ macro_rules! pairs {
                 })
             }
 
-            /// Whether both grains of every pair `pairs` of the list `b`
-            /// lie in `g0..g0 + len`.
+            /// Whether both grains of every pair `pairs` of the list `b`,
+            /// masked below N as `pair_range` reads them, lie in
+            /// `g0..g0 + len`.
             fn grains_within<const N: usize>(
                 b: &List<R, N>,
                 pairs: Range<usize>,
                 g0: usize,
                 len: usize,
             ) -> bool {
-                let (Ok(g0), Ok(len)) = (u32::try_from(g0), u32::try_from(len)) else {
+                let (Ok(g0), Ok(len), Ok(mask)) =
+                    (u32::try_from(g0), u32::try_from(len), u32::try_from(N - 1))
+                else {
                     return false;
                 };
                 let firsts = b.pair_i.as_flattened().get(pairs.clone());
                 let seconds = b.pair_j.as_flattened().get(pairs);
                 // The largest offset from g0 (wrapping: a grain below g0
                 // is far above), one fold per array (vector code).
-                let reach = |a: &[u32]| a.iter().fold(0, |m: u32, &g| m.max(g.wrapping_sub(g0)));
+                let reach = |a: &[u32]| {
+                    a.iter()
+                        .fold(0, |m: u32, &g| m.max((g & mask).wrapping_sub(g0)))
+                };
                 match (firsts, seconds) {
                     (Some(i), Some(j)) => len > 0 && reach(i) < len && reach(j) < len,
                     _ => false,
@@ -459,6 +465,11 @@ macro_rules! pairs {
                     assert!(grains_within(list, 1..7, 11, 8));
                     assert!(!grains_within(list, 0..300, 0, 64), "pairs past the list");
                     assert!(!grains_within(list, 0..0, 0, 0), "no grains");
+                    // Read masked below N = 64: grain 64 + 10 is grain 10.
+                    index.list.pair_j.as_flattened_mut()[0] = 64 + 10;
+                    assert!(grains_within(&index.list, 0..8, 10, 10));
+                    index.list.pair_j.as_flattened_mut()[0] = 64 + 5;
+                    assert!(!grains_within(&index.list, 0..8, 10, 64), "grain 5 below");
                 }
             }
         }
