@@ -103,9 +103,12 @@ impl<R: Real, const N: usize, const K: usize> Phase for Search<'_, R, N, K> {
         let (g, bins, order, end) = (self.g, self.bins, self.order, self.end);
         let (nx, buckets) = (bins.nx, bins.buckets);
         // Both `buckets` long: a bucket's cursor and end checked once.
+        // The sort sizes `end` to the buckets; the cursors are empty only
+        // for an empty range.
+        debug_assert!(end.len() >= buckets);
         let (Some(cursors), Some(end)) = (self.cursors.get_mut(..buckets), end.get(..buckets))
         else {
-            return Ok(()); // an empty range
+            return Ok(());
         };
         if !self.ready {
             // Each bucket's start (the end of the one before), past the

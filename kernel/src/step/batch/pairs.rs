@@ -107,6 +107,10 @@ macro_rules! pairs {
             /// cut or the seam, `step/batch/phases.rs`), only the grains
             /// `out.done` marks, a pair with a grain it does not mark
             /// storing its row in `out.rows`.
+            ///
+            /// The counts of events; `None` (nothing read or written) only
+            /// from [`EVERY_IN_PHASE`], if a pair names a grain outside
+            /// `out.sums` (`grains_within`): then run [`MARKED`].
             #[allow(unsafe_code)]
             #[target_feature(enable = "avx2")]
             pub(crate) fn pair_range<
@@ -410,13 +414,18 @@ macro_rules! pairs {
 
             /// Whether both grains of every pair `pairs` of the list `b`,
             /// masked below N as `pair_range` reads them, lie in
-            /// `g0..g0 + len`.
+            /// `g0..g0 + len`, a range of grains below N; and the pairs'
+            /// places are those `pair_range` reads (N a power of two, so
+            /// its masked places are the places themselves).
             fn grains_within<const N: usize>(
                 b: &List<R, N>,
                 pairs: Range<usize>,
                 g0: usize,
                 len: usize,
             ) -> bool {
+                if !N.is_power_of_two() || g0.checked_add(len).is_none_or(|end| end > N) {
+                    return false;
+                }
                 let (Ok(g0), Ok(len), Ok(mask)) =
                     (u32::try_from(g0), u32::try_from(len), u32::try_from(N - 1))
                 else {
@@ -438,9 +447,68 @@ macro_rules! pairs {
 
             #[cfg(test)]
             mod tests {
-                use super::grains_within;
-                use crate::step::index::PairIndex;
+                use super::{grains_within, pair_range, Out, EVERY_IN_PHASE, L, R};
+                use crate::contact::{ContactLaw, Spring};
+                use crate::grains::Grains;
+                use crate::neighbours::Neighbours;
+                use crate::step::batch::params::PairRange;
+                use crate::step::index::{PairIndex, CHUNK};
                 use std::boxed::Box;
+
+                /// The pair phase's copy that addresses sums by grain
+                /// number refuses a range whose sums lack a pair's grain,
+                /// before it reads or writes anything (its caller then runs
+                /// the tested copy), and runs one that has them all.
+                #[test]
+                #[allow(unsafe_code)]
+                fn a_pair_outside_the_sums_runs_nothing() {
+                    const N: usize = 64;
+                    let n = 40;
+                    let mut index = Box::new(PairIndex::<R, N, 4>::new());
+                    let mut nbrs = Box::new(Neighbours::<R, N, 4>::new());
+                    for m in 0..n - 1 {
+                        nbrs.push_history(m, m + 1, Spring::ZERO);
+                    }
+                    // Grains a unit apart: every pair apart, its history
+                    // dropped (set to zero) when the pair is run.
+                    let mut grains = Box::new(Grains::<R, N>::new());
+                    grains.len = n;
+                    for m in 0..n {
+                        (grains.x[m], grains.r[m]) = (m as R, 0.1);
+                    }
+                    index.index(&grains, &nbrs, 100.0, 1.0);
+                    assert!(index.ready);
+                    let parts = index.parts();
+                    parts.e_n.fill(1.0);
+                    let chunks = 0..parts.listed.pairs.div_ceil(CHUNK * L);
+                    let range = &mut PairRange {
+                        listed: parts.listed,
+                        grains: &grains,
+                        law: ContactLaw::ZERO,
+                        width: 100.0,
+                        chunks,
+                        e_n: parts.e_n,
+                        e_s: parts.e_s,
+                    };
+                    let sums = parts.sums;
+                    let run = |range: &mut PairRange<'_, R, N>, g0: usize, sums: &mut [[R; 4]]| {
+                        let out = &mut Out {
+                            g0,
+                            sums,
+                            done: &[],
+                            rows: &mut [],
+                        };
+                        // SAFETY: this module is compiled only with AVX2
+                        // enabled for the whole build.
+                        unsafe { pair_range::<N, false, false, EVERY_IN_PHASE>(range, out) }
+                    };
+                    // Grain 0's sums are not the range's.
+                    assert!(run(range, 1, &mut sums[1..]).is_none());
+                    assert!(range.e_n.iter().all(|&e| e == 1.0), "history untouched");
+                    assert!(run(range, 0, &mut sums[..]).is_some());
+                    let listed = &range.e_n[..range.listed.pairs];
+                    assert!(listed.iter().any(|&e| e == 0.0), "history dropped");
+                }
 
                 /// The check before sums are addressed by grain number:
                 /// every grain of the pairs inside, none below, none past.
@@ -465,6 +533,7 @@ macro_rules! pairs {
                     assert!(grains_within(list, 1..7, 11, 8));
                     assert!(!grains_within(list, 0..300, 0, 64), "pairs past the list");
                     assert!(!grains_within(list, 0..0, 0, 0), "no grains");
+                    assert!(!grains_within(list, 0..8, 10, 55), "grains past N");
                     // Read masked below N = 64: grain 64 + 10 is grain 10.
                     index.list.pair_j.as_flattened_mut()[0] = 64 + 10;
                     assert!(grains_within(&index.list, 0..8, 10, 10));
