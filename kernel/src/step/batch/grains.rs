@@ -38,7 +38,7 @@ macro_rules! grains {
             ) -> Result<(R, u64), Error> {
                 let zero = zero();
                 let (dt, width) = (splat(m.step_dt), splat(m.width));
-                let (gx, gy) = (splat(m.gravity[0]), splat(m.gravity[1]));
+                let (g_x, g_y) = (splat(m.gravity[0]), splat(m.gravity[1]));
                 let (y_min, y_max) = (splat(m.y_min), splat(m.y_max));
                 let surface = splat(m.surface);
                 let largest = splat(R::MAX);
@@ -61,7 +61,9 @@ macro_rules! grains {
                     .zip(vs.iter_mut());
                 let state = state.zip(ws.iter_mut()).zip(inv_mass).zip(inv_inertia);
                 let groups = state.zip(mobiles).zip(all_sums.iter_mut()).enumerate();
-                for (grp, ((((((((gx_, gy_), gu), gv), gw), im), ii), mobile), sums)) in groups {
+                // gx … gw: the group's x, y, u, v, ω; im, ii: its inverse
+                // masses and inertias.
+                for (grp, ((((((((gx, gy), gu), gv), gw), im), ii), mobile), sums)) in groups {
                     let g = s.first + grp * L;
                     let mobile = load(mobile);
                     if movemask(mobile) == 0 {
@@ -73,9 +75,9 @@ macro_rules! grains {
                     *sums = [[0.0; 4]; L];
                     // Mover::advance.
                     let im_v = load(im);
-                    let (x0, y0, u0, v0, w0) = (load(gx_), load(gy_), load(gu), load(gv), load(gw));
-                    let u = add(u0, mul(add(mul(fx, im_v), gx), dt));
-                    let v = add(v0, mul(add(mul(fy, im_v), gy), dt));
+                    let (x0, y0, u0, v0, w0) = (load(gx), load(gy), load(gu), load(gv), load(gw));
+                    let u = add(u0, mul(add(mul(fx, im_v), g_x), dt));
+                    let v = add(v0, mul(add(mul(fy, im_v), g_y), dt));
                     let w = add(w0, mul(mul(torque, load(ii)), dt));
                     let x = add(x0, mul(u, dt));
                     let y = add(y0, mul(v, dt));
@@ -114,7 +116,7 @@ macro_rules! grains {
                             }
                             let moved = m.advance(
                                 g + l,
-                                [gx_[l], gy_[l], gu[l], gv[l], gw[l]],
+                                [gx[l], gy[l], gu[l], gv[l], gw[l]],
                                 [sums[0][l] * im[l], sums[1][l] * im[l], sums[2][l] * ii[l]],
                             );
                             let (moved, _) = match moved {
@@ -124,7 +126,7 @@ macro_rules! grains {
                                     break;
                                 }
                             };
-                            [gx_[l], gy_[l], gu[l], gv[l], gw[l]] = moved;
+                            [gx[l], gy[l], gu[l], gv[l], gw[l]] = moved;
                             let v2 = moved[2] * moved[2] + moved[3] * moved[3];
                             max_v2 = max(splat(v2), max_v2);
                         }
@@ -137,8 +139,8 @@ macro_rules! grains {
                     // grains, the usual case, needs no blend).
                     let all_mobile = movemask(mobile) == (1 << L) - 1;
                     for (values, old, new) in [
-                        (gx_, x0, x),
-                        (gy_, y0, y),
+                        (gx, x0, x),
+                        (gy, y0, y),
                         (gu, u0, u),
                         (gv, v0, v),
                         (gw, w0, w),

@@ -236,12 +236,19 @@ macro_rules! phases {
                     };
                     use pairs::{EVERY_IN_PHASE as ALL, MARKED};
                     let (count, no_tension) = (p.count, p.no_tension);
-                    let all = (!tested)
-                        .then(|| pair_range_for!(pairs::<N, ALL>(count, no_tension, r, out)))
-                        .flatten();
-                    let part = all
-                        .or_else(|| pair_range_for!(pairs::<N, MARKED>(count, no_tension, r, out)));
-                    counts = counts.merge(part.unwrap_or_default());
+                    // The copy without tests refuses (None) a run whose
+                    // pairs name a grain outside the range's sums.
+                    let all = if tested {
+                        None
+                    } else {
+                        pair_range_for!(pairs::<N, ALL>(count, no_tension, r, out))
+                    };
+                    let part = match all {
+                        Some(part) => part,
+                        None => pair_range_for!(pairs::<N, MARKED>(count, no_tension, r, out))
+                            .unwrap_or_default(),
+                    };
+                    counts = counts.merge(part);
                     c = end;
                 }
                 counts
