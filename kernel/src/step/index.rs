@@ -104,8 +104,8 @@ pub(crate) struct PairIndex<R: Real, const N: usize, const K: usize> {
 
 /// The pair list of the [`PairIndex`], as every range of the pair pass
 /// reads it (shared): one struct, so that a pass holds one address for
-/// all its arrays (seven addresses spilled registers in the pair phase's
-/// loop: ~15 % of its time).
+/// all its arrays (as seven, they were reloaded from the stack in the
+/// pair phase's loop).
 #[derive(Debug, Clone)]
 #[repr(C)]
 pub(crate) struct List<R: Real, const N: usize> {
