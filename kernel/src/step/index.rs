@@ -377,20 +377,11 @@ impl<R: Real, const N: usize, const K: usize> PairIndex<R, N, K> {
 }
 
 /// The pair list of the pair index as every range of the pair pass reads
-/// it (shared, [`List`]'s arrays through `Deref`), and the pairs in whole
-/// batches.
+/// it (shared), and the pairs in whole batches.
 #[derive(Clone, Copy)]
 pub(crate) struct Listed<'a, R: Real, const N: usize> {
     pub(crate) list: &'a List<R, N>,
     pub(crate) pairs: usize,
-}
-
-impl<R: Real, const N: usize> core::ops::Deref for Listed<'_, R, N> {
-    type Target = List<R, N>;
-
-    fn deref(&self) -> &List<R, N> {
-        self.list
-    }
 }
 
 /// The pair index split for the passes ([`PairIndex::parts`]): the pair

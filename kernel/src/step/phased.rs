@@ -188,11 +188,11 @@ impl<R: Real, const N: usize, const K: usize> Phases<R, N, K> {
     ) -> Result<LaneLists<'_, R, N>, Error> {
         let n = n.min(N);
         let (pair_j, pair_k) = (
-            parts.listed.pair_j.as_flattened(),
+            parts.listed.list.pair_j.as_flattened(),
             parts.pair_k.as_flattened(),
         );
         let places = parts.listed.pairs.min(pair_j.len()).min(pair_k.len());
-        let (pair_i, listed) = (parts.listed.pair_i.as_flattened(), |q: &usize| {
+        let (pair_i, listed) = (parts.listed.list.pair_i.as_flattened(), |q: &usize| {
             pair_k[*q] != SELF_PAIR
         });
         let places = places.min(pair_i.len());
