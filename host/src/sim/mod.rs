@@ -3,4 +3,5 @@
 pub mod control;
 pub mod frames;
 pub mod sims;
+pub mod team;
 pub mod threads;

@@ -1,9 +1,13 @@
 //! One bed on several cores: the kernel's phased step
-//! ([`mbs_kernel::Sim::step_phased`]) with each phase cut among rayon's
-//! threads. Any cut gives the bits of the whole (the kernel's
+//! ([`mbs_kernel::Sim::step_phased`]) with each phase cut among the
+//! threads of a [`Team`]. Any cut gives the bits of the whole (the kernel's
 //! `step::phased` says why), so results do not depend on the thread count.
 
+use std::sync::OnceLock;
+
 use mbs_kernel::{Executor, Phase, Phases, Real, Sim};
+
+use super::team::Team;
 
 /// Beds smaller than this many grains per range are not cut further: a
 /// range's work must outweigh the cost of handing it to a thread (a few
@@ -11,7 +15,7 @@ use mbs_kernel::{Executor, Phase, Phases, Real, Sim};
 pub const MIN_GRAINS_PER_RANGE: usize = 2048;
 
 /// Cuts each phase into `parts` ranges of about equal size and runs them
-/// on the current rayon pool (`rayon::join`, halves within halves).
+/// on a [`Team`] of as many threads, started at the first phase cut.
 ///
 /// ```
 /// use mbs::sim::threads::Threads;
@@ -22,19 +26,22 @@ pub const MIN_GRAINS_PER_RANGE: usize = 2048;
 /// scenario.build(&mut one)?;
 /// let mut three = one.clone();
 /// let mut phases = Box::new(Phases::<f64, 64, 8>::new());
+/// let threads = Threads::exactly(3);
 /// for _ in 0..100 {
 ///     one.step()?;
-///     three.step_phased(&mut phases, &Threads::exactly(3))?;
+///     three.step_phased(&mut phases, &threads)?;
 /// }
 /// assert_eq!(one.digest(), three.digest());
 /// # Ok::<(), mbs_kernel::Error>(())
 /// ```
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug)]
 pub struct Threads {
     /// Ranges per phase (at least 1).
     parts: usize,
     /// The fewest grains a range is cut to.
     min_grains: usize,
+    /// The threads that run the ranges.
+    team: OnceLock<Team>,
 }
 
 impl Threads {
@@ -44,6 +51,7 @@ impl Threads {
         Threads {
             parts: threads.max(1),
             min_grains: MIN_GRAINS_PER_RANGE,
+            team: OnceLock::new(),
         }
     }
 
@@ -53,6 +61,7 @@ impl Threads {
         Threads {
             parts: parts.max(1),
             min_grains: 1,
+            team: OnceLock::new(),
         }
     }
 }
@@ -63,20 +72,12 @@ impl Executor for Threads {
             .parts
             .min(phase.grains() / self.min_grains.max(1))
             .max(1);
-        cut(phase, parts)
+        if parts == 1 {
+            return phase.run();
+        }
+        let team = self.team.get_or_init(|| Team::new(self.parts));
+        team.run(phase, parts)
     }
-}
-
-/// Runs `phase` in `parts` ranges, the first half of them beside the rest.
-fn cut<P: Phase>(phase: P, parts: usize) -> P::Output {
-    if parts <= 1 || phase.grains() < 2 {
-        return phase.run();
-    }
-    let half = parts / 2;
-    let mid = phase.grains() * half / parts;
-    let (first, second) = phase.split_at(mid);
-    let (a, b) = rayon::join(|| cut(first, half), || cut(second, parts - half));
-    P::merge(a, b)
 }
 
 /// A heap [`Phases`] for a simulation of `N` grains, never built on the
@@ -120,11 +121,8 @@ impl<R: Real, const N: usize, const K: usize> Stepping<R, N, K> {
         steps: u64,
     ) -> Result<(), mbs_kernel::Error> {
         match self.cut(sim.len()) {
-            // On a worker of the pool: each phase's `join` then hands its
-            // second half to another worker without waking the caller's
-            // thread (about 10 % of a 16 k-grain step).
             Some((phases, threads)) => {
-                rayon::scope(|_| (0..steps).try_for_each(|_| sim.step_phased(phases, threads)))
+                (0..steps).try_for_each(|_| sim.step_phased(phases, threads))
             }
             None => sim.run(steps),
         }
@@ -138,9 +136,9 @@ impl<R: Real, const N: usize, const K: usize> Stepping<R, N, K> {
         times: u64,
     ) -> Result<(), mbs_kernel::Error> {
         match self.cut(sim.len()) {
-            Some((phases, threads)) => rayon::scope(|_| {
+            Some((phases, threads)) => {
                 (0..times).try_for_each(|_| sim.rebuild_neighbours_phased(phases, threads))
-            }),
+            }
             None => (0..times).try_for_each(|_| sim.rebuild_neighbours()),
         }
     }
