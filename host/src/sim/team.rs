@@ -165,7 +165,9 @@ impl Team {
             let (_, outcome) = slot.into_inner().unwrap_or_else(|e| e.into_inner());
             outcome.unwrap_or_else(|| Err(lost("a range of a phase did not run")))
         });
-        let first = outputs.next().unwrap_or_else(|| Err(lost("a phase without ranges")));
+        let first = outputs
+            .next()
+            .unwrap_or_else(|| Err(lost("a phase without ranges")));
         let merged = outputs.fold(first, |a, b| Ok(P::merge(a?, b?)));
         merged.unwrap_or_else(|cause| panic::resume_unwind(cause))
     }
@@ -257,7 +259,7 @@ fn help(shared: &Shared, k: usize) {
                 break;
             }
             spins = spins.wrapping_add(1);
-            if shared.spin && (spins % 64 != 0 || start.elapsed() < SPIN) {
+            if shared.spin && (!spins.is_multiple_of(64) || start.elapsed() < SPIN) {
                 std::hint::spin_loop();
                 continue;
             }
@@ -314,7 +316,10 @@ mod tests {
         let team = Team::new(5);
         for parts in 0..8 {
             for _ in 0..50 {
-                assert_eq!(team.run(Numbers(3..103), parts), (3..103).collect::<Vec<_>>());
+                assert_eq!(
+                    team.run(Numbers(3..103), parts),
+                    (3..103).collect::<Vec<_>>()
+                );
             }
         }
         // More ranges than grains: empty ranges merge as nothing.
@@ -342,7 +347,10 @@ mod tests {
             }
             fn split_at(self, mid: usize) -> (Self, Self) {
                 let cut = (self.1.start + mid).min(self.1.end);
-                (Nested(self.0, self.1.start..cut), Nested(self.0, cut..self.1.end))
+                (
+                    Nested(self.0, self.1.start..cut),
+                    Nested(self.0, cut..self.1.end),
+                )
             }
             fn run(self) -> Vec<usize> {
                 self.0.run(Numbers(self.1), 3)
@@ -352,7 +360,10 @@ mod tests {
             }
         }
         let team = Team::new(3);
-        assert_eq!(team.run(Nested(&team, 0..99), 3), (0..99).collect::<Vec<_>>());
+        assert_eq!(
+            team.run(Nested(&team, 0..99), 3),
+            (0..99).collect::<Vec<_>>()
+        );
     }
 
     #[test]
