@@ -55,10 +55,12 @@ struct Shared {
 // SAFETY: `job` is the one field that is neither `Send` nor `Sync`. The
 // leader writes it when every helper has finished the previous job
 // (`pending` read as 0 with Acquire after each helper's Release decrement)
-// and before the SeqCst bump of `generation`; a helper reads it only after
-// it has seen that bump (Acquire), and dereferences it only until its
-// decrement of `pending`, before which the leader does not return from
-// `Team::run`, where the pointee (`Sync`) lives.
+// and before the SeqCst bump of `generation` (one leader at a time: the
+// `busy` flag, Acquire and Release, orders two leaders' writes); a helper
+// reads it only after it has seen that bump (Acquire), and dereferences it
+// only until its decrement of `pending`, before which the leader does not
+// return from or unwind out of `Team::run`, where the pointee (`Sync`)
+// lives.
 unsafe impl Sync for Shared {}
 // SAFETY: as for `Sync`.
 unsafe impl Send for Shared {}
@@ -146,6 +148,8 @@ impl Team {
         if parts <= 1 || self.busy.swap(true, Ordering::Acquire) {
             return phase.run();
         }
+        // Released however this call ends (a range's `split_at` may panic).
+        let busy = Release(&self.busy);
         let slots = cut(phase, parts);
         let job = |k: usize| {
             let Some(slot) = slots.get(k) else { return };
@@ -158,9 +162,12 @@ impl Team {
             }
         };
         self.publish(&job);
+        // From here the helpers may use `job` and `slots`: this call waits
+        // for them before it returns or unwinds (dropped before them).
+        let helpers = Helpers(self);
         job(0);
-        self.wait();
-        self.busy.store(false, Ordering::Release);
+        drop(helpers);
+        drop(busy);
         let mut outputs = slots.into_iter().map(|slot| {
             let (_, outcome) = slot.into_inner().unwrap_or_else(|e| e.into_inner());
             outcome.unwrap_or_else(|| Err(lost("a range of a phase did not run")))
@@ -202,6 +209,24 @@ impl Team {
                 thread::yield_now();
             }
         }
+    }
+}
+
+/// Clears a team's `busy` flag when dropped.
+struct Release<'a>(&'a AtomicBool);
+
+impl Drop for Release<'_> {
+    fn drop(&mut self) {
+        self.0.store(false, Ordering::Release);
+    }
+}
+
+/// Waits for a team's helpers to finish the current job when dropped.
+struct Helpers<'a>(&'a Team);
+
+impl Drop for Helpers<'_> {
+    fn drop(&mut self) {
+        self.0.wait();
     }
 }
 
@@ -337,6 +362,38 @@ mod tests {
     }
 
     #[test]
+    fn a_panic_while_cutting_leaves_the_team_whole() {
+        /// Numbers whose cut panics once.
+        struct BadCut(Numbers, bool);
+        impl Phase for BadCut {
+            type Output = Vec<usize>;
+            fn grains(&self) -> usize {
+                self.0.grains()
+            }
+            fn split_at(self, mid: usize) -> (Self, Self) {
+                assert!(!self.1, "a cut that fails");
+                let (a, b) = self.0.split_at(mid);
+                (BadCut(a, false), BadCut(b, false))
+            }
+            fn run(self) -> Vec<usize> {
+                // Which thread ran the range, to see that helpers still do.
+                vec![thread::current().name().map_or(0, |n| n.len())]
+            }
+            fn merge(first: Vec<usize>, second: Vec<usize>) -> Vec<usize> {
+                Numbers::merge(first, second)
+            }
+        }
+        let team = Team::new(2);
+        let bad = panic::catch_unwind(AssertUnwindSafe(|| {
+            team.run(BadCut(Numbers(0..9), true), 2)
+        }));
+        assert!(bad.is_err());
+        // The helper ("mbs-team-1", 10 characters) runs the second range.
+        let names = team.run(BadCut(Numbers(0..9), false), 2);
+        assert_eq!(names[1], "mbs-team-1".len(), "{names:?}");
+    }
+
+    #[test]
     fn a_phase_run_within_a_phase_runs_whole() {
         /// A phase whose ranges each run a phase on the same team.
         struct Nested<'a>(&'a Team, std::ops::Range<usize>);
@@ -368,10 +425,11 @@ mod tests {
 
     #[test]
     fn helpers_asleep_are_woken() {
-        let team = Team::new(3);
+        // Two threads: the helper spins where the machine has two cores.
+        let team = Team::new(2);
         for _ in 0..5 {
             thread::sleep(SPIN * 3);
-            assert_eq!(team.run(Numbers(0..30), 3), (0..30).collect::<Vec<_>>());
+            assert_eq!(team.run(Numbers(0..30), 2), (0..30).collect::<Vec<_>>());
         }
     }
 }
