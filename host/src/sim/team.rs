@@ -1,7 +1,7 @@
 //! A team of threads kept for one bed's phased step. The thread that runs
 //! a phase leads: it publishes the phase's ranges with one store, runs the
 //! first range and waits for the others. Its helpers wait between phases
-//! spinning for [`SPIN`] (then asleep), so the ranges start together.
+//! spinning for 200 µs (then asleep), so the ranges start together.
 //!
 //! rayon's `join` hands the second half of a phase to a worker that has
 //! gone to sleep since the last phase and must be woken (a system call on
