@@ -5,8 +5,8 @@
 //!
 //! rayon's `join` hands the second half of a phase to a worker that has
 //! gone to sleep since the last phase and must be woken (a system call on
-//! each side): a 16 k-grain step on two cores ran 6.6 ns per grain-step
-//! that way and 4.9 with a team (docs/performance.md, "A team per bed").
+//! each side): a 16 k-grain step on two cores ran 5.1 ns per grain-step
+//! that way and 4.5 with a team (docs/performance.md, "A team per bed").
 //! What a range computes, and so the bits, does not depend on which thread
 //! runs it.
 
