@@ -329,8 +329,8 @@ impl<'s, R: Real, const N: usize, const K: usize, const C: usize> Prepared<'s, R
     }
 
     /// From now on, steps run the phased step on `threads` threads (a
-    /// team kept for the bed, [`Stepping`]); 1: the step on one core. The bits
-    /// are the same either way.
+    /// team kept for the bed, [`Stepping`]); 1: the step on one core. The
+    /// bits are the same either way.
     pub fn threads(&mut self, threads: usize) {
         self.stepping = Stepping::new(threads);
     }
