@@ -65,15 +65,59 @@ pub struct Ranges(pub usize);
 
 impl Executor for Ranges {
     fn execute<P: Phase>(&self, phase: P) -> P::Output {
-        fn cut<P: Phase>(phase: P, parts: usize) -> P::Output {
-            if parts <= 1 || phase.grains() < 2 {
-                return phase.run();
-            }
-            let mid = phase.grains() * (parts / 2) / parts;
-            let (first, second) = phase.split_at(mid);
-            let first = cut(first, parts / 2);
-            P::merge(first, cut(second, parts - parts / 2))
+        let mut before: Option<P::Output> = None;
+        let last = cut_ranges(phase, self.0, |range| {
+            let out = range.run();
+            before = Some(match before.take() {
+                Some(first) => P::merge(first, out),
+                None => out,
+            });
+        });
+        let last = last.run();
+        match before {
+            Some(first) => P::merge(first, last),
+            None => last,
         }
-        cut(phase, self.0)
     }
+}
+
+/// Cuts `phase` into `parts` ranges of about equal size (at least one; a
+/// phase in lanes cuts at its groups, so a range may be empty): hands the
+/// first `parts − 1` to `each` in grain order and returns the last. The
+/// cut of [`Ranges`] and of the host's threads.
+///
+/// ```
+/// use mbs_kernel::cut_ranges;
+/// # use mbs_kernel::Phase;
+/// # struct Span(core::ops::Range<usize>);
+/// # impl Phase for Span {
+/// #     type Output = ();
+/// #     fn grains(&self) -> usize { self.0.len() }
+/// #     fn split_at(self, mid: usize) -> (Self, Self) {
+/// #         let m = (self.0.start + mid).min(self.0.end);
+/// #         (Span(self.0.start..m), Span(m..self.0.end))
+/// #     }
+/// #     fn run(self) {}
+/// #     fn merge(_: (), _: ()) {}
+/// # }
+/// let mut firsts = [0..0, 0..0];
+/// let mut k = 0;
+/// let last = cut_ranges(Span(0..10), 3, |range| {
+///     firsts[k] = range.0;
+///     k += 1;
+/// });
+/// assert_eq!((firsts, last.0), ([0..3, 3..6], 6..10));
+/// ```
+pub fn cut_ranges<P: Phase>(phase: P, parts: usize, mut each: impl FnMut(P)) -> P {
+    let grains = phase.grains();
+    let parts = parts.max(1);
+    let (mut rest, mut taken) = (phase, 0usize);
+    for k in 1..parts {
+        let at = grains.saturating_mul(k) / parts;
+        let (range, after) = rest.split_at(at.saturating_sub(taken));
+        taken = taken.saturating_add(range.grains());
+        each(range);
+        rest = after;
+    }
+    rest
 }

@@ -159,7 +159,7 @@ pub use contact::Tension;
 pub use digest::{FieldGroup, Fnv1a};
 pub use error::{Capacity, CheckpointFault, Error, Quantity};
 pub use events::Events;
-pub use executor::{Executor, Phase, Ranges, Serial};
+pub use executor::{cut_ranges, Executor, Phase, Ranges, Serial};
 pub use fields::GrainField;
 pub use flow::{
     shear_velocity, shields_number, uniform_flow_shields_number, FlowConfig, FlowModel, FlowSpec,

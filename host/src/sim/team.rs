@@ -17,7 +17,7 @@ use std::sync::{Arc, Mutex};
 use std::thread::{self, JoinHandle};
 use std::time::{Duration, Instant};
 
-use mbs_kernel::Phase;
+use mbs_kernel::{cut_ranges, Phase};
 
 /// How long a helper spins for the next phase before it sleeps: longer
 /// than the serial work between two phases of a step (a rebuild's pair
@@ -255,18 +255,13 @@ fn lost(what: &'static str) -> Box<dyn std::any::Any + Send> {
     Box::new(what)
 }
 
-/// `phase` cut into `parts` ranges of about equal size, in order.
+/// `phase` cut into `parts` ranges ([`cut_ranges`]), in order.
 fn cut<P: Phase>(phase: P, parts: usize) -> Vec<Slot<P>> {
-    let grains = phase.grains();
     let mut slots = Vec::with_capacity(parts);
-    let (mut rest, mut taken) = (phase, 0);
-    for k in 1..parts {
-        let (range, after) = rest.split_at((grains * k / parts).saturating_sub(taken));
-        taken += range.grains();
-        slots.push(Mutex::new((Some(range), None)));
-        rest = after;
-    }
-    slots.push(Mutex::new((Some(rest), None)));
+    let last = cut_ranges(phase, parts, |range| {
+        slots.push(Mutex::new((Some(range), None)))
+    });
+    slots.push(Mutex::new((Some(last), None)));
     slots
 }
 
