@@ -22,7 +22,7 @@ pub enum GrainField {
     V,
     /// Spin ω.
     Spin,
-    /// The held streamwise turbulence draw (docs/model.md (16)).
+    /// The held streamwise turbulence draw (docs/model.md (15)).
     DrawU,
     /// The held vertical turbulence draw.
     DrawV,

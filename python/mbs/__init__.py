@@ -82,8 +82,9 @@ class Config:
         return self
 
     def to_toml(self) -> str:
-        """The configuration with every default filled in, as a run saves it
-        in ``DIR/config.toml``."""
+        """The configuration as a run saves it in ``DIR/config.toml``: every
+        key, except those that leave the paper's model unchanged at their
+        defaults (docs/guarantees.md)."""
         return self._native.to_toml()
 
     def copy(self) -> "Config":

@@ -37,12 +37,11 @@ pub enum Command {
     Run(RunArgs),
     /// Merges the cell stores of shard output directories (`run` or
     /// `calibrate` with --shard) into one directory.
-    #[command(mut_arg("quiet", |a| a.hide(true)))]
     #[command(mut_arg("threads", |a| a.hide(true)))]
     #[command(mut_arg("sets", |a| a.hide(true)))]
     Merge(MergeArgs),
     /// Prints the embedded default configuration (the paper's case), commented; with a
-    /// file or --set, checks it as `run` would and prints it with every default filled in.
+    /// file or --set, checks it as `run` would and prints it as a run echoes it (docs/guarantees.md).
     #[command(mut_arg("quiet", |a| a.hide(true)))]
     #[command(mut_arg("threads", |a| a.hide(true)))]
     Config(ConfigArgs),
@@ -60,7 +59,9 @@ pub enum Command {
     #[command(args_conflicts_with_subcommands = true)]
     Calibrate(CalibrateArgs),
     /// Settles a bed of about N grains and prints ns per grain-step of the step loop alone.
-    #[command(mut_arg("threads", |a| a.hide(true)))]
+    #[command(mut_arg("threads", |a| a.help(
+        "One bed's step on N threads (the phased step, the same bits); default 1"
+    )))]
     #[command(mut_arg("sets", |a| a.hide(true)))]
     Bench(BenchArgs),
 }

@@ -57,7 +57,6 @@ pub struct CalibrateArgs {
 #[derive(Subcommand)]
 pub enum CalibrateAction {
     /// Merges the cell stores of shard output directories into one directory.
-    #[command(mut_arg("quiet", |a| a.hide(true)))]
     #[command(mut_arg("threads", |a| a.hide(true)))]
     #[command(mut_arg("sets", |a| a.hide(true)))]
     Merge(MergeArgs),
@@ -77,7 +76,7 @@ impl CalibrateArgs {
     pub fn execute(self, how: &Invocation) -> Result<(), HostError> {
         if let Some(CalibrateAction::Merge(m)) = self.action {
             let finish = format!("`mbs calibrate [CONFIG] --out {}`", m.out.display());
-            return m.merge(&finish);
+            return m.merge(&finish, how.common.quiet);
         }
         let base = how.load(self.config.as_deref())?;
         let options = Options {

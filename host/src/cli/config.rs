@@ -12,8 +12,8 @@ use std::path::PathBuf;
 /// The arguments of `mbs config`.
 #[derive(Args)]
 pub struct ConfigArgs {
-    /// A configuration to check and print with every default filled in
-    /// (as `DIR/config.toml` of a run); without it and without --set, the
+    /// A configuration to check and print as a run echoes it in
+    /// `DIR/config.toml` (docs/guarantees.md); without it and without --set, the
     /// embedded default with its comments.
     pub config: Option<PathBuf>,
     /// Shared options (`--set` applies).

@@ -11,7 +11,7 @@ use std::path::PathBuf;
 /// The arguments of `mbs merge` and `mbs calibrate merge`.
 #[derive(Args)]
 pub struct MergeArgs {
-    /// Shared options (accepted, unused).
+    /// Shared options (`--quiet`: no report; the others accepted, unused).
     #[command(flatten)]
     pub shared: Shared,
     /// Shard output directories.
@@ -24,9 +24,10 @@ pub struct MergeArgs {
 }
 
 impl MergeArgs {
-    /// Merges, then says how to finish with `finish`, the command to run
-    /// on the merged directory (e.g. `the same command without --shard`).
-    pub fn merge(self, finish: &str) -> Result<(), HostError> {
+    /// Merges, then says (unless `quiet`) how to finish with `finish`, the
+    /// command to run on the merged directory (e.g. `the same command
+    /// without --shard`).
+    pub fn merge(self, finish: &str, quiet: bool) -> Result<(), HostError> {
         super::common::directory("--out", &self.out)?;
         for shard in &self.shards {
             if shard.exists() && !shard.is_dir() {
@@ -40,6 +41,9 @@ impl MergeArgs {
             }
         }
         let added = merge(&self.shards, &self.out)?;
+        if quiet {
+            return Ok(());
+        }
         print(&format!(
             "merged {added} new cells into {}; finish with {finish}\n",
             self.out.display()
@@ -47,11 +51,11 @@ impl MergeArgs {
     }
 
     /// `mbs merge`.
-    pub fn execute(self) -> Result<(), HostError> {
+    pub fn execute(self, quiet: bool) -> Result<(), HostError> {
         let finish = format!(
             "the same command without --shard and with --out {}",
             self.out.display()
         );
-        self.merge(&finish)
+        self.merge(&finish, quiet)
     }
 }

@@ -56,7 +56,7 @@ pub fn execute(cli: args::Cli) -> Result<(), HostError> {
     match command {
         args::Command::Run(a) => a.execute(&how),
         args::Command::Config(a) => a.execute(&how),
-        args::Command::Merge(a) => a.execute(),
+        args::Command::Merge(a) => a.execute(how.common.quiet),
         args::Command::Pack(a) => a.execute(&how),
         args::Command::Snapshot(a) => a.execute(&how),
         args::Command::Digest(a) => a.execute(&how),

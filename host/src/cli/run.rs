@@ -334,6 +334,9 @@ fn run_logged(
         }
     }
     if !options.shard.is_all() {
+        if common.quiet {
+            return Ok(());
+        }
         let Shard { index, count } = options.shard;
         return print(&format!(
             "shard {}/{count}: {} cells in {}/cells.jsonl; merge the shards with `mbs merge DIRS --out DIR`, then `mbs run CONFIG --out DIR` writes the table\n",

@@ -196,7 +196,7 @@ pub enum SettleUntil {
 }
 
 /// `time.window_until`: when a cell's averaging window ends
-/// (docs/model.md §12).
+/// (docs/model.md §8, (E1)).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum WindowUntil {

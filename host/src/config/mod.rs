@@ -74,7 +74,9 @@ pub enum Precision {
 /// integration steps, u* per τ* from [`Config::setup`]).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Config {
-    /// The file with every default filled in: only echoed (`config.toml`,
+    /// The file with every default filled in (serialised without the keys
+    /// that leave the paper's model unchanged at their defaults, so that
+    /// stored cells keep their keys): only echoed (`config.toml`,
     /// `summary.json`) and hashed into the keys of cells, never read for
     /// values.
     pub file: ConfigFile,

@@ -29,6 +29,10 @@ pub struct Derived {
     pub step_dt_s: f64,
     /// Explicit damping number of the largest grains (stable below 2).
     pub explicit_damping_number: f64,
+    /// The largest grain diameter d (mm), on which τ*, q* and every
+    /// length in diameters are taken (the echoed configuration leaves
+    /// `grains.diameter_mm` out where the file gave no size).
+    pub diameter_mm: f64,
     /// Periodic width L (m).
     pub width: f64,
     /// Largest number of grains in the bed (fixed + lattice sites).
@@ -53,6 +57,7 @@ impl Derived {
                 sc.bed.max_diameter(),
                 sc.step_dt(),
             ),
+            diameter_mm: sc.bed.max_diameter() * 1e3,
             width: sc.bed.width(),
             max_grains: sc.bed.grains(),
         }

@@ -1,4 +1,4 @@
-//! Confidence intervals of a mean q* (docs/model.md §12, (E2)–(E4)):
+//! Confidence intervals of a mean q* (docs/model.md §8, (E2)–(E4)):
 //! within one window from batch means, across seeds from replicates, both
 //! with Student's t quantiles, and the window's correlation time that says
 //! whether its batches can be trusted.

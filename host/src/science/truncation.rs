@@ -1,5 +1,5 @@
 //! Where a cell's transient ends: the MSER truncation rule (White 1997;
-//! docs/model.md §12, (E1)) applied to the block means of its window.
+//! docs/model.md §8, (E1)) applied to the block means of its window.
 //!
 //! MSER picks the number d of leading blocks to discard that minimises the
 //! squared standard error of the remaining mean computed as if they were

@@ -103,8 +103,8 @@ pub struct TraceSpec {
     /// `--set` overrides given on top of it (empty: none), as a record.
     #[serde(default)]
     pub overrides: Vec<String>,
-    /// The configuration as run, overrides applied: its TOML with every
-    /// default filled in ([`canonical`](crate::config::canonical): no
+    /// The configuration as run, overrides applied: its TOML as a run
+    /// echoes it ([`canonical`](crate::config::canonical): no
     /// output directory, no measured profile). `--check` runs this text,
     /// checked like any configuration: a trace is data, not a pointer to
     /// files.
