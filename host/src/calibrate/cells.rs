@@ -12,7 +12,7 @@ use crate::work::beds::{BedKey, BedState, Beds};
 use crate::work::cell::CellResult;
 pub use crate::work::cell::TransportSpec;
 use crate::work::job::run_cell;
-use crate::work::store::Store;
+use crate::work::store::{Store, STORE};
 use indicatif::ProgressBar;
 use rayon::prelude::*;
 use serde::{de::DeserializeOwned, Deserialize, Serialize};
@@ -61,6 +61,33 @@ pub struct PackCurve {
 /// is a result too, stored with its message.
 pub type Outcome<T> = Result<T, String>;
 
+/// A result read back from the store, checked against the cell `S` it is
+/// stored for: `Err(field)` names what does not fit (the cell is then
+/// computed again).
+pub trait Fits<S> {
+    /// Whether this result fits the cell `spec`.
+    fn fits(&self, spec: &S) -> Result<(), &'static str>;
+}
+
+impl Fits<TransportSpec> for CellResult {
+    fn fits(&self, spec: &TransportSpec) -> Result<(), &'static str> {
+        spec.check(self)
+    }
+}
+
+impl Fits<PackSpec> for PackCurve {
+    /// A curve is drawn as it is, so only its shape is checked: as many
+    /// times as heights, all finite.
+    fn fits(&self, _: &PackSpec) -> Result<(), &'static str> {
+        let finite = |v: &[f64]| v.iter().all(|x| x.is_finite());
+        let ok = self.time.len() == self.y_gc.len()
+            && finite(&self.time)
+            && finite(&self.y_gc)
+            && self.final_speed.is_finite();
+        ok.then_some(()).ok_or("packing curve")
+    }
+}
+
 /// Computes and stores cells.
 pub struct Cells<'a> {
     /// The store.
@@ -79,6 +106,29 @@ pub struct Cells<'a> {
 static NEVER: AtomicBool = AtomicBool::new(false);
 
 impl Cells<'_> {
+    /// The stored outcome of the cell `spec`, if any. A stored result that
+    /// does not fit the cell ([`Fits`]) is none (the cell is computed
+    /// again), with a warning if `warn`.
+    fn stored<S: Serialize, T: DeserializeOwned + Fits<S>>(
+        &self,
+        spec: &S,
+        warn: bool,
+    ) -> Option<Outcome<T>> {
+        let done = self.store.get::<S, Outcome<T>>(spec)?;
+        if let Ok(result) = &done {
+            if let Err(field) = result.fits(spec) {
+                if warn {
+                    self.log.warn(&format!(
+                        "{STORE}: a stored cell is refused (its {field} does not fit the \
+                         cell): computed again"
+                    ));
+                }
+                return None;
+            }
+        }
+        Some(done)
+    }
+
     /// Results of `specs`: stored ones, computed ones, and `None` for cells
     /// another shard owns that are not in the store yet. `slot(k)` numbers
     /// the k-th spec within its stage for sharding.
@@ -90,13 +140,13 @@ impl Cells<'_> {
     ) -> Result<Vec<Option<Outcome<T>>>, HostError>
     where
         S: Serialize + Sync,
-        T: Serialize + DeserializeOwned + Send,
+        T: Serialize + DeserializeOwned + Send + Fits<S>,
     {
         let results: Vec<Result<Option<Outcome<T>>, HostError>> = specs
             .par_iter()
             .enumerate()
             .map(|(k, spec)| {
-                if let Some(done) = self.store.get::<S, Outcome<T>>(spec) {
+                if let Some(done) = self.stored(spec, true) {
                     return Ok(Some(done));
                 }
                 if !self.shard.owns(slot(k)) {
@@ -121,8 +171,7 @@ impl Cells<'_> {
     ) -> Result<Vec<Option<Outcome<CellResult>>>, HostError> {
         let mut needed: BTreeMap<u64, Config> = BTreeMap::new();
         for (k, spec) in specs.iter().enumerate() {
-            if !self.shard.owns(slot(k)) || self.store.get::<_, Outcome<CellResult>>(spec).is_some()
-            {
+            if !self.shard.owns(slot(k)) || self.stored::<_, CellResult>(spec, false).is_some() {
                 continue;
             }
             if let Ok(config) = Config::validate(spec.config.clone()) {

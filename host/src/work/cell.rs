@@ -97,6 +97,80 @@ pub fn q_means(blocks: &[Block]) -> Vec<f64> {
     blocks.iter().map(|b| b.q_star).collect()
 }
 
+/// The means over the `kept` blocks (the steady part) of q* and of each of
+/// `classes` size classes' q*, as a cell's result holds them.
+pub fn kept_means(kept: &[Block], classes: usize) -> (f64, Vec<f64>) {
+    let mean = |value: &dyn Fn(&Block) -> f64| {
+        kept.iter().map(value).sum::<f64>() / kept.len().max(1) as f64
+    };
+    let class = |c: usize| move |b: &Block| b.q_star_class.get(c).copied().unwrap_or(f64::NAN);
+    (
+        mean(&|b| b.q_star),
+        (0..classes).map(|c| mean(&class(c))).collect(),
+    )
+}
+
+impl CellResult {
+    /// Checks a result read back from a cell store against the cell it is
+    /// stored for (`tau_star`, `seed`, `classes` size classes, the window
+    /// `rule`): its τ* and seed, its blocks (finite, as many classes, no
+    /// more than the longest window), the transient MSER finds in them and
+    /// the means of the rest (bit for bit what the cell computed), its
+    /// window and bed level finite, its profiles on the column's cells.
+    /// Names the first field that does not fit: such a line was not
+    /// written by mbs for this cell (crafted or damaged with its checksum).
+    pub fn check(
+        &self,
+        tau_star: f64,
+        seed: u64,
+        classes: usize,
+        rule: &WindowRule,
+    ) -> Result<(), &'static str> {
+        if self.tau_star.to_bits() != tau_star.to_bits() || self.seed != seed {
+            return Err("tau_star and seed");
+        }
+        let finite = |values: &[f64]| values.iter().all(|x| x.is_finite());
+        let blocks_fit = !self.blocks.is_empty()
+            && self.blocks.len() as u64 <= rule.durations.max_blocks
+            && self.blocks.iter().all(|b| {
+                b.q_star_class.len() == classes
+                    && finite(&[b.q_star, b.bed_level])
+                    && finite(&b.q_star_class)
+            });
+        if !blocks_fit {
+            return Err("blocks");
+        }
+        let (truncation, _) = rule.verdict(&q_means(&self.blocks));
+        if truncation.discard != self.discarded || truncation.steady != self.steady {
+            return Err("discarded");
+        }
+        let (q_star, q_class) = kept_means(&self.blocks[truncation.discard..], classes);
+        if q_star.to_bits() != self.q_star.to_bits() {
+            return Err("q_star");
+        }
+        let same = |a: &[f64], b: &[f64]| {
+            a.len() == b.len() && a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits())
+        };
+        if !same(&q_class, &self.q_star_class) {
+            return Err("q_star_class");
+        }
+        if !finite(&[self.window_s, self.bed_level]) || self.window_s < 0.0 {
+            return Err("window_s and bed_level");
+        }
+        if let Some(p) = &self.profile {
+            let columns = [&p.solid_fraction, &p.grain_velocity, &p.fluid_velocity];
+            let stresses = p.stresses.columns();
+            // Stresses are absent (empty) in results of earlier versions.
+            let old = stresses.iter().all(|c| c.is_empty());
+            let on_cells = |c: &&Vec<f64>| c.len() == rule.cells && finite(c);
+            if !columns.iter().all(on_cells) || !(old || stresses.iter().all(on_cells)) {
+                return Err("profile");
+            }
+        }
+        Ok(())
+    }
+}
+
 /// Where a cell is.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Phase {
@@ -393,6 +467,19 @@ pub struct TransportSpec {
 }
 
 impl TransportSpec {
+    /// Checks `result`, read back from a cell store under this cell's key,
+    /// against the cell ([`CellResult::check`]); a configuration that no
+    /// longer validates fits no result.
+    pub fn check(&self, result: &CellResult) -> Result<(), &'static str> {
+        let config = Config::validate(self.config.clone()).map_err(|_| "configuration")?;
+        let (Some(&tau_star), Some(&seed)) = (config.tau_stars.first(), config.seeds.first())
+        else {
+            return Err("configuration");
+        };
+        let classes = config.scenario.bed.classes.len();
+        result.check(tau_star, seed, classes, &WindowRule::of(&config))
+    }
+
     /// The cell of `config` at `tau_star` and `seed`.
     pub fn new(config: &ConfigFile, tau_star: f64, seed: u64) -> Self {
         let mut config = canonical(config);

@@ -123,9 +123,10 @@ pub fn run_all(
         .map(|(_, cell)| cell)
         .collect();
     let todo = |&(t, s): &(f64, u64)| {
-        store
-            .get::<_, Result<CellResult, String>>(&TransportSpec::new(&config.file, t, s))
-            .is_none_or(|r| r.is_err())
+        !matches!(
+            stored(&store, &TransportSpec::new(&config.file, t, s)),
+            Ok(Some(_))
+        )
     };
     let mut seeds: Vec<u64> = cells.iter().filter(|c| todo(c)).map(|c| c.1).collect();
     seeds.sort_unstable();
@@ -186,7 +187,14 @@ pub fn run_all(
         .map(|&(tau_star, seed)| {
             let spec = TransportSpec::new(&config.file, tau_star, seed);
             let path = checkpoint_path(control.dir, tau_star, seed);
-            if let Some(Ok(done)) = store.get::<_, Result<CellResult, String>>(&spec) {
+            let reuse = stored(&store, &spec).unwrap_or_else(|field| {
+                log.warn(&format!(
+                    "{STORE}: the stored result of tau* {tau_star} seed {seed} is refused (its \
+                     {field} does not fit the cell): computed again"
+                ));
+                None
+            });
+            if let Some(done) = reuse {
                 // A checkpoint left by a crash between storing and removing it.
                 remove_if_present(&path)?;
                 progress.inc(config.durations.cell());
@@ -356,6 +364,17 @@ pub fn q_star_interval(cells: &[&CellResult]) -> Interval {
             ..Interval::batch_means(&one.steady_means())
         },
         _ => Interval::replicates(&cells.iter().map(|c| c.q_star).collect::<Vec<_>>()),
+    }
+}
+
+/// The finished result of the cell `spec` in `store`, if one is stored;
+/// `Err(field)` if the stored result does not fit the cell
+/// ([`TransportSpec::check`]): it is refused, and the cell computed again
+/// (its new line is read instead from then on).
+fn stored(store: &Store, spec: &TransportSpec) -> Result<Option<CellResult>, &'static str> {
+    match store.get::<_, Result<CellResult, String>>(spec) {
+        Some(Ok(done)) => spec.check(&done).map(|()| Some(done)),
+        _ => Ok(None),
     }
 }
 

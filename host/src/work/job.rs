@@ -15,7 +15,8 @@ use crate::sim::sims::{check_restored, with_sim, HostSim, SimJob, NEIGHBOURS};
 use crate::sim::threads::Stepping;
 use crate::work::beds::{BedRecord, BedState};
 use crate::work::cell::{
-    q_means, Block, CellCheckpoint, CellOutcome, CellResult, CellState, Phase, WindowRule,
+    kept_means, q_means, Block, CellCheckpoint, CellOutcome, CellResult, CellState, Phase,
+    WindowRule,
 };
 use crate::work::profiles::{Sampler, PROFILE_SAMPLES};
 use indicatif::ProgressBar;
@@ -223,18 +224,14 @@ impl SimJob for CellJob<'_> {
         let kept = &state.blocks[truncation.discard..];
         // Fewer than all blocks: the rule stopped it on the target.
         let target_reached = (state.blocks.len() as u64) < durations.max_blocks || reached;
-        let mean = |value: &dyn Fn(&Block) -> f64| {
-            kept.iter().map(value).sum::<f64>() / kept.len().max(1) as f64
-        };
+        let (q_star, q_star_class) = kept_means(kept, classes.len());
         let grain_steps_now = (sim.step_count() - started) * sim.len() as u64;
         Ok(CellOutcome::Done(
             Box::new(CellResult {
                 tau_star: self.tau_star,
                 seed: self.seed,
-                q_star: mean(&|b| b.q_star),
-                q_star_class: (0..classes.len())
-                    .map(|c| mean(&|b| b.q_star_class[c]))
-                    .collect(),
+                q_star,
+                q_star_class,
                 discarded: truncation.discard,
                 steady: truncation.steady,
                 window_s: state.done as f64 * step_dt,

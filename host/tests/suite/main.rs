@@ -17,5 +17,6 @@ mod log;
 mod paper_case;
 mod resume;
 mod round2;
+mod round3;
 mod threads;
 mod trace;

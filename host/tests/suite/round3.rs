@@ -1,0 +1,108 @@
+//! The third round of hostile input (2026-11-29): stored results, files
+//! that are not regular files, values that pass their own range but not
+//! the bed's, and environment variables that bypass the command line.
+
+use crate::common::{run_into, write};
+use predicates::str::contains;
+
+/// A bed of 4 columns × 1 row in two size classes, phases of a few steps.
+const TINY_MIXED: &str = r#"
+[grains]
+classes = [{ diameter_mm = 0.5, fraction = 0.5 }, { diameter_mm = 0.4, fraction = 0.5 }]
+[bed]
+columns = 4
+rows = 1
+[time]
+settle_until = "time"
+settle = 0.001
+spin_up = 0.001
+window = 0.002
+window_min = 0.002
+block = 0.001
+[flow]
+tau_star = [0.2]
+[run]
+seeds = [1]
+capacity = 256
+"#;
+
+/// Rewrites the result of the only line of the cell store in `dir` by
+/// `edit` and signs it again (CRC-32 of key, a zero byte and the value's
+/// compact JSON), as someone who read `store.rs` could.
+fn resign(dir: &std::path::Path, edit: impl Fn(&mut serde_json::Value)) {
+    let path = dir.join("cells.jsonl");
+    let text = std::fs::read_to_string(&path).unwrap();
+    let mut line: serde_json::Value = serde_json::from_str(text.trim()).unwrap();
+    edit(&mut line["value"]["Ok"]);
+    let key = line["key"].as_str().unwrap().to_string();
+    let mut h = crc32fast::Hasher::new();
+    h.update(key.as_bytes());
+    h.update(&[0]);
+    h.update(line["value"].to_string().as_bytes());
+    line["crc32"] = h.finalize().into();
+    std::fs::write(&path, format!("{line}\n")).unwrap();
+}
+
+/// A stored line whose checksum is right but whose result does not fit its
+/// cell (too few class values: was a panic; another τ*: a NaN row; q* not
+/// the mean of its blocks; profiles off the column) is refused with a
+/// warning naming the field, and the cell computed again: the table is
+/// the one the genuine line gave.
+#[test]
+fn stored_results_that_do_not_fit_their_cell_are_computed_again() {
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = write(dir.path(), "tiny.toml", TINY_MIXED);
+    let out = dir.path().join("out");
+    run_into(&cfg, &out).assert().success();
+    let table = std::fs::read(out.join("transport.csv")).unwrap();
+    let profiles = std::fs::read(out.join("profiles.csv")).unwrap();
+    let edits: [(&str, fn(&mut serde_json::Value)); 5] = [
+        ("q_star_class", |v| {
+            v["q_star_class"] = serde_json::json!([])
+        }),
+        ("tau_star and seed", |v| v["tau_star"] = 0.3.into()),
+        ("q_star", |v| v["q_star"] = 1e308.into()),
+        ("blocks", |v| {
+            v["blocks"][0]["q_star_class"] = serde_json::json!([0.0])
+        }),
+        ("profile", |v| {
+            v["profile"]["solid_fraction"] = serde_json::json!([0.5]);
+        }),
+    ];
+    for (field, edit) in edits {
+        resign(&out, edit);
+        run_into(&cfg, &out)
+            .assert()
+            .success()
+            .stderr(contains(format!(
+                "is refused (its {field} does not fit the cell)"
+            )));
+        assert_eq!(
+            std::fs::read(out.join("transport.csv")).unwrap(),
+            table,
+            "{field}"
+        );
+        assert_eq!(
+            std::fs::read(out.join("profiles.csv")).unwrap(),
+            profiles,
+            "{field}"
+        );
+        // The cell computed again is the line read from then on.
+        std::fs::write(
+            out.join("cells.jsonl"),
+            std::fs::read_to_string(out.join("cells.jsonl"))
+                .unwrap()
+                .lines()
+                .last()
+                .unwrap()
+                .to_string()
+                + "\n",
+        )
+        .unwrap();
+        run_into(&cfg, &out)
+            .arg("--stop-after-steps")
+            .arg("0")
+            .assert()
+            .success();
+    }
+}
