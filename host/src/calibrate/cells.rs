@@ -115,16 +115,16 @@ impl Cells<'_> {
         warn: bool,
     ) -> Option<Outcome<T>> {
         let done = self.store.get::<S, Outcome<T>>(spec)?;
-        if let Ok(result) = &done {
-            if let Err(field) = result.fits(spec) {
-                if warn {
-                    self.log.warn(&format!(
-                        "{STORE}: a stored cell is refused (its {field} does not fit the \
-                         cell): computed again"
-                    ));
-                }
-                return None;
+        if let Ok(result) = &done
+            && let Err(field) = result.fits(spec)
+        {
+            if warn {
+                self.log.warn(&format!(
+                    "{STORE}: a stored cell is refused (its {field} does not fit the cell): \
+                     computed again"
+                ));
             }
+            return None;
         }
         Some(done)
     }
