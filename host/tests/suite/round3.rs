@@ -56,7 +56,8 @@ fn stored_results_that_do_not_fit_their_cell_are_computed_again() {
     run_into(&cfg, &out).assert().success();
     let table = std::fs::read(out.join("transport.csv")).unwrap();
     let profiles = std::fs::read(out.join("profiles.csv")).unwrap();
-    let edits: [(&str, fn(&mut serde_json::Value)); 5] = [
+    type Edit = fn(&mut serde_json::Value);
+    let edits: [(&str, Edit); 5] = [
         ("q_star_class", |v| {
             v["q_star_class"] = serde_json::json!([])
         }),
