@@ -254,7 +254,7 @@ fn run_logged(
         ));
     }
     let started =
-        crate::io::input::read_text_bounded(&dir.join(RUN_CONFIG), crate::config::CONFIG_BOUND)
+        crate::io::input::read_own_text_bounded(&dir.join(RUN_CONFIG), crate::config::CONFIG_BOUND)
             .ok();
     let has_checkpoints = std::fs::read_dir(dir.join("checkpoints"))
         .map(|mut d| d.next().is_some())

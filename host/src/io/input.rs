@@ -54,7 +54,51 @@ fn too_large(size: impl fmt::Display, bound: Bound<'_>) -> std::io::Error {
 /// is longer than `bound`; a file that grows while being read (or a device
 /// without a length) is read only up to the bound.
 pub fn read_bounded(path: &Path, bound: Bound<'_>) -> std::io::Result<Vec<u8>> {
-    let file = std::fs::File::open(path)?;
+    read_file_bounded(std::fs::File::open(path)?, bound)
+}
+
+/// Opens a file of mbs's own in an output directory for reading, refused
+/// (an `InvalidData` error) unless it is a regular file: a FIFO or device
+/// planted there would block the open or the read forever. Opened without
+/// blocking (unix), then checked on the open file itself.
+pub fn open_own_file(path: &Path) -> std::io::Result<std::fs::File> {
+    let mut options = std::fs::OpenOptions::new();
+    options.read(true);
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::OpenOptionsExt;
+        options.custom_flags(libc::O_NONBLOCK);
+    }
+    let file = options.open(path)?;
+    regular(&file)?;
+    Ok(file)
+}
+
+/// Refuses an open file that is not a regular file ([`not_regular`]).
+pub fn regular(file: &std::fs::File) -> std::io::Result<()> {
+    if file.metadata()?.is_file() {
+        return Ok(());
+    }
+    Err(not_regular())
+}
+
+/// The refusal of a FIFO, device or folder where mbs keeps a regular file
+/// of its own (`InvalidData`).
+pub fn not_regular() -> std::io::Error {
+    std::io::Error::new(
+        std::io::ErrorKind::InvalidData,
+        "not a regular file (a FIFO, device or folder where mbs keeps a file of its own): \
+         refused unread",
+    )
+}
+
+/// [`read_bounded`] of a file of mbs's own ([`open_own_file`]).
+pub fn read_own_bounded(path: &Path, bound: Bound<'_>) -> std::io::Result<Vec<u8>> {
+    read_file_bounded(open_own_file(path)?, bound)
+}
+
+/// [`read_bounded`] of an open file.
+fn read_file_bounded(file: std::fs::File, bound: Bound<'_>) -> std::io::Result<Vec<u8>> {
     let len = file.metadata()?.len();
     if len > bound.bytes {
         return Err(too_large(Size(len), bound));
@@ -70,8 +114,16 @@ pub fn read_bounded(path: &Path, bound: Bound<'_>) -> std::io::Result<Vec<u8>> {
 
 /// [`read_bounded`] as UTF-8 text.
 pub fn read_text_bounded(path: &Path, bound: Bound<'_>) -> std::io::Result<String> {
-    String::from_utf8(read_bounded(path, bound)?)
-        .map_err(|e| std::io::Error::new(std::io::ErrorKind::InvalidData, e))
+    utf8(read_bounded(path, bound)?)
+}
+
+/// [`read_own_bounded`] as UTF-8 text.
+pub fn read_own_text_bounded(path: &Path, bound: Bound<'_>) -> std::io::Result<String> {
+    utf8(read_own_bounded(path, bound)?)
+}
+
+fn utf8(bytes: Vec<u8>) -> std::io::Result<String> {
+    String::from_utf8(bytes).map_err(|e| std::io::Error::new(std::io::ErrorKind::InvalidData, e))
 }
 
 /// Reads the next line of `reader` (without its `\n`) into `line`: false at

@@ -3,7 +3,7 @@
 //! a half-written file and never damages an earlier one.
 
 use crate::error::HostError;
-use crate::io::input::{read_text_bounded, Bound};
+use crate::io::input::{read_own_text_bounded, Bound};
 use std::io::Write;
 use std::path::Path;
 
@@ -84,7 +84,7 @@ pub fn lock_dir(dir: &Path) -> Result<DirLock, HostError> {
         }
         Err(std::fs::TryLockError::WouldBlock) => Err(HostError::Busy {
             dir: dir.to_path_buf(),
-            holder: read_text_bounded(&path, LOCK_BOUND)
+            holder: read_own_text_bounded(&path, LOCK_BOUND)
                 .ok()
                 .and_then(|t| t.split_whitespace().next()?.parse().ok()),
         }),
@@ -105,18 +105,29 @@ pub fn open_own(
     #[cfg(unix)]
     {
         use std::os::unix::fs::OpenOptionsExt;
-        options.custom_flags(libc::O_NOFOLLOW);
+        // Without blocking: a FIFO planted there would block the open.
+        options.custom_flags(libc::O_NOFOLLOW | libc::O_NONBLOCK);
     }
     // Elsewhere, look first (a narrow race; unix has none).
     if !cfg!(unix) {
         refuse_link(path)?;
     }
-    // On unix a link makes the open fail (ELOOP): say why.
-    options.open(path).map_err(|e| {
-        refuse_link(path)
-            .err()
-            .unwrap_or_else(|| HostError::io(path)(e))
-    })
+    // On unix a link makes the open fail (ELOOP), a FIFO without a reader
+    // opened for writing too (ENXIO): say why.
+    let file = options.open(path).map_err(|e| {
+        let other = std::fs::symlink_metadata(path).is_ok_and(|m| !m.is_file());
+        refuse_link(path).err().unwrap_or_else(|| {
+            HostError::io(path)(if other {
+                crate::io::input::not_regular()
+            } else {
+                e
+            })
+        })
+    })?;
+    // Only a regular file (a FIFO opened for writing without a reader
+    // fails above; with one, or a device, here).
+    crate::io::input::regular(&file).map_err(HostError::io(path))?;
+    Ok(file)
 }
 
 /// The folders mbs writes its own files into inside an output directory;

@@ -32,7 +32,7 @@
 //! collection afresh. Frames are an output: nothing is computed from them.
 
 use crate::error::HostError;
-use crate::io::input::{read_bounded, Bound};
+use crate::io::input::{read_own_bounded, Bound};
 use crate::io::output::{create_dir, remove_if_present, write_json, write_text};
 use crate::sim::threads::Stepping;
 use base64::Engine;
@@ -280,7 +280,7 @@ impl Dumps {
             bytes: 1024 + 24 * (frames + 2 * sim.len() as u64),
             reason: "the record of a cell's frames at its checkpoint",
         };
-        let record = read_bounded(&path, bound)
+        let record = read_own_bounded(&path, bound)
             .ok()
             .and_then(|bytes| serde_json::from_slice::<Record>(&bytes).ok())
             .filter(|r| {

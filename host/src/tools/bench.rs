@@ -13,7 +13,7 @@
 //! as kernel checkpoints in a directory and reused.
 
 use crate::error::HostError;
-use crate::io::input::{read_bounded, Bound};
+use crate::io::input::{read_own_bounded, Bound};
 use crate::io::output::{create_dir, write_atomic};
 use crate::io::text::number;
 use crate::sim::sims::{with_sim, HostSim, SimJob};
@@ -169,7 +169,7 @@ fn prepare_columns<R: Real, const N: usize, const K: usize, const C: usize>(
         reason: "the largest checkpoint of this simulation",
     };
     if let Some(dir) = beds
-        && let Ok(bytes) = read_bounded(&bed.file::<R>(dir, columns, flow), bound)
+        && let Ok(bytes) = read_own_bounded(&bed.file::<R>(dir, columns, flow), bound)
         && sim.restore(&bytes).is_ok()
     {
         return Ok(());

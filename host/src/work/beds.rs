@@ -17,7 +17,7 @@
 use crate::config::{Config, ConfigFile, SettleUntil};
 use crate::error::HostError;
 use crate::io::framing::{CheckpointError, Reader, Writer};
-use crate::io::input::{read_bounded, Bound};
+use crate::io::input::{read_own_bounded, Bound};
 use crate::io::output::{remove_if_present, write_atomic};
 use crate::sim::control::{Checkpoints, Control};
 use crate::sim::sims::{check_restored, max_checkpoint_len, with_sim, HostSim, SimJob};
@@ -334,7 +334,7 @@ impl Beds<'_> {
                 path: path.to_path_buf(),
                 message,
             };
-            match read_bounded(path, bound) {
+            match read_own_bounded(path, bound) {
                 Ok(bytes) => Ok(Some(
                     BedState::decode(&bytes, key).map_err(|e| refuse(e.to_string()))?,
                 )),

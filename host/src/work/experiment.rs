@@ -8,7 +8,7 @@
 
 use crate::config::Config;
 use crate::error::HostError;
-use crate::io::input::{read_bounded, Bound};
+use crate::io::input::{read_own_bounded, Bound};
 use crate::io::log::Log;
 use crate::io::output::{create_dir, remove_if_present, remove_temporaries};
 use crate::io::text::number;
@@ -210,7 +210,7 @@ pub fn run_all(
                 path: path.clone(),
                 message,
             };
-            let resume = match read_bounded(&path, checkpoint_bound) {
+            let resume = match read_own_bounded(&path, checkpoint_bound) {
                 Ok(bytes) => {
                     Some(CellCheckpoint::decode(&bytes, key).map_err(|e| refuse(e.to_string()))?)
                 }

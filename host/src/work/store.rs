@@ -167,7 +167,7 @@ impl Store {
 /// Whether the file is empty or ends with a newline.
 fn ends_with_newline(path: &Path) -> std::io::Result<bool> {
     use std::io::{Read, Seek, SeekFrom};
-    let mut f = File::open(path)?;
+    let mut f = crate::io::input::open_own_file(path)?;
     let len = f.metadata()?.len();
     if len == 0 {
         return Ok(true);
@@ -189,7 +189,7 @@ pub fn parse_line(line: &[u8]) -> Option<(String, serde_json::Value)> {
 /// Loads every intact line of a store file (a missing file is empty).
 fn load(path: &Path) -> Result<BTreeMap<String, serde_json::Value>, HostError> {
     let mut map = BTreeMap::new();
-    let file = match File::open(path) {
+    let file = match crate::io::input::open_own_file(path) {
         Ok(f) => f,
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(map),
         Err(e) => return Err(HostError::io(path)(e)),

@@ -3,6 +3,7 @@
 //! the bed's, and environment variables that bypass the command line.
 
 use crate::common::{run_into, write};
+use predicates::prelude::*;
 use predicates::str::contains;
 
 /// A bed of 4 columns × 1 row in two size classes, phases of a few steps.
@@ -105,5 +106,45 @@ fn stored_results_that_do_not_fit_their_cell_are_computed_again() {
             .arg("0")
             .assert()
             .success();
+    }
+}
+
+/// A FIFO planted where mbs keeps a file of its own (the store, the log,
+/// the lock, a cell's checkpoint, a settled bed) blocked the open forever
+/// (and, once the Ctrl-C handler was installed, SIGTERM no longer ended
+/// it): now refused at once, naming the file, exit 1.
+#[cfg(unix)]
+#[test]
+fn a_fifo_where_mbs_keeps_its_own_file_is_refused_not_waited_on() {
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = write(dir.path(), "tiny.toml", TINY_MIXED);
+    let good = dir.path().join("good");
+    run_into(&cfg, &good).assert().success();
+    let bed = std::fs::read_dir(good.join("beds"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .find(|p| p.extension().is_some_and(|e| e == "bed"))
+        .unwrap();
+    let bed = format!("beds/{}", bed.file_name().unwrap().to_string_lossy());
+    for own in [
+        "cells.jsonl",
+        "mbs.log",
+        ".mbs-lock",
+        "checkpoints/tau0.2_seed1.ckpt",
+        &bed,
+    ] {
+        let out = dir.path().join(format!("fifo-{}", own.replace('/', "-")));
+        std::fs::create_dir_all(out.join("beds")).unwrap();
+        std::fs::create_dir_all(out.join("checkpoints")).unwrap();
+        let status = std::process::Command::new("mkfifo")
+            .arg(out.join(own))
+            .status()
+            .unwrap();
+        assert!(status.success());
+        run_into(&cfg, &out)
+            .timeout(std::time::Duration::from_secs(60))
+            .assert()
+            .code(1)
+            .stderr(contains(own).and(contains("not a regular file")));
     }
 }
