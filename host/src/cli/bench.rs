@@ -19,13 +19,13 @@ pub struct BenchArgs {
     /// Shared options.
     #[command(flatten)]
     pub shared: Shared,
-    /// Grains (fixed included), 33 to the largest capacity
+    /// Grains (fixed included), 39 (4 columns) to the largest capacity
     /// ([`MAX_CAPACITY`]).
     #[arg(
         long,
         default_value_t = 1024,
-        value_parser = clap::value_parser!(u32).range(33..=MAX_CAPACITY as i64),
-        help = format!("Grains (fixed included), 33 to {MAX_CAPACITY}")
+        value_parser = clap::value_parser!(u32).range(39..=MAX_CAPACITY as i64),
+        help = format!("Grains (fixed included), 39 (4 columns) to {MAX_CAPACITY}")
     )]
     pub grains: u32,
     /// Repetitions timed: steps, rebuilds or passes over the contacts.

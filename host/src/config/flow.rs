@@ -212,6 +212,17 @@ pub(super) fn fluid_spec(
                 c.width_m,
                 "in (0, 100] m (Frey 2014: 0.0065)",
             )?;
+            // Narrower, the grains' solid fraction in the column's slabs
+            // passes 1 (it is their volume over the channel's).
+            need(
+                c.width_m >= d,
+                "channel.width_m",
+                c.width_m,
+                &format!(
+                    ">= the largest grain diameter, {d:e} m (the grains lie between the \
+                     walls; Frey 2014: 6.5 mm for 6 mm beads)"
+                ),
+            )?;
             need(
                 c.wall_friction.is_finite() && (0.0..=10.0).contains(&c.wall_friction),
                 "channel.wall_friction",

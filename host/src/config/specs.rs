@@ -315,6 +315,27 @@ pub(super) fn explicit_contact(
     }
 }
 
+/// The neighbour search's bins: at least three across the periodic width,
+/// each the largest diameter plus the skin wide (else every step fails).
+/// `bed.columns` is named, with the fewest that give that width (a hair
+/// more than the bound, so that rounding in f32 keeps three bins).
+pub(super) fn wide_enough(sc: &Scenario) -> Result<(), ConfigError> {
+    let bed = &sc.bed;
+    let d = bed.max_diameter();
+    let needed = 3.0 * (d + sc.skin * d) * (1.0 + 1e-6);
+    let fewest = (needed / bed.pitch()).ceil();
+    need(
+        bed.width() >= needed,
+        "bed.columns",
+        bed.columns,
+        &format!(
+            ">= {fewest} for bed.spacing = {} and run.skin_d = {} (the neighbour search needs \
+             a periodic width of 3 (largest diameter + skin))",
+            bed.spacing, sc.skin
+        ),
+    )
+}
+
 /// The classical stability bound docs/model.md (11) on the integration step
 /// for the lightest grain: step_dt = constants_dt/substeps ≤ 2√(m/k_n).
 pub(super) fn stability(sc: &Scenario, c: &ContactConstants) -> Result<(), ConfigError> {

@@ -9,7 +9,7 @@ use super::limits::{
     capacities_listed, CAPACITIES, GRAIN_STEPS_PER_S_PER_CORE, MAX_CELL_STEPS, MAX_PHASE_S,
     PHASE_REASON,
 };
-use super::specs::{bed_spec, explicit_contact, material, stability, time_rule};
+use super::specs::{bed_spec, explicit_contact, material, stability, time_rule, wide_enough};
 use super::{Config, Durations};
 use crate::error::ConfigError;
 use crate::io::text::shown;
@@ -214,6 +214,7 @@ pub(super) fn validate(mut file: ConfigFile, named: Named) -> Result<Config, Con
         (scenario.flow, scenario.fluid) = (flow, fluid);
     }
     stability(&scenario, &contact)?;
+    wide_enough(&scenario)?;
     coupled_flow_fits(&scenario, &file.flow.tau_stars)?;
     closures_need_coupled(&file)?;
     for &tau_star in &file.flow.tau_stars {

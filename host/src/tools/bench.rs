@@ -113,7 +113,7 @@ impl BenchBed {
         } else {
             (self.grains + per_column / 2) / per_column
         };
-        columns.clamp(3, u32::MAX as usize) as u32
+        columns.clamp(4, u32::MAX as usize) as u32
     }
 
     /// Grains of the bed (whole columns).
@@ -527,7 +527,7 @@ mod tests {
         assert_eq!(columns(1_024), TILE_COLUMNS);
         assert_eq!(columns(16_384), 16 * TILE_COLUMNS);
         assert_eq!(columns(65_536), 64 * TILE_COLUMNS);
-        assert_eq!(columns(10), 3);
+        assert_eq!(columns(10), 4);
     }
 
     #[test]

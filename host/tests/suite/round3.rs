@@ -148,3 +148,43 @@ fn a_fifo_where_mbs_keeps_its_own_file_is_refused_not_waited_on() {
             .stderr(contains(own).and(contains("not a regular file")));
     }
 }
+
+/// Values inside their own ranges that the bed cannot take were accepted
+/// by `mbs config` and failed every command at run time (exit 1, after
+/// writing `config.toml` over a finished run's): a periodic width under
+/// three neighbour bins (3 columns), a channel narrower than a grain (a
+/// solid fraction above 1), a bench bed of 3 columns. Now exit 2 naming
+/// the key and what it needs, before anything is written.
+#[test]
+fn values_the_bed_cannot_take_are_refused_before_anything_is_written() {
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = write(dir.path(), "tiny.toml", TINY_MIXED);
+    let out = dir.path().join("out");
+    run_into(&cfg, &out).assert().success();
+    let echoed = std::fs::read(out.join("config.toml")).unwrap();
+    let refused = |sets: &[&str], message: &str| {
+        let mut run = run_into(&cfg, &out);
+        for s in sets {
+            run.args(["--set", s]);
+        }
+        run.assert().code(2).stderr(contains(message));
+        assert_eq!(std::fs::read(out.join("config.toml")).unwrap(), echoed);
+    };
+    refused(
+        &["bed.columns=3"],
+        "bed.columns = 3: must be >= 4 for bed.spacing = 1.05 and run.skin_d = 0.1",
+    );
+    refused(
+        &["bed.columns=4", "run.skin_d=0.5"],
+        "bed.columns = 4: must be >= 5",
+    );
+    refused(
+        &["flow.model=\"coupled\"", "channel.width_m=0.0001"],
+        "channel.width_m = 0.0001: must be >= the largest grain diameter, 5e-4 m",
+    );
+    crate::common::mbs()
+        .args(["bench", "--grains", "38"])
+        .assert()
+        .code(2)
+        .stderr(contains("38 is not in 39..=65536"));
+}
