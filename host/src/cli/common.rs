@@ -125,16 +125,24 @@ pub use crate::config::MAX_THREADS;
 
 /// Checks `--threads`: at most [`MAX_THREADS`] (exit 2 above); more than
 /// the machine's cores is a warning (results are the same, not faster).
-pub fn check_threads(threads: usize) -> Result<(), HostError> {
+/// Without it (0), rayon's `RAYON_NUM_THREADS` from the environment is
+/// what rayon would use, so it is checked as `--threads` and returned in
+/// its place (a value rayon ignores, not a positive count, is ignored).
+pub fn check_threads(threads: usize) -> Result<usize, HostError> {
+    let env = std::env::var("RAYON_NUM_THREADS").ok();
+    let (key, threads) = match env.as_deref().map(|v| v.trim().parse::<usize>()) {
+        Some(Ok(n)) if threads == 0 && n > 0 => ("RAYON_NUM_THREADS", n),
+        _ => ("--threads", threads),
+    };
     if threads > MAX_THREADS {
         return Err(ConfigError::Invalid {
-            key: "--threads".into(),
+            key: key.into(),
             value: threads.to_string(),
             allowed: format!("0 (one per core) to {MAX_THREADS}"),
         }
         .into());
     }
-    Ok(())
+    Ok(threads)
 }
 
 /// The warning for `threads` workers on a machine with fewer cores.

@@ -188,3 +188,24 @@ fn values_the_bed_cannot_take_are_refused_before_anything_is_written() {
         .code(2)
         .stderr(contains("38 is not in 39..=65536"));
 }
+
+/// `RAYON_NUM_THREADS` is what rayon uses without `--threads`: it passed
+/// by the 1024-thread limit and the warning (2000 threads for a tiny run,
+/// `summary.json` saying 2000). Now checked as `--threads` is.
+#[test]
+fn rayon_num_threads_is_checked_as_threads_is() {
+    crate::common::mbs()
+        .env("RAYON_NUM_THREADS", "2000")
+        .arg("config")
+        .assert()
+        .code(2)
+        .stderr(contains(
+            "RAYON_NUM_THREADS = 2000: must be 0 (one per core) to 1024",
+        ));
+    // --threads given: the environment is not read.
+    crate::common::mbs()
+        .env("RAYON_NUM_THREADS", "2000")
+        .args(["--threads", "1", "config"])
+        .assert()
+        .success();
+}
