@@ -58,6 +58,18 @@ impl SnapshotArgs {
             ),
         )?;
         let config = how.load(self.config.as_deref())?;
+        // At least one integration step between frames (shorter, every
+        // frame was the same state).
+        let step_dt = config.scenario.step_dt();
+        need(
+            self.every / step_dt >= 1.0 - 1e-9,
+            "--every",
+            crate::io::text::number(self.every),
+            &format!(
+                ">= one integration step (step_dt = constants_dt/substeps = {} s)",
+                crate::io::text::number(step_dt)
+            ),
+        )?;
         let steps = config.steps_of(self.every).saturating_mul(self.frames);
         steps_arg("--frames x --every", steps)?;
         let grains = config.scenario.bed.grains();

@@ -209,3 +209,28 @@ fn rayon_num_threads_is_checked_as_threads_is() {
         .assert()
         .success();
 }
+
+/// Command-line times: `--checkpoint-every` beyond what a duration holds
+/// was refused as "must be > 0 seconds" and quoted in 301 digits;
+/// `snapshot --every` under one integration step wrote identical frames.
+#[test]
+fn command_line_intervals_have_true_ranges() {
+    crate::common::mbs()
+        .args(["run", "--checkpoint-every", "1e300"])
+        .assert()
+        .code(2)
+        .stderr(contains(
+            "--checkpoint-every = 1e300: must be in (0, 1e9] seconds of wall time",
+        ));
+    let dir = tempfile::tempdir().unwrap();
+    crate::common::mbs()
+        .args(["snapshot", "--every", "1e-6", "--frames", "2", "--out"])
+        .arg(dir.path().join("snap"))
+        .assert()
+        .code(2)
+        .stderr(contains(
+            "--every = 0.000001: must be >= one integration step (step_dt = \
+             constants_dt/substeps = 0.0000025 s)",
+        ));
+    assert!(!dir.path().join("snap").exists());
+}
