@@ -75,10 +75,7 @@ impl RunArgs {
     /// run's) and runs.
     pub fn execute(self, how: &Invocation) -> Result<(), HostError> {
         // Wall-clock seconds; 1e9 s is 32 years.
-        if let Some(s) = self
-            .checkpoint_every
-            .filter(|s| !(*s > 0.0 && *s <= 1e9))
-        {
+        if let Some(s) = self.checkpoint_every.filter(|s| !(*s > 0.0 && *s <= 1e9)) {
             return Err(ConfigError::Invalid {
                 key: "--checkpoint-every".into(),
                 value: crate::io::text::number(s),

@@ -115,11 +115,17 @@ impl Override {
     }
 
     /// Whether an error about `key` (`flow.tau_star[1]`,
-    /// `grains.classes[0].diameter_mm`, `flow.kappa`) is about this value.
+    /// `grains.classes[0].diameter_mm`, `flow.kappa`; or a section this
+    /// value made, `x` of `--set x.y=1`) is about this value.
     pub fn blame(&self, key: &str) -> bool {
         let own = self.key();
-        key.strip_prefix(own.as_str())
-            .is_some_and(|rest| rest.is_empty() || rest.starts_with(['[', '.', ' ']))
+        let within = key
+            .strip_prefix(own.as_str())
+            .is_some_and(|rest| rest.is_empty() || rest.starts_with(['[', '.', ' ']));
+        let section = own
+            .strip_prefix(key)
+            .is_some_and(|rest| rest.starts_with('.'));
+        within || section
     }
 }
 
@@ -215,6 +221,12 @@ fn key_at(text: &str, at: usize) -> Option<String> {
     let before = text.get(..at)?;
     let line_start = before.rfind('\n').map_or(0, |n| n + 1);
     let line = text.get(line_start..)?.lines().next()?;
+    // A section's header (`[x]`, `[grains.classes]`, `[[flow.tau_star]]`,
+    // as toml writes a table value): its dotted name.
+    if let Some(header) = line.trim().strip_prefix('[') {
+        let name = header.trim_start_matches('[').split(']').next()?;
+        return Some(name.trim().to_string());
+    }
     let name = line.split('=').next()?.trim();
     let section = before
         .lines()

@@ -234,3 +234,26 @@ fn command_line_intervals_have_true_ranges() {
         ));
     assert!(!dir.path().join("snap").exists());
 }
+
+/// `--set` errors at a section's header of the reformatted text (a new
+/// section, a table for a list) quoted a line of a file the user never
+/// saw; they name the `--set` as every other one does.
+#[test]
+fn set_errors_at_a_section_name_the_set() {
+    for (set, why) in [
+        ("x.y=1", "unknown field `x`"),
+        (
+            "grains.classes={}",
+            "invalid type: map, expected a sequence",
+        ),
+        ("flow.tau_star=[{a=1}]", "invalid type: map, expected f64"),
+        ("flow.tau_star={a=1}", "invalid type: map, expected f64"),
+    ] {
+        crate::common::mbs()
+            .args(["config", "--set", set])
+            .assert()
+            .code(2)
+            .stderr(contains(format!("--set {set}: {why}")))
+            .stderr(contains("TOML parse error").not());
+    }
+}
