@@ -15,6 +15,11 @@ const ALTERNATIVES: [(&str, &[&str]); 2] = [
     ("flow", &["tau_star", "u_star_m_s", "slope"]),
 ];
 
+/// The sections of a configuration file ([`super::ConfigFile`]).
+const SECTIONS: [&str; 9] = [
+    "grains", "bed", "contact", "time", "flow", "fluid", "channel", "target", "run",
+];
+
 /// Keys whose value is a list: a single value given with `--set` is a list
 /// of one (`--set flow.tau_star=0.1`).
 const LISTS: [&str; 4] = [
@@ -115,17 +120,17 @@ impl Override {
     }
 
     /// Whether an error about `key` (`flow.tau_star[1]`,
-    /// `grains.classes[0].diameter_mm`, `flow.kappa`; or a section this
-    /// value made, `x` of `--set x.y=1`) is about this value.
+    /// `grains.classes[0].diameter_mm`, `flow.kappa`) is about this value.
     pub fn blame(&self, key: &str) -> bool {
         let own = self.key();
-        let within = key
-            .strip_prefix(own.as_str())
-            .is_some_and(|rest| rest.is_empty() || rest.starts_with(['[', '.', ' ']));
-        let section = own
-            .strip_prefix(key)
-            .is_some_and(|rest| rest.starts_with('.'));
-        within || section
+        key.strip_prefix(own.as_str())
+            .is_some_and(|rest| rest.is_empty() || rest.starts_with(['[', '.', ' ']))
+    }
+
+    /// Whether this value made the section `section`, one a configuration
+    /// does not have (`x` of `--set x.y=1`).
+    fn made(&self, section: &str) -> bool {
+        !SECTIONS.contains(&section) && self.path.first().is_some_and(|first| first == section)
     }
 }
 
@@ -203,7 +208,7 @@ pub(super) fn set_parse_error(text: &str, e: &toml::de::Error, sets: &[String]) 
     let blamed = key.and_then(|key| {
         sets.iter()
             .filter_map(|s| Override::parse(s).ok())
-            .find(|o| o.blame(&key))
+            .find(|o| o.blame(&key) || o.made(&key))
     });
     match blamed {
         Some(o) => ConfigError::Parse(shown(format!(
@@ -266,6 +271,11 @@ pub(super) fn line_of(text: &str, key: &str) -> Option<usize> {
 mod tests {
     use super::*;
 
+    /// A table written by toml for a list of tables.
+    fn text_with_header() -> &'static str {
+        "a = 1\n[[flow.tau_star]]\nb = 2\n"
+    }
+
     #[test]
     fn sets_name_themselves_and_lines_are_found() {
         let o = Override::parse(" flow.kappa = 0.3 ").unwrap();
@@ -274,6 +284,12 @@ mod tests {
             ("flow.kappa".into(), Some(0.3))
         );
         assert!(o.blame("flow.kappa") && !o.blame("flow.kappa_x") && !o.blame("flow"));
+        // A section the value made, not one every configuration has.
+        assert!(!o.made("flow") && Override::parse("x.y=1").unwrap().made("x"));
+        assert_eq!(
+            key_at(text_with_header(), 7).as_deref(),
+            Some("flow.tau_star")
+        );
         let t = Override::parse("flow.tau_star=[0.1, 0.2]").unwrap();
         assert!(t.blame("flow.tau_star[1]") && t.blame("flow.tau_star"));
         let text = "# c\n[flow]\ntau_star = [0.1]\nkappa=0.4\n[run]\nseeds = [1]\n";
