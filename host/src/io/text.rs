@@ -79,6 +79,37 @@ pub fn shown(value: String) -> String {
     out
 }
 
+/// `word` as one word of a shell command to show (POSIX `sh`): as it is
+/// if it holds only characters no shell treats specially, else in single
+/// quotes (a quote inside as `'\''`); control characters (a newline, a
+/// terminal escape) are shown escaped (`\n`, `\u{1b}`), never written to
+/// the terminal: a word read from a file (a trace's labels) cannot inject
+/// a command or an escape sequence into what mbs prints.
+///
+/// ```
+/// use mbs::io::text::shell_word;
+///
+/// assert_eq!(shell_word("configs/paper.toml"), "configs/paper.toml");
+/// assert_eq!(shell_word("run.output=\"it's\""), r#"'run.output="it'\''s"'"#);
+/// assert_eq!(shell_word("x; rm -rf ~\n\u{1b}[31m"), r"'x; rm -rf ~\n\u{1b}[31m'");
+/// ```
+pub fn shell_word(word: &str) -> String {
+    let plain = |c: char| c.is_ascii_alphanumeric() || "_-./=:,+@%".contains(c);
+    if !word.is_empty() && word.chars().all(plain) {
+        return word.to_string();
+    }
+    let mut out = String::from("'");
+    for c in word.chars() {
+        match c {
+            '\'' => out.push_str("'\\''"),
+            c if c.is_control() => out.extend(c.escape_default()),
+            c => out.push(c),
+        }
+    }
+    out.push('\'');
+    out
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -291,6 +291,33 @@ fn a_coarse_mismatch_prints_the_commands_that_locate_it() {
     assert!(err.contains("grain 7 y: "), "{err}");
 }
 
+/// The printed command quotes a trace's labels as shell words: an
+/// apostrophe in a recorded `--set` stays one word, and a crafted label
+/// (a `;`, a newline, a terminal escape) is shown quoted and escaped,
+/// never written raw.
+#[test]
+fn the_printed_command_quotes_the_traces_labels() {
+    let dir = tempfile::tempdir().unwrap();
+    let coarse = record(
+        dir.path(),
+        "coarse.json",
+        &["--steps", "300", "--every", "100"],
+    );
+    edit_with_checksum(&coarse, |body| {
+        body["config"] = "x.toml; touch PWNED #\n\u{1b}[31m".into();
+        body["overrides"] = serde_json::json!(["run.output=\"it's\""]);
+    });
+    let (code, err) = check(&coarse, Some("290:7:y"));
+    assert_eq!(code, Some(1), "{err}");
+    assert!(
+        err.contains(
+            r#"mbs digest 'x.toml; touch PWNED #\n\u{1b}[31m' --set 'run.output="it'\''s"' --steps"#
+        ),
+        "{err}"
+    );
+    assert!(!err.contains('\u{1b}'), "{err}");
+}
+
 #[test]
 fn a_nudge_that_cannot_apply_is_a_usage_error() {
     let dir = tempfile::tempdir().unwrap();

@@ -6,6 +6,7 @@
 use super::format::hex;
 use super::{Nudge, Record, RunError, Trace, TraceRun, Verdict};
 use crate::config::Precision;
+use crate::io::text::shell_word;
 use crate::sim::sims::{boxed_sim, check_restored, with_sim, HostSim, SimJob, NEIGHBOURS};
 use base64::Engine;
 use mbs_kernel::{FieldGroup, GrainField, Real};
@@ -160,9 +161,9 @@ fn locate<R: Real, const N: usize>(
                 .spec
                 .config
                 .as_deref()
-                .map_or(String::new(), |c| format!("{c} "));
+                .map_or(String::new(), |c| format!("{} ", shell_word(c)));
             for set in &run.spec.overrides {
-                config.push_str(&format!("--set '{set}' "));
+                config.push_str(&format!("--set {} ", shell_word(set)));
             }
             let precision = match run.spec.precision {
                 Precision::F32 => "f32",
