@@ -190,6 +190,38 @@ impl BedSpec {
         }
     }
 
+    /// The lattice sites of the bed built with `seed` (docs/model.md §7
+    /// step 2), column by column and bottom up, as
+    /// [`Sim::build_bed`](crate::Sim::build_bed) fills them: each site's
+    /// size class, `None` if it is left empty (probability `vacancy`).
+    ///
+    /// ```
+    /// use mbs_kernel::BedSpec;
+    ///
+    /// let bed = BedSpec::uniform(5e-4, 4, 3);
+    /// assert_eq!(bed.sites(1).count(), 12);
+    /// assert!(bed.sites(1).all(|class| class == Some(0)));
+    /// ```
+    pub fn sites(&self, seed: u64) -> impl Iterator<Item = Option<usize>> + '_ {
+        let mut draws = Stream::new(seed, crate::random::BED_STREAM, 1, 0);
+        let sites = (self.columns as usize).saturating_mul(self.rows as usize);
+        (0..sites).map(move |_| {
+            let empty = draws.uniform() < self.vacancy;
+            let pick = draws.uniform();
+            if empty {
+                return None;
+            }
+            let mut cumulative = 0.0;
+            for (c, sc) in self.classes.iter().enumerate() {
+                cumulative += sc.fraction;
+                if pick < cumulative {
+                    return Some(c);
+                }
+            }
+            Some(self.classes.len().saturating_sub(1))
+        })
+    }
+
     /// Periodic width L = columns × pitch (m).
     pub fn width(&self) -> f64 {
         self.columns as f64 * self.pitch()

@@ -7,7 +7,7 @@
 
 use crate::config::{grain_capacities, Precision, FLUID_CELLS};
 use indicatif::ProgressBar;
-use mbs_kernel::{FlowConfig, Real, Scenario, Sim, SimConfig};
+use mbs_kernel::{FlowConfig, Real, Scenario, Sim, SimConfig, MAX_CLASSES};
 
 /// Neighbour slots per grain of every host simulation (the kernel's `K`).
 pub const NEIGHBOURS: usize = 8;
@@ -77,9 +77,11 @@ pub fn with_sim<J: SimJob>(precision: Precision, capacity: usize, job: J) -> J::
 
 /// Whether a restored kernel state belongs where it is used: `scenario`'s
 /// configuration and seed (its width and floor are set by the bed it
-/// built), the `flow` expected (`None` while settling) and `steps`
-/// integration steps taken. Else why not: a crafted or foreign state is
-/// refused, never trusted.
+/// built), the `flow` expected (`None` while settling), `steps`
+/// integration steps taken, and the grains its bed builds (as many fixed
+/// ones, and as many mobile ones of each size class as its lattice sites
+/// hold: [`BedSpec::sites`](mbs_kernel::BedSpec::sites)). Else why not: a
+/// crafted or foreign state is refused, never trusted.
 pub fn check_restored<R: Real, const N: usize>(
     sim: &HostSim<R, N>,
     scenario: &Scenario,
@@ -100,6 +102,25 @@ pub fn check_restored<R: Real, const N: usize>(
     }
     if sim.step_count() != steps {
         return Err("its kernel state's step count does not fit");
+    }
+    let bed = &scenario.bed;
+    let mut built = [0usize; MAX_CLASSES];
+    for class in bed.sites(got.seed).flatten() {
+        if let Some(n) = built.get_mut(class) {
+            *n += 1;
+        }
+    }
+    let (mut fixed, mut mobile) = (0, [0usize; MAX_CLASSES]);
+    for grain in (0..sim.len()).filter_map(|i| sim.grain(i)) {
+        match mobile.get_mut(usize::from(grain.class)) {
+            _ if grain.fixed => fixed += 1,
+            Some(n) => *n += 1,
+            None => return Err("its kernel state holds other grains than its bed builds"),
+        }
+    }
+    let fixed_built = (bed.columns as usize).saturating_mul(bed.fixed_per_column());
+    if fixed != fixed_built || mobile != built {
+        return Err("its kernel state holds other grains than its bed builds");
     }
     Ok(())
 }

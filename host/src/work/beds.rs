@@ -351,6 +351,16 @@ impl Beds<'_> {
                     message: "a bed still settling where a settled one belongs".into(),
                 });
             }
+            // Settling stops at time.settle at the latest.
+            if bed.steps > config.durations.settle {
+                return Err(HostError::Checkpoint {
+                    path: finished,
+                    message: format!(
+                        "a bed settled for {} integration steps, more than time.settle's {}",
+                        bed.steps, config.durations.settle
+                    ),
+                });
+            }
             return Ok(Obtained {
                 bed: Some(bed),
                 resumed: false,

@@ -257,3 +257,52 @@ fn set_errors_at_a_section_name_the_set() {
             .stderr(contains("TOML parse error").not());
     }
 }
+
+/// A settled bed's file, signed again, was trusted whatever it held: a
+/// kernel state with other grains than the bed builds (an extra grain; an
+/// empty bed gave q* = 0), or more settling steps than `time.settle`
+/// allows (u64::MAX: 4.6e13 s of settling in `summary.json`). Refused,
+/// naming the file, exit 1; the table stays.
+#[test]
+fn a_settled_bed_that_its_configuration_does_not_build_is_refused() {
+    use mbs::work::beds::BedState;
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = write(dir.path(), "tiny.toml", TINY_MIXED);
+    let out = dir.path().join("out");
+    run_into(&cfg, &out).assert().success();
+    let table = std::fs::read(out.join("transport.csv")).unwrap();
+    let path = std::fs::read_dir(out.join("beds"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .find(|p| p.extension().is_some_and(|e| e == "bed"))
+        .unwrap();
+    let key = u64::from_str_radix(path.file_stem().unwrap().to_str().unwrap(), 16).unwrap();
+    let genuine = std::fs::read(&path).unwrap();
+    let crafts: [(&str, fn(&mut BedState)); 2] = [
+        ("more than time.settle", |bed| bed.steps = u64::MAX),
+        ("other grains than its bed builds", |bed| {
+            let mut sim = mbs::sim::sims::boxed_sim::<f64, 256, { mbs::sim::sims::NEIGHBOURS }>();
+            sim.restore(&bed.sim).unwrap();
+            let mut extra = sim.grain(sim.len() - 1).unwrap();
+            extra.y += 4.0 * extra.diameter;
+            sim.add_grain(&extra).unwrap();
+            bed.sim.clear();
+            sim.checkpoint(|b| bed.sim.extend_from_slice(b));
+        }),
+    ];
+    for (why, craft) in crafts {
+        let mut bed = BedState::decode(&genuine, key).unwrap();
+        craft(&mut bed);
+        std::fs::write(&path, bed.encode()).unwrap();
+        // The cell is computed again from the bed (not from the store).
+        std::fs::remove_file(out.join("cells.jsonl")).unwrap();
+        run_into(&cfg, &out).assert().code(1).stderr(contains(why));
+        assert_eq!(
+            std::fs::read(out.join("transport.csv")).unwrap(),
+            table,
+            "{why}"
+        );
+        std::fs::write(&path, &genuine).unwrap();
+        run_into(&cfg, &out).assert().success();
+    }
+}

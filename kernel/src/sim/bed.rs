@@ -126,7 +126,7 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
         // sites bottom-up), so neighbours are near each other in memory: the
         // step's cost per grain does not grow with the width of the bed.
         let mut heights = Stream::new(config.seed, BED_STREAM, 0, 0);
-        let mut sites = Stream::new(config.seed, BED_STREAM, 1, 0);
+        let mut sites = spec.sites(config.seed);
         let per_column = spec.fixed_per_column();
         let mut mobile = 0;
         for col in 0..columns {
@@ -140,20 +140,9 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
                 })?;
             }
             for row in 0..spec.rows as usize {
-                let empty = sites.uniform() < spec.vacancy;
-                let pick = sites.uniform();
-                if empty {
+                let Some(Some(class)) = sites.next() else {
                     continue;
-                }
-                let mut class = spec.classes.len() - 1;
-                let mut cumulative = 0.0;
-                for (c, sc) in spec.classes.iter().enumerate() {
-                    cumulative += sc.fraction;
-                    if pick < cumulative {
-                        class = c;
-                        break;
-                    }
-                }
+                };
                 let diameter = spec.classes.get(class).map_or(d_max, |c| c.diameter);
                 self.add_grain(&GrainSpec {
                     x: (col as f64 + 0.5) * pitch,
