@@ -278,7 +278,8 @@ fn a_settled_bed_that_its_configuration_does_not_build_is_refused() {
         .unwrap();
     let key = u64::from_str_radix(path.file_stem().unwrap().to_str().unwrap(), 16).unwrap();
     let genuine = std::fs::read(&path).unwrap();
-    let crafts: [(&str, fn(&mut BedState)); 2] = [
+    type Craft = fn(&mut BedState);
+    let crafts: [(&str, Craft); 2] = [
         ("more than time.settle", |bed| bed.steps = u64::MAX),
         ("other grains than its bed builds", |bed| {
             let mut sim = mbs::sim::sims::boxed_sim::<f64, 256, { mbs::sim::sims::NEIGHBOURS }>();
