@@ -19,7 +19,7 @@ use crate::io::text::number;
 use crate::sim::sims::{with_sim, HostSim, SimJob};
 use crate::sim::threads::Stepping;
 use mbs_kernel::contact::{ContactLaw, Spring};
-use mbs_kernel::{BedSpec, Error, Fnv1a, GrainSpec, Real, Scenario, Sim};
+use mbs_kernel::{BedSpec, Error, Fnv1a, GrainSpec, Real, Scenario, Sim, SimConfig};
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
@@ -168,13 +168,16 @@ fn prepare_columns<R: Real, const N: usize, const K: usize, const C: usize>(
         bytes: Sim::<R, N, K>::MAX_CHECKPOINT_LEN as u64,
         reason: "the largest checkpoint of this simulation",
     };
+    let sc = bed.scenario(columns);
+    // A prepared bed is used only if it is this bed (a file is a cache:
+    // one that is not is prepared again and replaced).
     if let Some(dir) = beds
         && let Ok(bytes) = read_own_bounded(&bed.file::<R>(dir, columns, flow), bound)
         && sim.restore(&bytes).is_ok()
+        && is_bed(sim, &sc, flow)
     {
         return Ok(());
     }
-    let sc = bed.scenario(columns);
     if flow {
         prepare_columns(sim, bed, columns, false, beds)?;
         sim.set_flow(Some(&sc.flow(TAU_STAR))).map_err(bed_error)?;
@@ -196,6 +199,31 @@ fn prepare_columns<R: Real, const N: usize, const K: usize, const C: usize>(
         write_atomic(&bed.file::<R>(dir, columns, flow), &bytes)?;
     }
     Ok(())
+}
+
+/// Whether `sim` holds the bench bed of `sc` (settled; under its flow if
+/// `flow`): its configuration (the width within rounding: a tiled bed's is
+/// the tile's times the copies), its grains (every lattice site filled),
+/// its flow.
+fn is_bed<R: Real, const N: usize, const K: usize, const C: usize>(
+    sim: &Sim<R, N, K, C>,
+    sc: &Scenario,
+    flow: bool,
+) -> bool {
+    let got = *sim.config();
+    let width = sc.bed.width();
+    let same_config = sc.sim_config().is_ok_and(|c| {
+        SimConfig {
+            width: got.width,
+            y_min: got.y_min,
+            ..c
+        } == got
+    });
+    let expected_flow = flow.then(|| sc.flow(TAU_STAR));
+    same_config
+        && (got.width - width).abs() <= 1e-9 * width
+        && sim.len() == sc.bed.grains()
+        && sim.flow() == expected_flow.as_ref()
 }
 
 fn bed_error(error: Error) -> HostError {

@@ -307,3 +307,32 @@ fn a_settled_bed_that_its_configuration_does_not_build_is_refused() {
         run_into(&cfg, &out).assert().success();
     }
 }
+
+/// `bench --beds DIR` used whatever checkpoint had a prepared bed's name
+/// (another bed timed as this one; an empty one gave NaN contacts per
+/// grain and inf ns): now a file that is not this bed is prepared again.
+#[test]
+fn a_bench_bed_that_is_not_the_bed_is_prepared_again() {
+    let dir = tempfile::tempdir().unwrap();
+    let beds = dir.path().join("beds");
+    let bench = |grains: &str| {
+        let out = crate::common::mbs()
+            .args(["bench", "--grains", grains, "--steps", "10", "--beds"])
+            .arg(&beds)
+            .assert()
+            .success();
+        String::from_utf8(out.get_output().stdout.clone()).unwrap()
+    };
+    assert!(bench("44").starts_with("44 grains"));
+    let file = |columns: &str| {
+        std::fs::read_dir(&beds)
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .find(|p| p.to_string_lossy().contains(&format!("_{columns}c_")))
+            .unwrap()
+    };
+    let four = file("4");
+    assert!(bench("55").starts_with("55 grains"));
+    std::fs::copy(file("5"), &four).unwrap();
+    assert!(bench("44").starts_with("44 grains"));
+}
