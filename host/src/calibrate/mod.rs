@@ -31,6 +31,10 @@ use crate::io::log::Log;
 use crate::science::references::Reference;
 use cells::{Cells, TransportSpec};
 
+/// The calibration's plan in its output directory (only `mbs calibrate`
+/// writes it).
+pub const PLAN: &str = "plan.json";
+
 use crate::work::store::STORE;
 
 /// Everything a stage needs.
@@ -297,9 +301,10 @@ pub fn calibrate(
         None => base,
     };
     let _lock = crate::io::output::lock_dir(dir)?;
+    crate::io::output::not_holding(dir, crate::io::output::RUN_CONFIG, "mbs run")?;
     crate::io::output::remove_temporaries(dir)?;
     let store = crate::work::store::Store::open(&dir.join(STORE))?;
-    crate::io::output::write_json(&dir.join("plan.json"), &plan)?;
+    crate::io::output::write_json(&dir.join(PLAN), &plan)?;
     let progress = crate::io::progress::Progress::counter("cells computed", options.quiet);
     let stage = |name: &str| {
         progress.bar().set_message(name.to_string());

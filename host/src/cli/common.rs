@@ -118,8 +118,7 @@ pub(crate) fn config_text(config: &Config, dir: &Path) -> Result<String, HostErr
         .map_err(|e| HostError::io(dir.join(RUN_CONFIG))(std::io::Error::other(e)))
 }
 
-/// The configuration a run directory was started with (`mbs run --resume`).
-pub const RUN_CONFIG: &str = "config.toml";
+pub use crate::io::output::RUN_CONFIG;
 
 pub use crate::config::MAX_THREADS;
 

@@ -203,6 +203,7 @@ pub fn run(
     }
     let dir = output_dir(config, out)?;
     let _lock = crate::io::output::lock_dir(&dir)?;
+    crate::io::output::not_holding(&dir, crate::calibrate::PLAN, "mbs calibrate")?;
     logged(config, &dir, "run", options.resuming, |log, text| {
         run_logged(config, &dir, text, options, common, log)
     })

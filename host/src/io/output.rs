@@ -130,6 +130,29 @@ pub fn open_own(
     Ok(file)
 }
 
+/// The configuration a run directory was started with (`mbs run --resume`).
+pub const RUN_CONFIG: &str = "config.toml";
+
+/// Refuses the output directory `dir` of one command if it holds the
+/// results of `other` (its file `mark`, which only that command writes):
+/// `mbs run` and `mbs calibrate` write files of the same names
+/// (`summary.json`, `cells.jsonl`, `mbs.log`), so either would overwrite
+/// the other's (exit 2, nothing written).
+pub fn not_holding(dir: &Path, mark: &str, other: &str) -> Result<(), HostError> {
+    if std::fs::symlink_metadata(dir.join(mark)).is_err() {
+        return Ok(());
+    }
+    Err(crate::error::ConfigError::Invalid {
+        key: "--out".into(),
+        value: dir.display().to_string(),
+        allowed: format!(
+            "a directory of its own: this one holds the results of `{other}` ({mark}), whose \
+             files would be overwritten"
+        ),
+    }
+    .into())
+}
+
 /// The folders mbs writes its own files into inside an output directory;
 /// each must be a folder of its own, not a link to one elsewhere.
 pub const OWN_DIRS: [&str; 3] = ["checkpoints", "beds", "frames"];

@@ -336,3 +336,30 @@ fn a_bench_bed_that_is_not_the_bed_is_prepared_again() {
     std::fs::copy(file("5"), &four).unwrap();
     assert!(bench("44").starts_with("44 grains"));
 }
+
+/// `mbs run` and `mbs calibrate` write files of the same names
+/// (`summary.json`, `cells.jsonl`, `mbs.log`): either, given the other's
+/// directory, overwrote its summary. Refused, exit 2, nothing written.
+#[test]
+fn run_and_calibrate_keep_to_directories_of_their_own() {
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = write(dir.path(), "tiny.toml", TINY_MIXED);
+    let out = dir.path().join("out");
+    run_into(&cfg, &out).assert().success();
+    let summary = std::fs::read(out.join("summary.json")).unwrap();
+    crate::common::mbs()
+        .args(["calibrate", "--quick", "--out"])
+        .arg(&out)
+        .assert()
+        .code(2)
+        .stderr(contains("holds the results of `mbs run` (config.toml)"));
+    assert_eq!(std::fs::read(out.join("summary.json")).unwrap(), summary);
+    let calibration = dir.path().join("calibration");
+    std::fs::create_dir(&calibration).unwrap();
+    std::fs::write(calibration.join("plan.json"), "{}").unwrap();
+    run_into(&cfg, &calibration)
+        .assert()
+        .code(2)
+        .stderr(contains("holds the results of `mbs calibrate` (plan.json)"));
+    assert!(!calibration.join("summary.json").exists());
+}
