@@ -448,6 +448,27 @@ mod tests {
         assert_eq!(fy, 0.0);
     }
 
+    /// (4)–(5) on a moving grain: the drag follows the velocity relative
+    /// to the fluid, u_f − u_p: none on a grain moving with the mean flow,
+    /// the drag at rest reversed on one moving at twice it, and a vertical
+    /// drag against v_p.
+    #[test]
+    fn drag_follows_the_velocity_relative_to_the_fluid() {
+        let (_, p) = log_law();
+        let d = 0.5e-3;
+        let coef = 0.5 * 1000.0 * 0.4 * core::f64::consts::FRAC_PI_4 * d * d;
+        let y = 3.0 * d;
+        let u = p.mean_velocity(y);
+        assert!(u > 0.0);
+        assert_eq!(p.drag(coef, y, u, 0.0, 0.0, 0.0), (0.0, 0.0));
+        let (at_rest, _) = p.drag(coef, y, 0.0, 0.0, 0.0, 0.0);
+        assert_eq!(p.drag(coef, y, 2.0 * u, 0.0, 0.0, 0.0), (-at_rest, 0.0));
+        let v = 0.01;
+        let (fx, fy) = p.drag(coef, y, u, v, 0.0, 0.0);
+        assert_eq!(fx, 0.0);
+        assert!((fy + coef * p.sheltering(y) * v * v).abs() < 1e-18);
+    }
+
     #[test]
     fn validation_names_fields() {
         let mut c = FlowConfig::new(0.03, 0.5e-3);

@@ -274,11 +274,12 @@ fn pocket_pivot<R: Real, const K: usize>(_tol: f64) {
 both_paths!(pocket, pocket_pivot);
 
 /// A grain crossing x = L keeps its contact and history; contacts across
-/// the seam are found; the collision equals the same one away from the seam.
-fn periodic_seam<R: Real>(_tol: f64) {
+/// the seam are found; the collision equals the same one away from the seam;
+/// on both step paths (the scalar one wraps by `periodic::periodic`).
+fn periodic_seam<R: Real, const K: usize>(_tol: f64) {
     let cfg = config(1e-5, 1.0, 1e-4, 0.577);
     let run = |centre: f64| {
-        let mut s = small::<R>(&cfg);
+        let mut s = sim::<R, K>(&cfg);
         let wrap = |x: f64| x.rem_euclid(cfg.width);
         // An oblique collision (tangential history builds) drifting at +0.3 m/s,
         // the pair's normal along (0.6, 0.8), touching within a step.
@@ -349,7 +350,7 @@ fn periodic_seam<R: Real>(_tol: f64) {
     );
 
     // A static overlap straddling the seam is found on the first step.
-    let mut s = small::<R>(&cfg);
+    let mut s = sim::<R, K>(&cfg);
     s.add_grain(&mobile(0.2 * D, 0.0, 0.0, 0.0)).unwrap();
     s.add_grain(&mobile(cfg.width - 0.75 * D, 0.0, 0.0, 0.0))
         .unwrap();
@@ -360,7 +361,7 @@ fn periodic_seam<R: Real>(_tol: f64) {
         "pushed apart across the seam"
     );
 }
-both_precisions!(seam, periodic_seam);
+both_paths!(seam, periodic_seam);
 
 /// Sample mean and rms of the fluctuations (15) within statistical bounds,
 /// held for `hold_steps` and redrawn after.
