@@ -271,11 +271,6 @@ pub(super) fn line_of(text: &str, key: &str) -> Option<usize> {
 mod tests {
     use super::*;
 
-    /// A table written by toml for a list of tables.
-    fn text_with_header() -> &'static str {
-        "a = 1\n[[flow.tau_star]]\nb = 2\n"
-    }
-
     #[test]
     fn sets_name_themselves_and_lines_are_found() {
         let o = Override::parse(" flow.kappa = 0.3 ").unwrap();
@@ -286,10 +281,18 @@ mod tests {
         assert!(o.blame("flow.kappa") && !o.blame("flow.kappa_x") && !o.blame("flow"));
         // A section the value made, not one every configuration has.
         assert!(!o.made("flow") && Override::parse("x.y=1").unwrap().made("x"));
-        assert_eq!(
-            key_at(text_with_header(), 7).as_deref(),
-            Some("flow.tau_star")
+        // toml writes a table value as a section's header.
+        let header = "a = 1\n[[flow.tau_star]]\nb = 2\n";
+        assert_eq!(key_at(header, 7).as_deref(), Some("flow.tau_star"));
+        // SECTIONS are the file's: an unknown one lists exactly them.
+        let e = toml::from_str::<super::super::ConfigFile>("[zzz]\n")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            SECTIONS.iter().all(|s| e.contains(&format!("`{s}`"))),
+            "{e}"
         );
+        assert_eq!(e.matches('`').count(), 2 * (SECTIONS.len() + 1), "{e}");
         let t = Override::parse("flow.tau_star=[0.1, 0.2]").unwrap();
         assert!(t.blame("flow.tau_star[1]") && t.blame("flow.tau_star"));
         let text = "# c\n[flow]\ntau_star = [0.1]\nkappa=0.4\n[run]\nseeds = [1]\n";

@@ -89,12 +89,7 @@ pub fn check_restored<R: Real, const N: usize>(
     steps: u64,
 ) -> Result<(), &'static str> {
     let got = *sim.config();
-    let expected = scenario.sim_config().map(|c| SimConfig {
-        width: got.width,
-        y_min: got.y_min,
-        ..c
-    });
-    if expected != Ok(got) {
+    if !of_scenario(&got, scenario) {
         return Err("its kernel state has another configuration or seed");
     }
     if sim.flow() != flow {
@@ -123,6 +118,18 @@ pub fn check_restored<R: Real, const N: usize>(
         return Err("its kernel state holds other grains than its bed builds");
     }
     Ok(())
+}
+
+/// Whether the configuration `got` of a simulation is `scenario`'s (its
+/// width and floor aside: the bed it built sets them).
+pub fn of_scenario(got: &SimConfig, scenario: &Scenario) -> bool {
+    scenario.sim_config().is_ok_and(|c| {
+        SimConfig {
+            width: got.width,
+            y_min: got.y_min,
+            ..c
+        } == *got
+    })
 }
 
 /// The length of a kernel checkpoint of `grains` grains and `contacts`

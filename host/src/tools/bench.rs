@@ -19,7 +19,7 @@ use crate::io::text::number;
 use crate::sim::sims::{with_sim, HostSim, SimJob};
 use crate::sim::threads::Stepping;
 use mbs_kernel::contact::{ContactLaw, Spring};
-use mbs_kernel::{BedSpec, Error, Fnv1a, GrainSpec, Real, Scenario, Sim, SimConfig};
+use mbs_kernel::{BedSpec, Error, Fnv1a, GrainSpec, Real, Scenario, Sim};
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
@@ -210,17 +210,10 @@ fn is_bed<R: Real, const N: usize, const K: usize, const C: usize>(
     sc: &Scenario,
     flow: bool,
 ) -> bool {
-    let got = *sim.config();
+    let got = sim.config();
     let width = sc.bed.width();
-    let same_config = sc.sim_config().is_ok_and(|c| {
-        SimConfig {
-            width: got.width,
-            y_min: got.y_min,
-            ..c
-        } == got
-    });
     let expected_flow = flow.then(|| sc.flow(TAU_STAR));
-    same_config
+    crate::sim::sims::of_scenario(got, sc)
         && (got.width - width).abs() <= 1e-9 * width
         && sim.len() == sc.bed.grains()
         && sim.flow() == expected_flow.as_ref()
