@@ -124,13 +124,13 @@ both_precisions!(momentum, momentum_in_free_collision);
 
 /// Undamped, frictionless grains bouncing on a fixed row under gravity:
 /// kinetic + potential + spring energy stays bounded over many impacts.
-fn energy_bounded_without_damping<R: Real>(_tol: f64) {
+fn energy_bounded_without_damping<R: Real, const K: usize>(_tol: f64) {
     let k_n = 1.0;
     let dt = PI * (mass() / k_n).sqrt() / 100.0;
     let mut cfg = config(dt, k_n, 0.0, 0.0);
     cfg.gravity = [0.0, -9.81];
     cfg.width = 12.0 * 1.05 * D;
-    let mut s = small::<R>(&cfg);
+    let mut s = sim::<R, K>(&cfg);
     for k in 0..12 {
         s.add_grain(&fixed(k as f64 * 1.05 * D, 0.0)).unwrap();
     }
@@ -144,11 +144,11 @@ fn energy_bounded_without_damping<R: Real>(_tol: f64) {
         ))
         .unwrap();
     }
-    let energy = |s: &Small<R>| {
+    let energy = |s: &Sim<R, 256, K>| {
         let o = s.observe();
         o.kinetic_energy + o.potential_energy + o.spring_energy
     };
-    let e0 = energy(&s);
+    let e0 = energy(&*s);
     let scale = s.observe().kinetic_energy.max(mass() * 9.81 * D);
     let mut worst: f64 = 0.0;
     let mut impacts = 0;
@@ -156,7 +156,7 @@ fn energy_bounded_without_damping<R: Real>(_tol: f64) {
     for _ in 0..40_000 {
         s.step().unwrap();
         let o = s.observe();
-        worst = worst.max((energy(&s) - e0).abs());
+        worst = worst.max((energy(&*s) - e0).abs());
         let touching = o.contacts > 0;
         impacts += (touching && !was_touching) as u32;
         was_touching = touching;
@@ -167,15 +167,15 @@ fn energy_bounded_without_damping<R: Real>(_tol: f64) {
         "energy drift {worst:e} vs scale {scale:e}"
     );
 }
-both_precisions!(energy, energy_bounded_without_damping);
+both_paths!(energy, energy_bounded_without_damping);
 
 /// Single grain settling in still water: w(t) = w_t tanh(t/τ_s).
-fn settling_velocity<R: Real>(_tol: f64) {
+fn settling_velocity<R: Real, const K: usize>(_tol: f64) {
     let mut cfg = config(1e-5, 1.0, 0.0, 0.577);
     cfg.gravity = [0.0, -9.81];
     cfg.y_min = -1.0;
     cfg.y_max = 0.1;
-    let mut s = small::<R>(&cfg);
+    let mut s = sim::<R, K>(&cfg);
     s.add_grain(&mobile(cfg.width / 2.0, 0.0, 0.0, 0.0))
         .unwrap();
     let mut still = FlowConfig::new(0.0, D);
@@ -188,7 +188,8 @@ fn settling_velocity<R: Real>(_tol: f64) {
     assert!((w_t - 0.1642).abs() < 1e-3 && (tau - 0.0320).abs() < 1e-3);
     for t_ms in [5.0, 20.0, 32.0, 60.0, 120.0] {
         let target = (t_ms * 1e-3 / cfg.step_dt).round() as u64;
-        s.run(target - s.step_count()).unwrap();
+        let done = s.step_count();
+        s.run(target - done).unwrap();
         let w = -s.grain(0).unwrap().v;
         let exact = w_t * (s.time() / tau).tanh();
         assert!(
@@ -197,7 +198,7 @@ fn settling_velocity<R: Real>(_tol: f64) {
         );
     }
 }
-both_precisions!(settling, settling_velocity);
+both_paths!(settling, settling_velocity);
 
 /// A grain in the pocket of two touching fixed grains of its size, gravity
 /// tilted by `theta_deg`, for at most 0.5 s: whether it rolled out (more
@@ -365,11 +366,10 @@ both_paths!(seam, periodic_seam);
 
 /// Sample mean and rms of the fluctuations (15) within statistical bounds,
 /// held for `hold_steps` and redrawn after.
-fn turbulence_statistics<R: Real>(_tol: f64) {
+fn turbulence_statistics<R: Real, const K: usize>(_tol: f64) {
     let mut cfg = config(2e-5, 1.0, 1e-4, 0.577);
     cfg.width = 250.0 * D;
-    let mut s = Box::new(Sim::<R, 256, 8>::new());
-    s.reset(&cfg).unwrap();
+    let mut s = sim::<R, K>(&cfg);
     let heights = [2.0 * D, 20.0 * D];
     for k in 0..250 {
         let y = heights[k % 2];
@@ -422,7 +422,7 @@ fn turbulence_statistics<R: Real>(_tol: f64) {
     s.run(u64::from(flow.spec.hold_steps)).unwrap();
     assert_ne!(a, s.fluctuation(0).unwrap());
 }
-both_precisions!(turbulence, turbulence_statistics);
+both_paths!(turbulence, turbulence_statistics);
 
 /// A grain at rest on a fixed grain, and one on it, carry their weights on
 /// their contacts ([`Sim::contact_forces`]): the lower contact the two
