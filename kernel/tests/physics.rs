@@ -148,7 +148,7 @@ fn energy_bounded_without_damping<R: Real, const K: usize>(_tol: f64) {
         let o = s.observe();
         o.kinetic_energy + o.potential_energy + o.spring_energy
     };
-    let e0 = energy(&*s);
+    let e0 = energy(&s);
     let scale = s.observe().kinetic_energy.max(mass() * 9.81 * D);
     let mut worst: f64 = 0.0;
     let mut impacts = 0;
@@ -156,7 +156,7 @@ fn energy_bounded_without_damping<R: Real, const K: usize>(_tol: f64) {
     for _ in 0..40_000 {
         s.step().unwrap();
         let o = s.observe();
-        worst = worst.max((energy(&*s) - e0).abs());
+        worst = worst.max((energy(&s) - e0).abs());
         let touching = o.contacts > 0;
         impacts += (touching && !was_touching) as u32;
         was_touching = touching;
