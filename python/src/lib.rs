@@ -192,7 +192,7 @@ fn run(
     quiet: bool,
     on_progress: Option<PyObject>,
 ) -> PyResult<PathBuf> {
-    let threads = mbs::cli::check_threads(threads).map_err(py_err)?;
+    mbs::cli::check_threads(threads).map_err(py_err)?;
     let (config, out, resuming) = match resume {
         Some(dir) => (
             mbs::cli::resumed_config(&dir).map_err(py_err)?,

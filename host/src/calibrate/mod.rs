@@ -301,7 +301,6 @@ pub fn calibrate(
         None => base,
     };
     let _lock = crate::io::output::lock_dir(dir)?;
-    crate::io::output::not_holding(dir, crate::io::output::RUN_CONFIG, "mbs run")?;
     crate::io::output::remove_temporaries(dir)?;
     let store = crate::work::store::Store::open(&dir.join(STORE))?;
     crate::io::output::write_json(&dir.join(PLAN), &plan)?;

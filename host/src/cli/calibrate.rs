@@ -122,13 +122,17 @@ pub fn calibrate(
     threads: usize,
 ) -> Result<crate::calibrate::Reached, HostError> {
     let dir = directory("--out", dir)?;
+    // A finished run's directory: its summary would be overwritten
+    // (refused before the log is opened: nothing written).
+    crate::io::output::not_holding(&dir, crate::report::TRANSPORT, "mbs run")?;
     create_dir(&dir)?;
     let mut reached = None;
     let logged_config = base.clone();
     logged(&logged_config, &dir, "calibrate", false, |log, _| {
         let start = Instant::now();
         report_warnings(&base, log, true);
-        if let Some(w) = threads_warning(threads) {
+        let pool = on_pool(threads, rayon::current_num_threads)?;
+        if let Some(w) = threads_warning(pool) {
             log.warn(&w);
         }
         let progress = on_pool(threads, || {

@@ -124,32 +124,41 @@ pub use crate::config::MAX_THREADS;
 
 /// Checks `--threads`: at most [`MAX_THREADS`] (exit 2 above); more than
 /// the machine's cores is a warning (results are the same, not faster).
-/// Without it (0), rayon's `RAYON_NUM_THREADS` from the environment is
-/// what rayon would use, so it is checked as `--threads` and returned in
-/// its place (a value rayon ignores, not a positive count, is ignored).
-pub fn check_threads(threads: usize) -> Result<usize, HostError> {
-    let env = std::env::var("RAYON_NUM_THREADS").ok();
-    let (key, threads) = match env.as_deref().map(|v| v.trim().parse::<usize>()) {
-        Some(Ok(n)) if threads == 0 && n > 0 => ("RAYON_NUM_THREADS", n),
-        _ => ("--threads", threads),
+/// Without it (0), the pool takes rayon's `RAYON_NUM_THREADS` (or its
+/// older `RAYON_RS_NUM_CPUS`) from the environment: each is checked the
+/// same way, read as rayon reads it (a positive whole number, else
+/// ignored). `mbs bench` and a bed's own threads do not read them.
+pub fn check_threads(threads: usize) -> Result<(), HostError> {
+    let from_env = |name: &'static str| {
+        let n = std::env::var(name).ok()?.parse::<usize>().ok()?;
+        (n > 0).then_some((name, n))
     };
-    if threads > MAX_THREADS {
-        return Err(ConfigError::Invalid {
-            key: key.into(),
-            value: threads.to_string(),
-            allowed: format!("0 (one per core) to {MAX_THREADS}"),
+    let given = [("--threads", threads)];
+    let env = if threads == 0 {
+        ["RAYON_NUM_THREADS", "RAYON_RS_NUM_CPUS"].map(from_env)
+    } else {
+        [None, None]
+    };
+    for (key, n) in given.into_iter().chain(env.into_iter().flatten()) {
+        if n > MAX_THREADS {
+            return Err(ConfigError::Invalid {
+                key: key.into(),
+                value: n.to_string(),
+                allowed: format!("0 (one per core) to {MAX_THREADS}"),
+            }
+            .into());
         }
-        .into());
     }
-    Ok(threads)
+    Ok(())
 }
 
-/// The warning for `threads` workers on a machine with fewer cores.
+/// The warning for `threads` workers (the pool's, `--threads` or the
+/// environment's) on a machine with fewer cores.
 pub(crate) fn threads_warning(threads: usize) -> Option<String> {
     let cores = std::thread::available_parallelism().map_or(1, usize::from);
     (threads > cores).then(|| {
         format!(
-            "--threads {threads} on {cores} core(s): the results are the same, the run is not faster"
+            "{threads} threads on {cores} core(s): the results are the same, the run is not faster"
         )
     })
 }

@@ -45,11 +45,11 @@ pub fn execute(cli: args::Cli) -> Result<(), HostError> {
         .command
         .unwrap_or_else(|| args::Command::Run(run::RunArgs::default()));
     let shared = cli.shared.and(command.take_shared());
-    let threads = check_threads(shared.threads)?;
+    check_threads(shared.threads)?;
     let how = Invocation {
         common: Common {
             quiet: shared.quiet,
-            threads,
+            threads: shared.threads,
         },
         sets: shared.sets,
     };

@@ -242,7 +242,7 @@ fn run_logged(
     if let Some(w) = long_run_warning(config, threads) {
         log.warn(&w);
     }
-    if let Some(w) = threads_warning(common.threads) {
+    if let Some(w) = threads_warning(threads) {
         log.warn(&w);
     }
     if let Some(every) = options.checkpoint_every.filter(|&s| s < 1.0) {

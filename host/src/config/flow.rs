@@ -212,8 +212,8 @@ pub(super) fn fluid_spec(
                 c.width_m,
                 "in (0, 100] m (Frey 2014: 0.0065)",
             )?;
-            // Narrower, the grains' solid fraction in the column's slabs
-            // passes 1 (it is their volume over the channel's).
+            // A channel narrower than a grain cannot hold one (below about
+            // 0.5 d the solid fraction of a packed slab passes 1).
             need(
                 c.width_m >= d,
                 "channel.width_m",

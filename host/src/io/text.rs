@@ -82,8 +82,8 @@ pub fn shown(value: String) -> String {
 /// `word` as one word of a shell command to show (POSIX `sh`): as it is
 /// if it holds only characters no shell treats specially, else in single
 /// quotes (a quote inside as `'\''`); control characters (a newline, a
-/// terminal escape) are shown escaped (`\n`, `\u{1b}`), never written to
-/// the terminal: a word read from a file (a trace's labels) cannot inject
+/// terminal escape) and invisible ones (a direction override) are shown
+/// escaped (`\n`, `\u{1b}`, `\u{202e}`), never written to the terminal: a word read from a file (a trace's labels) cannot inject
 /// a command or an escape sequence into what mbs prints.
 ///
 /// ```
@@ -92,6 +92,7 @@ pub fn shown(value: String) -> String {
 /// assert_eq!(shell_word("configs/paper.toml"), "configs/paper.toml");
 /// assert_eq!(shell_word("run.output=\"it's\""), r#"'run.output="it'\''s"'"#);
 /// assert_eq!(shell_word("x; rm -rf ~\n\u{1b}[31m"), r"'x; rm -rf ~\n\u{1b}[31m'");
+/// assert_eq!(shell_word("a\u{202e}b"), r"'a\u{202e}b'");
 /// ```
 pub fn shell_word(word: &str) -> String {
     let plain = |c: char| c.is_ascii_alphanumeric() || "_-./=:,+@%".contains(c);
@@ -102,12 +103,18 @@ pub fn shell_word(word: &str) -> String {
     for c in word.chars() {
         match c {
             '\'' => out.push_str("'\\''"),
-            c if c.is_control() => out.extend(c.escape_default()),
+            c if c.is_control() || invisible(c) => out.extend(c.escape_default()),
             c => out.push(c),
         }
     }
     out.push('\'');
     out
+}
+
+/// Characters that change how text is shown without being shown: zero
+/// widths, direction marks and overrides, the byte-order mark.
+fn invisible(c: char) -> bool {
+    matches!(c, '\u{200b}'..='\u{200f}' | '\u{202a}'..='\u{202e}' | '\u{2066}'..='\u{2069}' | '\u{feff}')
 }
 
 #[cfg(test)]

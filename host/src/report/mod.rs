@@ -41,9 +41,12 @@ impl RunFacts {
     }
 }
 
+/// The table of a complete run (`mbs calibrate` refuses its directory).
+pub const TRANSPORT: &str = "transport.csv";
+
 /// The files every complete run writes in its directory.
 pub const RUN_FILES: [&str; 10] = [
-    "transport.csv",
+    TRANSPORT,
     "transport.png",
     "transport.svg",
     "timeseries.csv",
@@ -82,7 +85,7 @@ pub fn write_run(
     facts: &RunFacts,
 ) -> Result<String, HostError> {
     let results = &outcome.results;
-    transport::write_transport(&dir.join("transport.csv"), config, rows)?;
+    transport::write_transport(&dir.join(TRANSPORT), config, rows)?;
     save(&transport::transport_figure(config, rows), dir, "transport")?;
     timeseries::write_timeseries(&dir.join("timeseries.csv"), config, results)?;
     save(

@@ -202,6 +202,18 @@ fn rayon_num_threads_is_checked_as_threads_is() {
         .stderr(contains(
             "RAYON_NUM_THREADS = 2000: must be 0 (one per core) to 1024",
         ));
+    crate::common::mbs()
+        .env("RAYON_RS_NUM_CPUS", "5000")
+        .arg("config")
+        .assert()
+        .code(2)
+        .stderr(contains("RAYON_RS_NUM_CPUS = 5000"));
+    // Read as rayon reads it: " 2000" is no number, ignored.
+    crate::common::mbs()
+        .env("RAYON_NUM_THREADS", " 2000")
+        .arg("config")
+        .assert()
+        .success();
     // --threads given: the environment is not read.
     crate::common::mbs()
         .env("RAYON_NUM_THREADS", "2000")
@@ -347,13 +359,15 @@ fn run_and_calibrate_keep_to_directories_of_their_own() {
     let out = dir.path().join("out");
     run_into(&cfg, &out).assert().success();
     let summary = std::fs::read(out.join("summary.json")).unwrap();
+    let log = std::fs::read(out.join("mbs.log")).unwrap();
     crate::common::mbs()
         .args(["calibrate", "--quick", "--out"])
         .arg(&out)
         .assert()
         .code(2)
-        .stderr(contains("holds the results of `mbs run` (config.toml)"));
+        .stderr(contains("holds the results of `mbs run` (transport.csv)"));
     assert_eq!(std::fs::read(out.join("summary.json")).unwrap(), summary);
+    assert_eq!(std::fs::read(out.join("mbs.log")).unwrap(), log);
     let calibration = dir.path().join("calibration");
     std::fs::create_dir(&calibration).unwrap();
     std::fs::write(calibration.join("plan.json"), "{}").unwrap();
