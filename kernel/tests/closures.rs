@@ -359,28 +359,15 @@ fn applied_fluctuation<R: Real, const K: usize>() {
         f.spec.hold_steps = IntegrationSteps(50);
         sim.set_flow(Some(&f)).unwrap();
         let mut checked = 0;
+        let column = |sim: &Sim<R, 256, K, 128>| sim.fluid_column().unwrap().velocities().to_vec();
         for _ in 0..400 {
-            let redraws = sim.events().turbulence_redraws;
-            let column: Vec<f64> = sim
-                .fluid_column()
-                .unwrap()
-                .velocities()
-                .iter()
-                .map(|u| u.to_f64())
-                .collect();
+            let (redraws, before_column) = (sim.events().turbulence_redraws, column(&sim));
             let before: Vec<GrainSpec> = (0..across).map(|i| sim.grain(i).unwrap()).collect();
             let held: Vec<(f64, f64)> = (0..across).map(|i| sim.fluctuation(i).unwrap()).collect();
             sim.step().unwrap();
-            let same_column = sim
-                .fluid_column()
-                .unwrap()
-                .velocities()
-                .iter()
-                .zip(&column)
-                .all(|(u, v)| u.to_f64() == *v);
             // Steps that neither redraw nor update the column: the draws
             // and u_f read before the step are the ones it used.
-            if sim.events().turbulence_redraws != redraws || !same_column {
+            if sim.events().turbulence_redraws != redraws || column(&sim) != before_column {
                 continue;
             }
             let fluid = sim.fluid_column().unwrap();

@@ -27,6 +27,24 @@ seeds = [1]
 capacity = 256
 "#;
 
+/// TINY_MIXED written in `dir` and run into `dir/out`: the configuration
+/// and the output directory.
+fn tiny_run(dir: &std::path::Path) -> (std::path::PathBuf, std::path::PathBuf) {
+    let cfg = write(dir, "tiny.toml", TINY_MIXED);
+    let out = dir.join("out");
+    run_into(&cfg, &out).assert().success();
+    (cfg, out)
+}
+
+/// The settled bed's file of the run in `out` (one seed: one bed).
+fn settled_bed(out: &std::path::Path) -> std::path::PathBuf {
+    std::fs::read_dir(out.join("beds"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .find(|p| p.extension().is_some_and(|e| e == "bed"))
+        .unwrap()
+}
+
 /// Rewrites the result of the only line of the cell store in `dir` by
 /// `edit` and signs it again (CRC-32 of key, a zero byte and the value's
 /// compact JSON), as someone who read `store.rs` could.
@@ -52,9 +70,7 @@ fn resign(dir: &std::path::Path, edit: impl Fn(&mut serde_json::Value)) {
 #[test]
 fn stored_results_that_do_not_fit_their_cell_are_computed_again() {
     let dir = tempfile::tempdir().unwrap();
-    let cfg = write(dir.path(), "tiny.toml", TINY_MIXED);
-    let out = dir.path().join("out");
-    run_into(&cfg, &out).assert().success();
+    let (cfg, out) = tiny_run(dir.path());
     let table = std::fs::read(out.join("transport.csv")).unwrap();
     let profiles = std::fs::read(out.join("profiles.csv")).unwrap();
     type Edit = fn(&mut serde_json::Value);
@@ -117,14 +133,8 @@ fn stored_results_that_do_not_fit_their_cell_are_computed_again() {
 #[test]
 fn a_fifo_where_mbs_keeps_its_own_file_is_refused_not_waited_on() {
     let dir = tempfile::tempdir().unwrap();
-    let cfg = write(dir.path(), "tiny.toml", TINY_MIXED);
-    let good = dir.path().join("good");
-    run_into(&cfg, &good).assert().success();
-    let bed = std::fs::read_dir(good.join("beds"))
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .find(|p| p.extension().is_some_and(|e| e == "bed"))
-        .unwrap();
+    let (cfg, good) = tiny_run(dir.path());
+    let bed = settled_bed(&good);
     let bed = format!("beds/{}", bed.file_name().unwrap().to_string_lossy());
     for own in [
         "cells.jsonl",
@@ -158,9 +168,7 @@ fn a_fifo_where_mbs_keeps_its_own_file_is_refused_not_waited_on() {
 #[test]
 fn values_the_bed_cannot_take_are_refused_before_anything_is_written() {
     let dir = tempfile::tempdir().unwrap();
-    let cfg = write(dir.path(), "tiny.toml", TINY_MIXED);
-    let out = dir.path().join("out");
-    run_into(&cfg, &out).assert().success();
+    let (cfg, out) = tiny_run(dir.path());
     let echoed = std::fs::read(out.join("config.toml")).unwrap();
     let refused = |sets: &[&str], message: &str| {
         let mut run = run_into(&cfg, &out);
@@ -279,15 +287,9 @@ fn set_errors_at_a_section_name_the_set() {
 fn a_settled_bed_that_its_configuration_does_not_build_is_refused() {
     use mbs::work::beds::BedState;
     let dir = tempfile::tempdir().unwrap();
-    let cfg = write(dir.path(), "tiny.toml", TINY_MIXED);
-    let out = dir.path().join("out");
-    run_into(&cfg, &out).assert().success();
+    let (cfg, out) = tiny_run(dir.path());
     let table = std::fs::read(out.join("transport.csv")).unwrap();
-    let path = std::fs::read_dir(out.join("beds"))
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .find(|p| p.extension().is_some_and(|e| e == "bed"))
-        .unwrap();
+    let path = settled_bed(&out);
     let key = u64::from_str_radix(path.file_stem().unwrap().to_str().unwrap(), 16).unwrap();
     let genuine = std::fs::read(&path).unwrap();
     type Craft = fn(&mut BedState);
@@ -355,9 +357,7 @@ fn a_bench_bed_that_is_not_the_bed_is_prepared_again() {
 #[test]
 fn run_and_calibrate_keep_to_directories_of_their_own() {
     let dir = tempfile::tempdir().unwrap();
-    let cfg = write(dir.path(), "tiny.toml", TINY_MIXED);
-    let out = dir.path().join("out");
-    run_into(&cfg, &out).assert().success();
+    let (cfg, out) = tiny_run(dir.path());
     let summary = std::fs::read(out.join("summary.json")).unwrap();
     let log = std::fs::read(out.join("mbs.log")).unwrap();
     crate::common::mbs()
