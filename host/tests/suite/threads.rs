@@ -135,6 +135,35 @@ fn any_cut_gives_the_same_bits() {
     cut::<f32>(11);
 }
 
+/// Cuts the phases into ranges whose number changes from call to call
+/// (2, 3, 2, 7, 1, …): the pair phase meets the same cut on two passes in
+/// a row, and again after other cuts, whether a step has two phases or
+/// three.
+struct CuttingAnew(std::cell::Cell<usize>);
+
+impl Executor for CuttingAnew {
+    fn execute<P: Phase>(&self, phase: P) -> P::Output {
+        let k = self.0.get();
+        self.0.set(k + 1);
+        mbs_kernel::Ranges([2, 3, 2, 7, 1][k % 5]).execute(phase)
+    }
+}
+
+/// A range of the pair phase in lanes keeps the flags of the grains it
+/// sums only if it ran the last pass: cuts that change between steps and
+/// come back give the bits of one core (they do not if it keeps them
+/// after another cut, tried).
+#[test]
+fn cuts_that_change_between_steps_give_the_same_bits() {
+    for coupled in [false, true] {
+        let (a, b, _) = run::<f64, N>(coupled, &mut |s| s.step());
+        let mut phases = boxed_phases::<f64, N, NEIGHBOURS>();
+        let exec = CuttingAnew(std::cell::Cell::new(0));
+        let got = run::<f64, N>(coupled, &mut |s| s.step_phased(&mut phases, &exec));
+        assert_eq!((got.0, got.1), (a, b), "coupled {coupled}");
+    }
+}
+
 #[test]
 fn a_restart_and_a_shared_buffer_keep_the_bits() {
     let sc = scenario(false);

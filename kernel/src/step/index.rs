@@ -143,7 +143,19 @@ pub(crate) struct List<R: Real, const N: usize> {
     /// others' separations are within half the width and skip it.
     pub(crate) seam: [bool; N],
     _pad15: Pad,
+    /// Which indexing wrote these pairs: a number no other
+    /// [`PairIndex::index`] in the process draws ([`STAMPS`]), copied only
+    /// with the pairs (`Clone`); 0 before the first. What the phased step
+    /// in lanes builds from the pairs is keyed by it
+    /// ([`crate::step::phased::Phases`]), so that it is never read
+    /// against other pairs.
+    #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+    pub(crate) stamp: u64,
 }
+
+/// The stamps of [`List::stamp`]: one draw per [`PairIndex::index`].
+#[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+static STAMPS: core::sync::atomic::AtomicU64 = core::sync::atomic::AtomicU64::new(0);
 
 impl<R: Real, const N: usize> List<R, N> {
     /// Empty (all-zero bits).
@@ -163,6 +175,8 @@ impl<R: Real, const N: usize> List<R, N> {
             _pad12: PAD,
             seam: [false; N],
             _pad15: PAD,
+            #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+            stamp: 0,
         }
     }
 }
@@ -216,6 +230,13 @@ impl<R: Real, const N: usize, const K: usize> PairIndex<R, N, K> {
         let (count, other, spring) = (&nbrs.count, &nbrs.other, &nbrs.spring);
         let n = g.len.min(N);
         self.ready = false;
+        // A new stamp before any pair changes (an RMW of one atomic: no
+        // two draws alike; 2^64 of them would wrap).
+        #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+        {
+            use core::sync::atomic::Ordering;
+            self.list.stamp = STAMPS.fetch_add(1, Ordering::Relaxed).wrapping_add(1);
+        }
         let lanes = lanes::<R>();
         if !lanes_fit(N, K, lanes) {
             return;

@@ -97,9 +97,9 @@ pub struct Phases<R: Real, const N: usize, const K: usize> {
     /// The neighbour lists `incoming` was built from: their generation
     /// plus one (0: never built), the simulation's address, the lists'
     /// cut-off (its bits: it depends on the grains' speeds at the rebuild),
-    /// the grains, and whether it lists pair places of the pair index
-    /// (the phased step in lanes) or slots; all must match for the lists to
-    /// be reused.
+    /// the grains, and the stamp of the pair index whose places it lists
+    /// (the phased step in lanes; 0: it lists slots); all must match for
+    /// the lists to be reused.
     built: Built,
     /// Per place of the pair index, its pair's row (f_x, f_y, −r_i f_s,
     /// −r_j f_s): the phased step in lanes (`step::batch::phases`).
@@ -117,13 +117,28 @@ pub struct Phases<R: Real, const N: usize, const K: usize> {
     /// one range), else 0 (the move phase gathers their rows).
     #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
     done: [u8; N],
+    /// The pair phase's passes in lanes ([`Phases::index_pairs`]), plus
+    /// one more at each new list: a range that ran the last pass may keep
+    /// its `done` flags.
+    #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+    pass: u64,
+    /// Per range of the pair phase in lanes, at its first chunk, what it
+    /// last flagged ([`MARK`] words per chunk: `step::batch::phases`).
+    #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+    marks: [u32; N],
 }
 
+/// Words of [`Phases::marks`] per chunk of the pair pass: a chunk holds at
+/// least PAIRS · 8 pairs and the pair places N · PAIRS, so N words hold
+/// every chunk's.
+#[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+pub(crate) const MARK: usize = 8;
+
 /// What [`Phases::incoming`] was built from ([`Phases::built`]).
-type Built = (u64, usize, u64, usize, bool);
+type Built = (u64, usize, u64, usize, u64);
 
 /// Never built.
-const NEVER: Built = (0, 0, 0, 0, false);
+const NEVER: Built = (0, 0, 0, 0, 0);
 
 impl<R: Real, const N: usize, const K: usize> Phases<R, N, K> {
     /// Empty buffers (all-zero bits).
@@ -144,6 +159,10 @@ impl<R: Real, const N: usize, const K: usize> Phases<R, N, K> {
             chunk_span: [[0; 4]; N],
             #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
             done: [0; N],
+            #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+            pass: 0,
+            #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+            marks: [0; N],
         }
     }
 
@@ -171,7 +190,7 @@ impl<R: Real, const N: usize, const K: usize> Phases<R, N, K> {
                 .enumerate()
                 .map(move |(k, &j)| ((i * K + k) as u32, j))
         });
-        self.build(key(nb, n, owner, false), n, pairs).map(|_| ())
+        self.build(key(nb, n, owner, 0), n, pairs).map(|_| ())
     }
 
     /// As [`Phases::index`], the pairs that name each grain as pair
@@ -197,7 +216,12 @@ impl<R: Real, const N: usize, const K: usize> Phases<R, N, K> {
         });
         let places = places.min(pair_i.len());
         let pairs = (0..places).filter(listed).map(|q| (q as u32, pair_j[q]));
-        if self.build(key(nb, n, owner, true), n, pairs)? {
+        let stamp = parts.listed.list.stamp;
+        // This call's pass: the last one's plus one, plus one more with
+        // new lists (no range's flags then carry over).
+        self.pass = self.pass.wrapping_add(1);
+        if self.build(key(nb, n, owner, stamp.max(1)), n, pairs)? {
+            self.pass = self.pass.wrapping_add(1);
             // Whole groups of lanes (grains past n: none).
             let groups = n.next_multiple_of(8).min(N);
             self.span[..groups].fill([u32::MAX, 0]);
@@ -235,6 +259,8 @@ impl<R: Real, const N: usize, const K: usize> Phases<R, N, K> {
             span: &self.span,
             chunk_span: &self.chunk_span,
             done: &mut self.done,
+            pass: self.pass,
+            marks: &mut self.marks,
         })
     }
 
@@ -283,28 +309,30 @@ impl<R: Real, const N: usize, const K: usize> Phases<R, N, K> {
     }
 }
 
-/// The lists `nb` of the simulation at `owner` for `n` grains, as pair
-/// places (`lanes`) or slots: the key of [`Phases::built`]. N·K fits u32
+/// The lists `nb` of the simulation at `owner` for `n` grains, as the
+/// pair places of the pair index stamped `stamp` or (0) as slots: the key
+/// of [`Phases::built`]. N·K fits u32
 /// wherever the key is used ([`Phases::build`] checks it first).
 fn key<R: Real, const N: usize, const K: usize>(
     nb: &Neighbours<R, N, K>,
     n: usize,
     owner: usize,
-    lanes: bool,
+    stamp: u64,
 ) -> Built {
     (
         nb.generation.wrapping_add(1).max(1),
         owner,
         nb.cutoff.to_f64().to_bits(),
         n,
-        lanes,
+        stamp,
     )
 }
 
 /// What the phased step in lanes reads and writes of a [`Phases`]
 /// ([`Phases::index_pairs`]): the rows, the incoming lists with each
 /// grain's first and one-past-last entry, each grain's span of pair
-/// places, and the flags of the grains the pair phase summed.
+/// places, and the flags of the grains the pair phase summed, with this
+/// pass and what each range last flagged.
 #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
 pub(crate) struct LaneLists<'a, R: Real, const N: usize> {
     pub(crate) rows: &'a mut [[R; 4]],
@@ -314,6 +342,8 @@ pub(crate) struct LaneLists<'a, R: Real, const N: usize> {
     pub(crate) span: &'a [[u32; 2]; N],
     pub(crate) chunk_span: &'a [ChunkSpan; N],
     pub(crate) done: &'a mut [u8; N],
+    pub(crate) pass: u64,
+    pub(crate) marks: &'a mut [u32; N],
 }
 
 /// Of a chunk of the pair pass's pairs: the first and one-past-last pair
@@ -617,5 +647,56 @@ impl<R: Real, const K: usize> Phase for MovePhase<'_, R, K> {
 
     fn merge(first: Moved<R>, second: Moved<R>) -> Moved<R> {
         merge_moved(first, second)
+    }
+}
+
+#[cfg(all(test, target_arch = "x86_64", target_feature = "avx2"))]
+mod tests {
+    use crate::step::index::{lanes, CHUNK};
+    use crate::{BedSpec, Phases, Ranges, Scenario, Sim};
+    use std::boxed::Box;
+
+    /// What the pair phase's copy without tests relies on to address the
+    /// sums by grain number unchecked (`out.within`): after every phased
+    /// step of a flowing bed (its lists rebuilt), the lists are keyed by
+    /// the pair index's stamp, and each chunk's lowest and highest grain
+    /// are those of its pairs; a re-indexing draws a new stamp, a clone
+    /// keeps its pairs' stamp.
+    #[test]
+    fn chunk_spans_hold_their_pairs_grains_under_the_stamp() {
+        let paper = Scenario::paper();
+        let bed = BedSpec {
+            columns: 30,
+            rows: 12,
+            ..paper.bed.clone()
+        };
+        let scenario = Scenario { bed, ..paper };
+        let mut sim = Box::new(Sim::<f64, 512, 8>::new());
+        scenario.build(&mut sim).unwrap();
+        sim.set_flow(Some(&scenario.flow(1.0))).unwrap();
+        let mut phases = Box::new(Phases::<f64, 512, 8>::new());
+        let per_chunk = CHUNK * lanes::<f64>();
+        let mut stamps = std::vec::Vec::new();
+        for _ in 0..400 {
+            sim.step_phased(&mut phases, &Ranges(3)).unwrap();
+            let (list, places) = (&sim.index.list, sim.index.pairs);
+            assert_eq!(phases.built.4, list.stamp);
+            if stamps.last() != Some(&list.stamp) {
+                stamps.push(list.stamp);
+            }
+            let firsts = list.pair_i.as_flattened()[..places].chunks(per_chunk);
+            let seconds = list.pair_j.as_flattened()[..places].chunks(per_chunk);
+            for (c, (i, j)) in firsts.zip(seconds).enumerate() {
+                let grains = || i.iter().chain(j);
+                let (low, high) = (grains().min(), grains().max());
+                let span = phases.chunk_span[c];
+                assert_eq!((Some(&span[2]), Some(&span[3])), (low, high), "chunk {c}");
+            }
+        }
+        assert!(sim.nbrs.rebuilds >= 3, "{} rebuilds", sim.nbrs.rebuilds);
+        assert_eq!(stamps.len() as u64, sim.nbrs.rebuilds, "{stamps:?}");
+        assert!(stamps.windows(2).all(|w| w[0] < w[1]), "{stamps:?}");
+        let copy = sim.clone();
+        assert_eq!(copy.index.list.stamp, sim.index.list.stamp);
     }
 }

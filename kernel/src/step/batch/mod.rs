@@ -227,6 +227,7 @@ macro_rules! lanes {
                         sums: &mut *parts.sums,
                         done: &[],
                         rows: &mut [],
+                        within: false,
                     };
                     let counts = pair_range_for!(pairs::<N, pairs::EVERY>(
                         p.count_events,
@@ -278,6 +279,8 @@ macro_rules! lanes {
                     g0: 0,
                     sums: &mut parts.sums[..moved],
                     done: &mut lists.done[..moved],
+                    pass: lists.pass,
+                    marks: &mut *lists.marks,
                     count: p.count_events,
                     no_tension: p.law.tension == Tension::None,
                 };

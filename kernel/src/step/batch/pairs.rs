@@ -48,6 +48,11 @@ macro_rules! pairs {
                 pub(crate) sums: &'a mut [[R; 4]],
                 pub(crate) done: &'a [u8],
                 pub(crate) rows: &'a mut [[R; 4]],
+                /// For [`EVERY_IN_PHASE`]: the caller found every pair's
+                /// grains in the sums (the chunks' spans, built from this
+                /// very pair list); else `pair_range` checks them
+                /// (`grains_within`).
+                pub(crate) within: bool,
             }
 
             /// [`pair_range`] sums every pair's grains: the batched pass.
@@ -194,7 +199,10 @@ macro_rules! pairs {
                 let batches = r.listed.pairs.min(cap) / L;
                 let range =
                     (r.chunks.start * CHUNK).min(batches)..(r.chunks.end * CHUNK).min(batches);
-                if in_phase && !grains_within(b, range.start * L..range.end * L, g0, sums.len()) {
+                if in_phase
+                    && !out.within
+                    && !grains_within(b, range.start * L..range.end * L, g0, sums.len())
+                {
                     return None;
                 }
                 // Grain g's sums at `by_grain + g` (an address computed
@@ -343,8 +351,9 @@ macro_rules! pairs {
                         for (l, row) in rows.into_iter().enumerate() {
                             if in_phase {
                                 let (i, j) = (index(&b.pair_i, q + l), index(&b.pair_j, q + l));
-                                // SAFETY: `grains_within` found both grains
-                                // of every pair of the range in
+                                // SAFETY: `grains_within` or the caller
+                                // (`out.within`) found both grains of every
+                                // pair of the range in
                                 // g0..g0 + sums.len(), so grains i, j and
                                 // last.0 (an earlier pair's i) lie in `sums`,
                                 // which this copy reads and writes only
@@ -497,6 +506,7 @@ macro_rules! pairs {
                             sums,
                             done: &[],
                             rows: &mut [],
+                            within: false,
                         };
                         // SAFETY: this module is compiled only with AVX2
                         // enabled for the whole build.

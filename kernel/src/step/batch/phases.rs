@@ -10,12 +10,16 @@
 //!    range, and whose first pair (or place in the list) too, is *summed
 //!    here*: its rows go to its sums in pair order, as in the batched pass
 //!    (i's sums held in a register from one of its pairs to the next), and
-//!    it is marked done. A pair with a grain not summed here stores its row
+//!    it is marked done (the marks are found again only if the range or
+//!    the lists differ from the last pass's: a range that ran the last
+//!    pass alone marked its grains since). A pair with a grain not summed here stores its row
 //!    (f_x, f_y, −r_i f_s, −r_j f_s) at its place in
 //!    [`Phases`](crate::step::phased::Phases). Each pair's history stays at
 //!    its place. Only the grains near a cut are not summed here. A run of
 //!    chunks whose grains this range all sums (their `ChunkSpan`s, found
-//!    with the lists) runs the batched pass's code, without those tests.
+//!    with the lists) runs the batched pass's code, without those tests
+//!    and without checking its grains again (the spans were built from
+//!    this very pair list: its stamp keys them).
 //! 2. **Moves** (`MoveLanes`): over a range of whole groups of lanes'
 //!    worth of grains, each grain not done gathers its rows in pair order
 //!    — the pairs that name it as second grain (their rows as its own:
@@ -47,7 +51,7 @@ macro_rules! phases {
             use crate::step::batch::params::{Moving, PairRange};
             use crate::step::index::{Listed, CHUNK};
             use crate::step::mover::Mover;
-            use crate::step::phased::{holds, merge_moved, ChunkSpan, ClearDrag, Moved};
+            use crate::step::phased::{holds, merge_moved, ChunkSpan, ClearDrag, Moved, MARK};
             use crate::step::scalar::Counts;
 
             /// Pairs per chunk.
@@ -103,6 +107,11 @@ macro_rules! phases {
                 pub(crate) g0: usize,
                 pub(crate) sums: &'a mut [[R; 4]],
                 pub(crate) done: &'a mut [u8],
+                /// This pass ([`Phases::index_pairs`](crate::Phases)) and
+                /// the range's chunks' words of what each range last
+                /// flagged, [`MARK`] per chunk (`record`).
+                pub(crate) pass: u64,
+                pub(crate) marks: &'a mut [u32],
                 /// Count the events; the law (8') (no tension).
                 pub(crate) count: bool,
                 pub(crate) no_tension: bool,
@@ -155,11 +164,13 @@ macro_rules! phases {
                     let (e_n, e_n1) = r.e_n.split_at_mut(at.min(r.e_n.len()));
                     let (e_s, e_s1) = r.e_s.split_at_mut(at.min(r.e_s.len()));
                     let (rows, rows1) = self.rows.split_at_mut(at.min(self.rows.len()));
+                    let words = (c - c0).saturating_mul(MARK).min(self.marks.len());
+                    let (marks, marks1) = self.marks.split_at_mut(words);
                     let (sums, sums1) = self.sums.split_at_mut(home - self.g0);
                     let (done, done1) = self
                         .done
                         .split_at_mut((home - self.g0).min(self.done.len()));
-                    let part = |chunks, e_n, e_s, rows, g0, sums, done| PairLanes {
+                    let part = |chunks, e_n, e_s, rows, g0, sums, done, marks| PairLanes {
                         range: PairRange {
                             chunks,
                             e_n,
@@ -170,11 +181,12 @@ macro_rules! phases {
                         g0,
                         sums,
                         done,
+                        marks,
                         ..self
                     };
                     (
-                        part(c0..c, e_n, e_s, rows, self.g0, sums, done),
-                        part(c..c1, e_n1, e_s1, rows1, home, sums1, done1),
+                        part(c0..c, e_n, e_s, rows, self.g0, sums, done, marks),
+                        part(c..c1, e_n1, e_s1, rows1, home, sums1, done1, marks1),
                     )
                 }
 
@@ -196,12 +208,26 @@ macro_rules! phases {
                 let first = p.range.chunks.start * PER_CHUNK;
                 let end = (p.range.chunks.end.saturating_mul(PER_CHUNK)).min(p.range.listed.pairs);
                 let (q0, q1) = (first as u32, end as u32);
-                // The range's grains whose pairs all lie in it.
-                let spans = p.span.get(p.g0..).unwrap_or(&[]);
-                for (done, span) in p.done.iter_mut().zip(spans) {
-                    *done = u8::from(holds([q0, q1], *span));
-                }
                 let (c0, c1) = (p.range.chunks.start, p.range.chunks.end);
+                // The range's grains whose pairs all lie in it: flagged
+                // again unless this range ran the last pass (then it alone
+                // flagged its grains since, from the same lists).
+                let (g0, held) = (p.g0, p.done.len());
+                let flagged = |pass| record(pass, c1, g0, held);
+                let last = p.pass.wrapping_sub(1);
+                let kept = match (p.marks.first_chunk::<WORDS>(), flagged(last)) {
+                    (Some(words), Some(then)) => *words == then,
+                    _ => false,
+                };
+                if !kept {
+                    let spans = p.span.get(p.g0..).unwrap_or(&[]);
+                    for (done, span) in p.done.iter_mut().zip(spans) {
+                        *done = u8::from(holds([q0, q1], *span));
+                    }
+                }
+                if let (Some(words), Some(now)) = (p.marks.first_chunk_mut(), flagged(p.pass)) {
+                    *words = now;
+                }
                 // Whether the range sums every grain of chunk `c` (its
                 // pairs' places and its grains all in the range).
                 let grains = p.g0..p.g0 + p.sums.len().min(p.done.len());
@@ -228,11 +254,15 @@ macro_rules! phases {
                         e_s: part(p.range.e_s, from, to),
                         ..p.range
                     };
+                    // An untested run's chunks hold only grains of the
+                    // range's sums (`sums_all`: their spans, built from
+                    // this very pair list, `Phases::index_pairs`).
                     let out = &mut Out {
                         g0: p.g0,
                         sums: &mut *p.sums,
                         done: &*p.done,
                         rows: part(p.rows, from, to),
+                        within: !tested,
                     };
                     use pairs::{EVERY_IN_PHASE as ALL, MARKED};
                     let (count, no_tension) = (p.count, p.no_tension);
@@ -252,6 +282,20 @@ macro_rules! phases {
                     c = end;
                 }
                 counts
+            }
+
+            /// Words of a range's record in [`PairLanes::marks`].
+            const WORDS: usize = 5;
+            const _: () = assert!(WORDS <= MARK);
+
+            /// What a range of the pair phase flagged in pass `pass`: the
+            /// pass, its last chunk (one past) and its grains (first,
+            /// count); its first chunk is where the record lies. `None` if
+            /// a number does not fit (then it flags again every pass).
+            fn record(pass: u64, c1: usize, g0: usize, len: usize) -> Option<[u32; WORDS]> {
+                let word = |v: usize| u32::try_from(v).ok();
+                let (lo, hi) = (pass as u32, (pass >> 32) as u32);
+                Some([lo, hi, word(c1)?, word(g0)?, word(len)?])
             }
 
             /// The places `from..to` of `a` (clamped to it).
