@@ -36,7 +36,7 @@
 //! (`lanes`: [`crate::lanes::f64x4`], [`crate::lanes::f32x8`]); `lanes!` writes the step
 //! in each precision's lanes.
 //!
-//! `unsafe` in the batched step: nine blocks, audited. Two in `lanes`
+//! `unsafe` in the batched step: ten blocks and one `unsafe fn`, audited. Two in `lanes`
 //! (`read` and `write`: a vector from and to an array of exactly its
 //! size), two here, in `lanes!` (the entry points' calls of the passes,
 //! `#[target_feature(enable = "avx2")]` functions), and three in `phases`
@@ -44,8 +44,12 @@
 //! module is compiled only where the whole build enables AVX2. Two in
 //! `pairs`, in the pair phase's copy for chunks whose grains its range
 //! all sums: a grain's sums addressed by its number from the range's
-//! first grain, sound because the copy first checks that every pair's
-//! grains lie in the range (`grains_within`; else the tested copy runs).
+//! first grain, sound because every pair's grains lie in the range: the
+//! pair phase vouches for a run whose chunks' spans say so (the `unsafe
+//! fn` `Out::vouched`, called in `phases`' fourth block: the spans are
+//! built from the very pair list the phase reads, keyed by the stamp its
+//! indexing drew), and the copy checks any other run itself
+//! (`grains_within`; else the tested copy runs).
 
 mod drag;
 mod grains;
@@ -222,13 +226,7 @@ macro_rules! lanes {
                     // One copy of the pair pass per (counting, tension
                     // rule): the paper's rule keeps its instructions.
                     let no_tension = p.law.tension == Tension::None;
-                    let out = &mut Out {
-                        g0: 0,
-                        sums: &mut *parts.sums,
-                        done: &[],
-                        rows: &mut [],
-                        within: false,
-                    };
+                    let out = &mut Out::new(0, &mut *parts.sums, &[], &mut []);
                     let counts = pair_range_for!(pairs::<N, pairs::EVERY>(
                         p.count_events,
                         no_tension,

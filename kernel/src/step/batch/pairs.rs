@@ -48,11 +48,46 @@ macro_rules! pairs {
                 pub(crate) sums: &'a mut [[R; 4]],
                 pub(crate) done: &'a [u8],
                 pub(crate) rows: &'a mut [[R; 4]],
-                /// For [`EVERY_IN_PHASE`]: the caller found every pair's
-                /// grains in the sums (the chunks' spans, built from this
-                /// very pair list); else `pair_range` checks them
-                /// (`grains_within`).
-                pub(crate) within: bool,
+                /// For [`EVERY_IN_PHASE`]: the caller vouched that every
+                /// pair's grains lie in the sums ([`Out::vouched`]); else
+                /// `pair_range` checks them (`grains_within`).
+                within: bool,
+            }
+
+            impl<'a> Out<'a> {
+                /// Rows to the sums of the grains from `g0`, the flags
+                /// `done` and the places `rows` (module docs of `pair_range`).
+                pub(crate) fn new(
+                    g0: usize,
+                    sums: &'a mut [[R; 4]],
+                    done: &'a [u8],
+                    rows: &'a mut [[R; 4]],
+                ) -> Self {
+                    Out {
+                        g0,
+                        sums,
+                        done,
+                        rows,
+                        within: false,
+                    }
+                }
+
+                /// The same, for a run whose pairs the caller has vouched
+                /// for: [`EVERY_IN_PHASE`] then addresses their grains'
+                /// sums unchecked, without a pass over their grain numbers.
+                ///
+                /// # Safety
+                ///
+                /// Both grains of every pair of the run that `pair_range`
+                /// is given, as it reads them (masked below N), lie in
+                /// `g0..g0 + sums.len()`.
+                #[allow(unsafe_code)]
+                pub(crate) unsafe fn vouched(self) -> Self {
+                    Out {
+                        within: true,
+                        ..self
+                    }
+                }
             }
 
             /// [`pair_range`] sums every pair's grains: the batched pass.
@@ -115,7 +150,9 @@ macro_rules! pairs {
             ///
             /// The counts of events; `None` (nothing read or written) only
             /// from [`EVERY_IN_PHASE`], if a pair names a grain outside
-            /// `out.sums` (`grains_within`): then run [`MARKED`].
+            /// `out.sums` (`grains_within`, unless the caller vouched for
+            /// them, [`Out::vouched`]) or the sums do not fit N: then run
+            /// [`MARKED`].
             #[allow(unsafe_code)]
             #[target_feature(enable = "avx2")]
             pub(crate) fn pair_range<
@@ -199,11 +236,17 @@ macro_rules! pairs {
                 let batches = r.listed.pairs.min(cap) / L;
                 let range =
                     (r.chunks.start * CHUNK).min(batches)..(r.chunks.end * CHUNK).min(batches);
-                if in_phase
-                    && !out.within
-                    && !grains_within(b, range.start * L..range.end * L, g0, sums.len())
-                {
-                    return None;
+                let pairs = range.start * L..range.end * L;
+                if in_phase {
+                    let found = if out.within {
+                        debug_assert!(grains_within(b, pairs.clone(), g0, sums.len()));
+                        sums_fit::<N>(g0, sums.len())
+                    } else {
+                        grains_within(b, pairs, g0, sums.len())
+                    };
+                    if !found {
+                        return None;
+                    }
                 }
                 // Grain g's sums at `by_grain + g` (an address computed
                 // with wrapping arithmetic, dereferenced only for grains in
@@ -351,9 +394,9 @@ macro_rules! pairs {
                         for (l, row) in rows.into_iter().enumerate() {
                             if in_phase {
                                 let (i, j) = (index(&b.pair_i, q + l), index(&b.pair_j, q + l));
-                                // SAFETY: `grains_within` or the caller
-                                // (`out.within`) found both grains of every
-                                // pair of the range in
+                                // SAFETY: `grains_within`, or the caller
+                                // (`Out::vouched`), found both grains of
+                                // every pair of the range in
                                 // g0..g0 + sums.len(), so grains i, j and
                                 // last.0 (an earlier pair's i) lie in `sums`,
                                 // which this copy reads and writes only
@@ -432,7 +475,7 @@ macro_rules! pairs {
                 g0: usize,
                 len: usize,
             ) -> bool {
-                if !N.is_power_of_two() || g0.checked_add(len).is_none_or(|end| end > N) {
+                if !sums_fit::<N>(g0, len) {
                     return false;
                 }
                 let (Ok(g0), Ok(len), Ok(mask)) =
@@ -452,6 +495,13 @@ macro_rules! pairs {
                     (Some(i), Some(j)) => len > 0 && reach(i) < len && reach(j) < len,
                     _ => false,
                 }
+            }
+
+            /// Whether the sums of the grains `g0..g0 + len` lie below N, a
+            /// power of two (so a grain number masked below N, as
+            /// `pair_range` reads it, is the number itself).
+            fn sums_fit<const N: usize>(g0: usize, len: usize) -> bool {
+                N.is_power_of_two() && len > 0 && g0.checked_add(len).is_some_and(|end| end <= N)
             }
 
             #[cfg(test)]
@@ -501,13 +551,7 @@ macro_rules! pairs {
                     };
                     let sums = parts.sums;
                     let run = |range: &mut PairRange<'_, R, N>, g0: usize, sums: &mut [[R; 4]]| {
-                        let out = &mut Out {
-                            g0,
-                            sums,
-                            done: &[],
-                            rows: &mut [],
-                            within: false,
-                        };
+                        let out = &mut Out::new(g0, sums, &[], &mut []);
                         // SAFETY: this module is compiled only with AVX2
                         // enabled for the whole build.
                         unsafe { pair_range::<N, false, false, EVERY_IN_PHASE>(range, out) }

@@ -12,14 +12,14 @@
 //!    (i's sums held in a register from one of its pairs to the next), and
 //!    it is marked done (the marks are found again only if the range or
 //!    the lists differ from the last pass's: a range that ran the last
-//!    pass alone marked its grains since). A pair with a grain not summed here stores its row
-//!    (f_x, f_y, −r_i f_s, −r_j f_s) at its place in
+//!    pass alone marked its grains since). A pair with a grain not summed
+//!    here stores its row (f_x, f_y, −r_i f_s, −r_j f_s) at its place in
 //!    [`Phases`](crate::step::phased::Phases). Each pair's history stays at
 //!    its place. Only the grains near a cut are not summed here. A run of
 //!    chunks whose grains this range all sums (their `ChunkSpan`s, found
 //!    with the lists) runs the batched pass's code, without those tests
-//!    and without checking its grains again (the spans were built from
-//!    this very pair list: its stamp keys them).
+//!    and without checking its grains again (it vouches for them: the
+//!    spans were built from this very pair list, whose stamp keys them).
 //! 2. **Moves** (`MoveLanes`): over a range of whole groups of lanes'
 //!    worth of grains, each grain not done gathers its rows in pair order
 //!    — the pairs that name it as second grain (their rows as its own:
@@ -203,6 +203,7 @@ macro_rules! phases {
             }
 
             /// Runs a [`PairLanes`] (module docs, phase 1).
+            #[allow(unsafe_code)]
             #[target_feature(enable = "avx2")]
             fn pair_rows<const N: usize>(p: &mut PairLanes<'_, N>) -> Counts {
                 let first = p.range.chunks.start * PER_CHUNK;
@@ -254,20 +255,25 @@ macro_rules! phases {
                         e_s: part(p.range.e_s, from, to),
                         ..p.range
                     };
-                    // An untested run's chunks hold only grains of the
-                    // range's sums (`sums_all`: their spans, built from
-                    // this very pair list, `Phases::index_pairs`).
-                    let out = &mut Out {
-                        g0: p.g0,
-                        sums: &mut *p.sums,
-                        done: &*p.done,
-                        rows: part(p.rows, from, to),
-                        within: !tested,
+                    let out = Out::new(p.g0, &mut *p.sums, &*p.done, part(p.rows, from, to));
+                    let out = &mut if tested {
+                        out
+                    } else {
+                        // SAFETY: `sums_all` found every chunk of the run
+                        // to hold only grains of `grains`, the range's sums:
+                        // its lowest and highest grain (its `ChunkSpan`)
+                        // are those of its places, padding included, in the
+                        // pair list this pass reads (`Phases::index_pairs`
+                        // builds the spans from that list, keyed by the
+                        // stamp its indexing drew, and `chunk_spans_*`
+                        // tests them); a ready index has N a power of two
+                        // (`lanes_fit`), so the masked numbers are these.
+                        unsafe { out.vouched() }
                     };
                     use pairs::{EVERY_IN_PHASE as ALL, MARKED};
                     let (count, no_tension) = (p.count, p.no_tension);
                     // The copy without tests refuses (None) a run whose
-                    // pairs name a grain outside the range's sums.
+                    // sums do not fit N (never, for a ready index).
                     let all = if tested {
                         None
                     } else {
