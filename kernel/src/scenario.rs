@@ -72,6 +72,19 @@ impl Scenario {
     /// The Shields number of the paper's flow phase (and of the golden digests).
     pub const PAPER_TAU_STAR: f64 = 0.2;
 
+    /// The paper's case on a bed of `columns` × `rows` (the kernel's unit
+    /// tests).
+    #[cfg(test)]
+    pub(crate) fn paper_bed(columns: u32, rows: u32) -> Self {
+        let paper = Self::paper();
+        let bed = BedSpec {
+            columns,
+            rows,
+            ..paper.bed.clone()
+        };
+        Scenario { bed, ..paper }
+    }
+
     /// The paper's case (docs/model.md §9): d = 0.5 mm, nld = 5, nvd = 10,
     /// spacing 1.05 d, Δt = 2.0e-5 s, α_m = 20, α_cn = 1.3, β = 15.8, the
     /// flow of [`FlowConfig::new`] with fluctuations held and the bed level

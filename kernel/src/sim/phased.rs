@@ -122,7 +122,7 @@ impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {
 
 #[cfg(test)]
 mod tests {
-    use crate::{BedSpec, Phases, Ranges, Real, Scenario, Sim};
+    use crate::{Phases, Ranges, Real, Scenario, Sim};
     use std::boxed::Box;
 
     /// A bed of 30 columns × 12 rows (372 grains) under flow, stepped
@@ -131,13 +131,7 @@ mod tests {
     /// step), in both precisions (f32: 8 lanes and chunks of 64 pairs;
     /// f64: 4 and 32).
     fn cuts_give_the_bits_of_the_whole<R: Real>() {
-        let paper = Scenario::paper();
-        let bed = BedSpec {
-            columns: 30,
-            rows: 12,
-            ..paper.bed.clone()
-        };
-        let scenario = Scenario { bed, ..paper };
+        let scenario = Scenario::paper_bed(30, 12);
         let mut whole = Box::new(Sim::<R, 512, 8>::new());
         scenario.build(&mut whole).unwrap();
         whole.set_flow(Some(&scenario.flow(0.3))).unwrap();

@@ -657,20 +657,14 @@ impl<R: Real, const K: usize> Phase for MovePhase<'_, R, K> {
 #[cfg(all(test, target_arch = "x86_64", target_feature = "avx2"))]
 mod tests {
     use crate::step::index::{lanes, CHUNK};
-    use crate::{BedSpec, Phases, Ranges, Scenario, Sim};
+    use crate::{Phases, Ranges, Scenario, Sim};
     use std::boxed::Box;
 
     type Bed = Sim<f64, 512, 8>;
 
     /// A flowing bed of 30 columns × 12 rows and the phased step's buffers.
     fn flowing() -> (Box<Bed>, Box<Phases<f64, 512, 8>>) {
-        let paper = Scenario::paper();
-        let bed = BedSpec {
-            columns: 30,
-            rows: 12,
-            ..paper.bed.clone()
-        };
-        let scenario = Scenario { bed, ..paper };
+        let scenario = Scenario::paper_bed(30, 12);
         let mut sim = Box::new(Bed::new());
         scenario.build(&mut sim).unwrap();
         sim.set_flow(Some(&scenario.flow(1.0))).unwrap();
