@@ -101,7 +101,7 @@
 //!    for it elsewhere), and `step::phased` (the **phased step**: the
 //!    scalar step's operations in two phases over ranges of grains, run by
 //!    the caller's [`Executor`] on one core or many, with [`Phases`], its
-//!    buffers). All paths give the same bits.
+//!    buffers, in `step::buffers`). All paths give the same bits.
 //! 5. **Sim** (`sim`): [`Sim`], its state and configuration ([`SimConfig`]),
 //!    adding grains, switching the flow, reading the state, and the
 //!    `impl Sim` blocks of its topics, one file each: `sim::step`
@@ -170,5 +170,5 @@ pub use observe::{q_star, transport_scale, Observation};
 pub use real::Real;
 pub use scenario::{Scenario, G};
 pub use sim::{ContactForce, RestWatch, Sim, SimConfig, CHECKPOINT_VERSION};
-pub use step::phased::Phases;
+pub use step::buffers::Phases;
 pub use steps::IntegrationSteps;

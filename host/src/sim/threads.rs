@@ -85,7 +85,7 @@ impl Executor for Threads {
 /// stack.
 pub fn boxed_phases<R: Real, const N: usize, const K: usize>() -> Box<Phases<R, N, K>> {
     let zeroed = Box::<Phases<R, N, K>>::new_zeroed();
-    // SAFETY: `Phases` documents (kernel/src/step/phased.rs) that all-zero
+    // SAFETY: `Phases` documents (kernel/src/step/buffers.rs) that all-zero
     // bits are a valid, empty value: every field is a number or an array
     // of numbers, and `Real` is sealed to f32 and f64.
     unsafe { zeroed.assume_init() }

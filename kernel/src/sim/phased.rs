@@ -10,7 +10,8 @@ use crate::real::Real;
 use crate::sim::Sim;
 #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
 use crate::step::batch;
-use crate::step::phased::{ClearDrag, MovePhase, PairPhase, Phases};
+use crate::step::buffers::Phases;
+use crate::step::phased::{ClearDrag, MovePhase, PairPhase};
 use crate::step::scalar;
 
 impl<R: Real, const N: usize, const K: usize, const C: usize> Sim<R, N, K, C> {

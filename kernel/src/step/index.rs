@@ -147,7 +147,7 @@ pub(crate) struct List<R: Real, const N: usize> {
     /// [`PairIndex::index`] in the process draws ([`STAMPS`]), copied only
     /// with the pairs (`Clone`); 0 before the first. What the phased step
     /// in lanes builds from the pairs is keyed by it
-    /// ([`crate::step::phased::Phases`]), so that it is never read
+    /// ([`crate::step::buffers::Phases`]), so that it is never read
     /// against other pairs.
     #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
     pub(crate) stamp: u64,

@@ -25,6 +25,7 @@
 
 #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
 pub(crate) mod batch;
+pub(crate) mod buffers;
 #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
 pub(crate) mod index;
 pub(crate) mod mover;

@@ -65,8 +65,8 @@ use crate::grains::Grains;
 use crate::neighbours::Neighbours;
 use crate::real::Real;
 pub(crate) use crate::step::batch::params::{Flow, Params};
+use crate::step::buffers::Phases;
 use crate::step::index::PairIndex;
-use crate::step::phased::Phases;
 use core::any::Any;
 
 /// Runs the batched step if the pair index is ready: the largest squared
@@ -190,8 +190,8 @@ macro_rules! lanes {
             use crate::neighbours::Neighbours;
             use crate::step::batch::pairs::pair_range_for;
             use crate::step::batch::params::{Moving, PairRange, Params};
+            use crate::step::buffers::Phases;
             use crate::step::index::PairIndex;
-            use crate::step::phased::Phases;
             use pairs::Out;
             use phases::{DragLanes, MoveLanes, PairLanes};
 

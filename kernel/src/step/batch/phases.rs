@@ -14,7 +14,7 @@
 //!    the lists differ from the last pass's: a range that ran the last
 //!    pass alone marked its grains since). A pair with a grain not summed
 //!    here stores its row (f_x, f_y, −r_i f_s, −r_j f_s) at its place in
-//!    [`Phases`](crate::step::phased::Phases). Each pair's history stays at
+//!    [`Phases`](crate::step::buffers::Phases). Each pair's history stays at
 //!    its place. Only the grains near a cut are not summed here. A run of
 //!    chunks whose grains this range all sums (their `ChunkSpan`s, found
 //!    with the lists) runs the batched pass's code, without those tests
@@ -49,9 +49,10 @@ macro_rules! phases {
             use crate::lanes::$lanes::*;
             use crate::step::batch::pairs::pair_range_for;
             use crate::step::batch::params::{Moving, PairRange};
+            use crate::step::buffers::{holds, ChunkSpan, MARK};
             use crate::step::index::{Listed, CHUNK};
             use crate::step::mover::Mover;
-            use crate::step::phased::{holds, merge_moved, ChunkSpan, ClearDrag, Moved, MARK};
+            use crate::step::phased::{merge_moved, ClearDrag, Moved};
             use crate::step::scalar::Counts;
 
             /// Pairs per chunk.
