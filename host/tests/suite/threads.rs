@@ -118,21 +118,23 @@ impl Executor for RandomCuts {
     }
 }
 
+/// The bits of one core from the phased step run by `exec`, in precision
+/// `R`, with clear water and the coupled flow.
+fn same_bits_as_one_core<R: Real>(exec: &impl Executor) {
+    for coupled in [false, true] {
+        let (a, b, _) = run::<R, N>(coupled, &mut |s| s.step());
+        let mut phases = boxed_phases::<R, N, NEIGHBOURS>();
+        let got = run::<R, N>(coupled, &mut |s| s.step_phased(&mut phases, exec));
+        assert_eq!((got.0, got.1), (a, b), "{}, coupled {coupled}", R::NAME);
+    }
+}
+
 /// Random cuts in both precisions (f32's lanes hold 8 grains and its
 /// chunks 64 pairs, f64's 4 and 32), clear water and the coupled flow.
 #[test]
 fn any_cut_gives_the_same_bits() {
-    fn cut<R: Real>(seed: u64) {
-        for coupled in [false, true] {
-            let (a, b, _) = run::<R, N>(coupled, &mut |s| s.step());
-            let mut phases = boxed_phases::<R, N, NEIGHBOURS>();
-            let exec = RandomCuts(std::cell::Cell::new(seed));
-            let got = run::<R, N>(coupled, &mut |s| s.step_phased(&mut phases, &exec));
-            assert_eq!((got.0, got.1), (a, b), "{}, coupled {coupled}", R::NAME);
-        }
-    }
-    cut::<f64>(7);
-    cut::<f32>(11);
+    same_bits_as_one_core::<f64>(&RandomCuts(std::cell::Cell::new(7)));
+    same_bits_as_one_core::<f32>(&RandomCuts(std::cell::Cell::new(11)));
 }
 
 /// Cuts the phases into ranges whose number changes from call to call
@@ -151,17 +153,12 @@ impl Executor for CuttingAnew {
 
 /// A range of the pair phase in lanes keeps the flags of the grains it
 /// sums only if it ran the last pass: cuts that change between steps and
-/// come back give the bits of one core (they do not if it keeps them
-/// after another cut, tried).
+/// come back give the bits of one core, in both precisions (they do not if
+/// it keeps them after another cut, tried).
 #[test]
 fn cuts_that_change_between_steps_give_the_same_bits() {
-    for coupled in [false, true] {
-        let (a, b, _) = run::<f64, N>(coupled, &mut |s| s.step());
-        let mut phases = boxed_phases::<f64, N, NEIGHBOURS>();
-        let exec = CuttingAnew(std::cell::Cell::new(0));
-        let got = run::<f64, N>(coupled, &mut |s| s.step_phased(&mut phases, &exec));
-        assert_eq!((got.0, got.1), (a, b), "coupled {coupled}");
-    }
+    same_bits_as_one_core::<f64>(&CuttingAnew(std::cell::Cell::new(0)));
+    same_bits_as_one_core::<f32>(&CuttingAnew(std::cell::Cell::new(0)));
 }
 
 #[test]
