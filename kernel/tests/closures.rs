@@ -169,11 +169,10 @@ fn grains_rub_on_the_walls() {
 
 /// As [`grain_wall_friction`] under gravity, with a row of grains 2 d
 /// above the one moving at `u` (a step of `dt`), once with Janssen's
-/// ratio K = 0.5 of the
-/// overburden's load (C12) and once without: the difference of their first
-/// steps is −μ_w 2 K σ π r², σ = (ρ_p − ρ_f) g Σ φ Δy over the cells above
-/// the grain's centre (half its own), from the column's φ; within `tol`.
-/// K = 0 leaves the bits of (C11) alone.
+/// ratio K = 0.5 of the overburden's load (C12) and once without: the
+/// difference of their first steps is −μ_w 2 K σ π r², σ = (ρ_p − ρ_f) g
+/// Σ φ Δy over the cells above the grain's centre (half its own), from
+/// the column's φ; within `tol`. K = 0 leaves the bits of (C11) alone.
 fn overburden_friction<R: Real>(u: f64, dt: f64, tol: f64) {
     let g = 9.81;
     let step = |ratio: f64, u: f64| {
