@@ -181,7 +181,7 @@ macro_rules! pairs {
                 let in_phase = SUMS == EVERY_IN_PHASE;
                 let b = r.listed.list;
                 let g = r.grains;
-                let [x, y, u, v, w] = [&g.x, &g.y, &g.u, &g.v, &g.w];
+                let [x, y, u, v, w, radius] = [&g.x, &g.y, &g.u, &g.v, &g.w, &g.r];
                 // The slices in locals (behind `r` and `out` their addresses
                 // would be read again after every store), the history as
                 // chunks of CHUNK batches of L pairs (no bounds to check
@@ -211,10 +211,10 @@ macro_rules! pairs {
                     let first = b.pair_i.as_flattened()[(t * L) & (cap - 1)];
                     (window_start::<N>(first, L), lanes)
                 };
-                // Batch t's second grains' x, y, u, v, ω: from its second
-                // window (from `start`), or gathered.
+                // Batch t's second grains' x, y, u, v, ω and radii: from
+                // its second window (from `start`), or gathered.
                 let second_grains = |t: usize, start: usize| {
-                    let grains = [x, y, u, v, w];
+                    let grains = [x, y, u, v, w, radius];
                     let c = b.second_lanes[t & (N - 1)];
                     if SECOND_WINDOW && c[0] != FAR {
                         let lanes = control(c);
@@ -288,7 +288,7 @@ macro_rules! pairs {
                     for (t, g) in chunk.clone().zip(&mut geometry) {
                         let (start, lanes) = first_window(t);
                         let own = |a: &[R; N]| window(a, start, lanes);
-                        let [x_j, y_j, u_j, v_j, w_j] = second_grains(t, start);
+                        let [x_j, y_j, u_j, v_j, w_j, rj] = second_grains(t, start);
                         // The periodic image: d itself (within half the width)
                         // away from the seam.
                         let d = sub(x_j, own(x));
@@ -302,8 +302,7 @@ macro_rules! pairs {
                             d
                         };
                         let dy = sub(y_j, own(y));
-                        let ri = load_at(b.r_i.as_flattened(), t * L);
-                        let rj = load_at(b.r_j.as_flattened(), t * L);
+                        let ri = own(radius);
                         let reach = add(ri, rj);
                         let dist2 = add(mul(dx, dx), mul(dy, dy));
                         let apart = ge(dist2, mul(reach, reach));
@@ -470,7 +469,7 @@ macro_rules! pairs {
             /// places are those `pair_range` reads (N a power of two, so
             /// its masked places are the places themselves).
             fn grains_within<const N: usize>(
-                b: &List<R, N>,
+                b: &List<N>,
                 pairs: Range<usize>,
                 g0: usize,
                 len: usize,

@@ -58,7 +58,7 @@ pub(crate) enum Flow<R: Real> {
 /// grain's start-of-step x, y, u, v, ω, the law, the periodic width, and
 /// the range's spring history (from its first pair).
 pub(super) struct PairRange<'a, R: Real, const N: usize> {
-    pub(super) listed: Listed<'a, R, N>,
+    pub(super) listed: Listed<'a, N>,
     pub(super) grains: &'a Grains<R, N>,
     pub(super) law: ContactLaw<R>,
     pub(super) width: R,
@@ -75,7 +75,7 @@ impl<'a, R: Real, const N: usize> PairRange<'a, R, N> {
     /// law and width of `p` and the history `e_n`, `e_s`; `lanes` pairs per
     /// batch.
     pub(super) fn whole(
-        listed: Listed<'a, R, N>,
+        listed: Listed<'a, N>,
         g: &'a Grains<R, N>,
         p: &Params<R>,
         e_n: &'a mut [R],
