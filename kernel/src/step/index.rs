@@ -441,7 +441,7 @@ impl<R: Real, const N: usize> PairList<'_, R, N> {
         };
         for k in 0..own {
             let j = js[k] as usize;
-            if j <= i || j >= n.min(N) {
+            if j <= i || j >= n {
                 return false;
             }
             (p.i[k], p.j[k], p.k[k]) = (i as u32, j as u32, k as u8);
